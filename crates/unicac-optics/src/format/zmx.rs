@@ -1,0 +1,448 @@
+//! Zemax OpticStudio `.zmx` (sequential) import and export.
+//!
+//! Supported: UTF-16 (with BOM, or detected by NUL bytes) and UTF-8 files; STANDARD and EVENASPH surfaces
+//! (CURV, DISZ, DIAM, CONI, PARM n = coefficient of r^(2n), STOP, GLAS with catalogue names and model
+//! glasses `___BLANK`, COMM); ENPD, FNUM, FLOA apertures; field angles and paraxial image heights
+//! (FTYP 0 / 2, YFLN, FWGN/FWGT); WAVM or WAVL/WWGT wavelengths and PWAV; GCAT.
+//! Anything that changes the optics and is not modelled (other surface types, tilts and decentres,
+//! x fields, mirrors, non-mm units, non-sequential mode) is an error naming the keyword; other unknown
+//! keywords are returned as warnings, never silently dropped.
+
+use super::LoadedSpec;
+use crate::error::{OpticsError, Result};
+use crate::spec::{
+    ApertureSpec, FieldSpec, LensSpec, MaterialSpec, SurfaceSpec, SurfaceType, WavelengthSpec, FORMAT_VERSION,
+};
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Keywords read elsewhere or known to carry no optical meaning for this model.
+const IGNORED: &[&str] = &[
+    "VERS", "PFIL", "LANG", "ENVD", "GFAC", "RAIM", "PUSH", "SDMA", "ROPD", "PICB", "POLS", "GLRS", "NSCD",
+    "COFN", "HIDE", "SLAB", "MAZH", "POPS", "FLAP", "COAT", "DMFS", "BLNK", "TOL", "MNUM", "MOFF", "TOLE",
+    "XDAT", "YDAT", "OBNS", "OBDC", "MIRR", "PPAR", "FIMP", "CONF", "VCXN", "VCYN", "VANN", "VDSZ", "XFLD",
+    "YFLD", "TCMM", "PZUP", "BLNK", "EFFL", "FWGN", "FWGT", "THIC", "NOTE", "MEMA", "TTST", "OPDX", "SCOL",
+    "XFIE", "YFIE", "EFFM", "LANG", "ZVAN", "ZVCX", "ZVCY", "ZVDX", "ZVDY", "WWGN", "PRAM", "CTOL",
+];
+
+/// Parses a `.zmx` file.
+pub fn parse(bytes: &[u8], path: &Path) -> Result<LoadedSpec> {
+    let text = decode(bytes);
+    let mut reader = Reader::new(path);
+    for (number, line) in text.lines().enumerate() {
+        reader.line(number + 1, line)?;
+    }
+    reader.finish()
+}
+
+/// Decodes UTF-16 (LE or BE, with BOM, or LE detected by NUL bytes) or UTF-8 (lossy, BOM skipped).
+fn decode(bytes: &[u8]) -> String {
+    let utf16 = |le: bool, body: &[u8]| {
+        let units: Vec<u16> = body
+            .chunks_exact(2)
+            .map(|p| if le { u16::from_le_bytes([p[0], p[1]]) } else { u16::from_be_bytes([p[0], p[1]]) })
+            .collect();
+        String::from_utf16_lossy(&units)
+    };
+    match bytes {
+        [0xFF, 0xFE, body @ ..] => utf16(true, body),
+        [0xFE, 0xFF, body @ ..] => utf16(false, body),
+        [0xEF, 0xBB, 0xBF, body @ ..] => String::from_utf8_lossy(body).into_owned(),
+        _ if bytes.len() >= 2 && bytes[1] == 0 => utf16(true, bytes),
+        _ => String::from_utf8_lossy(bytes).into_owned(),
+    }
+}
+
+struct Reader<'a> {
+    path: &'a Path,
+    name: String,
+    provenance: String,
+    aperture: Option<ApertureSpec>,
+    field_type: u32,
+    field_count: Option<usize>,
+    y_fields: Vec<f64>,
+    field_weights: Vec<f64>,
+    wavelengths: Vec<(usize, WavelengthSpec)>,
+    old_wavelengths: Vec<f64>,
+    old_weights: Vec<f64>,
+    primary: Option<usize>,
+    catalogs: Vec<String>,
+    /// Surfaces in file order, starting with the object surface (SURF 0).
+    surfaces: Vec<SurfaceSpec>,
+    parms: Vec<Vec<(usize, f64)>>,
+    object_distance: Option<f64>,
+    unsupported: BTreeSet<String>,
+    warnings: BTreeSet<String>,
+}
+
+impl<'a> Reader<'a> {
+    fn new(path: &'a Path) -> Self {
+        Reader {
+            path,
+            name: String::new(),
+            provenance: String::new(),
+            aperture: None,
+            field_type: 0,
+            field_count: None,
+            y_fields: Vec::new(),
+            field_weights: Vec::new(),
+            wavelengths: Vec::new(),
+            old_wavelengths: Vec::new(),
+            old_weights: Vec::new(),
+            primary: None,
+            catalogs: Vec::new(),
+            surfaces: Vec::new(),
+            parms: Vec::new(),
+            object_distance: None,
+            unsupported: BTreeSet::new(),
+            warnings: BTreeSet::new(),
+        }
+    }
+
+    fn error(&self, line: usize, message: impl Into<String>) -> OpticsError {
+        OpticsError::Parse { path: self.path.to_path_buf(), location: line.to_string(), message: message.into() }
+    }
+
+    fn number(&self, line: usize, token: Option<&str>, what: &str) -> Result<f64> {
+        let token = token.ok_or_else(|| self.error(line, format!("{what}: missing value")))?;
+        if token.eq_ignore_ascii_case("INFINITY") {
+            return Ok(f64::INFINITY);
+        }
+        token.parse::<f64>().map_err(|_| self.error(line, format!("{what}: '{token}' is not a number")))
+    }
+
+    fn numbers(&self, line: usize, tokens: &[&str], what: &str) -> Result<Vec<f64>> {
+        tokens.iter().map(|t| self.number(line, Some(t), what)).collect()
+    }
+
+    fn current(&mut self, line: usize, keyword: &str) -> Result<&mut SurfaceSpec> {
+        let path = self.path.to_path_buf();
+        self.surfaces.last_mut().ok_or_else(|| OpticsError::Parse {
+            path,
+            location: line.to_string(),
+            message: format!("{keyword} before the first SURF"),
+        })
+    }
+
+    fn line(&mut self, n: usize, line: &str) -> Result<()> {
+        let trimmed = line.trim();
+        let (keyword, rest) = trimmed.split_once(char::is_whitespace).unwrap_or((trimmed, ""));
+        let rest = rest.trim();
+        let tokens: Vec<&str> = rest.split_whitespace().collect();
+        match keyword {
+            "" => {}
+            "MODE" if !rest.eq_ignore_ascii_case("SEQ") => {
+                self.unsupported.insert(format!("MODE {rest} (only sequential mode)"));
+            }
+            "MODE" => {}
+            "NAME" => self.name = rest.to_string(),
+            "NOTE" => {
+                if let Some(json) = rest.strip_prefix("0 unicac:provenance ") {
+                    self.provenance = serde_json::from_str(json).map_err(|e| self.error(n, e.to_string()))?;
+                }
+            }
+            "UNIT" if tokens.first().is_some_and(|u| !u.eq_ignore_ascii_case("MM")) => {
+                self.unsupported.insert(format!("UNIT {} (only MM lens units)", tokens[0]));
+            }
+            "UNIT" => {}
+            "ENPD" => self.aperture = Some(ApertureSpec::EntrancePupilDiameterMm(self.number(n, tokens.first().copied(), "ENPD")?)),
+            "FNUM" => self.aperture = Some(ApertureSpec::FNumber(self.number(n, tokens.first().copied(), "FNUM")?)),
+            "FLOA" => self.aperture = Some(ApertureSpec::FloatByStopSize),
+            "OBNA" | "OBSC" if keyword == "OBNA" => {
+                self.unsupported.insert("OBNA (object-space NA aperture)".into());
+            }
+            "FTYP" => {
+                let values = self.numbers(n, &tokens, "FTYP")?;
+                self.field_type = values.first().copied().unwrap_or(0.0) as u32;
+                self.field_count = values.get(2).map(|v| *v as usize);
+                if values.get(1).is_some_and(|t| *t != 0.0) {
+                    self.unsupported.insert("FTYP telecentric object space".into());
+                }
+            }
+            "XFLN" => {
+                if self.numbers(n, &tokens, "XFLN")?.iter().any(|x| *x != 0.0) {
+                    self.unsupported.insert("XFLN (fields off the y axis)".into());
+                }
+            }
+            "YFLN" => self.y_fields = self.numbers(n, &tokens, "YFLN")?,
+            "FWGN" | "FWGT" => self.field_weights = self.numbers(n, &tokens, keyword)?,
+            "VDXN" | "VDYN" | "VCXN" | "VCYN" | "VANN" => {
+                if self.numbers(n, &tokens, keyword)?.iter().any(|v| *v != 0.0) {
+                    self.warnings.insert(format!("{keyword} (vignetting factors ignored)"));
+                }
+            }
+            "WAVM" => {
+                let values = self.numbers(n, &tokens, "WAVM")?;
+                if let [index, wavelength, weight, ..] = values[..] {
+                    self.wavelengths
+                        .push((index as usize, WavelengthSpec { wavelength_um: wavelength, weight }));
+                }
+            }
+            "WAVL" => self.old_wavelengths = self.numbers(n, &tokens, "WAVL")?,
+            "WWGT" => self.old_weights = self.numbers(n, &tokens, "WWGT")?,
+            "PWAV" => self.primary = Some(self.number(n, tokens.first().copied(), "PWAV")? as usize),
+            "GCAT" => self.catalogs = tokens.iter().map(|t| t.to_ascii_uppercase()).collect(),
+            "SURF" => {
+                self.surfaces.push(SurfaceSpec::default());
+                self.parms.push(Vec::new());
+            }
+            "TYPE" => {
+                let surface_type = match tokens.first().copied() {
+                    Some("STANDARD") => SurfaceType::Standard,
+                    Some("EVENASPH") => SurfaceType::EvenAsphere,
+                    other => {
+                        self.unsupported.insert(format!("TYPE {}", other.unwrap_or("")));
+                        SurfaceType::Standard
+                    }
+                };
+                self.current(n, keyword)?.surface_type = surface_type;
+            }
+            "CURV" => {
+                let c = self.number(n, tokens.first().copied(), "CURV")?;
+                self.current(n, keyword)?.curvature_per_mm = Some(c);
+            }
+            "DISZ" => {
+                let d = self.number(n, tokens.first().copied(), "DISZ")?;
+                if self.surfaces.len() == 1 {
+                    self.object_distance = d.is_finite().then_some(d);
+                } else {
+                    self.current(n, keyword)?.thickness_mm = d;
+                }
+            }
+            "CONI" => {
+                let k = self.number(n, tokens.first().copied(), "CONI")?;
+                self.current(n, keyword)?.conic = k;
+            }
+            "PARM" => {
+                let values = self.numbers(n, &tokens, "PARM")?;
+                if let [index, value, ..] = values[..] {
+                    self.current(n, keyword)?;
+                    self.parms.last_mut().expect("a surface").push((index as usize, value));
+                }
+            }
+            "DIAM" => {
+                let sd = self.number(n, tokens.first().copied(), "DIAM")?;
+                self.current(n, keyword)?.semi_diameter_mm = (sd > 0.0).then_some(sd);
+            }
+            "STOP" => self.current(n, keyword)?.stop = true,
+            "COMM" => {
+                let label = rest.to_string();
+                self.current(n, keyword)?.label = label;
+            }
+            "GLAS" => {
+                let material = self.material(n, &tokens)?;
+                self.current(n, keyword)?.material = material;
+            }
+            "DECX" | "DECY" | "TILT" | "SQAP" | "ELAP" | "OBSC" | "CLAP" | "FLAP_" => {
+                let values = self.numbers(n, &tokens, keyword).unwrap_or_default();
+                if keyword == "CLAP" {
+                    self.unsupported.insert("CLAP (circular aperture; use DIAM)".into());
+                } else if values.iter().any(|v| *v != 0.0) {
+                    self.unsupported.insert(format!("{keyword} (decentres, tilts and special apertures)"));
+                }
+            }
+            k if IGNORED.contains(&k) => {}
+            other => {
+                self.warnings.insert(format!("{other} (keyword ignored)"));
+            }
+        }
+        Ok(())
+    }
+
+    fn material(&mut self, n: usize, tokens: &[&str]) -> Result<Option<MaterialSpec>> {
+        match tokens.first().copied() {
+            None => Ok(None),
+            Some("MIRROR") => {
+                self.unsupported.insert("GLAS MIRROR (reflective surfaces)".into());
+                Ok(None)
+            }
+            Some("___BLANK") => {
+                let nd = self.number(n, tokens.get(3).copied(), "GLAS ___BLANK nd")?;
+                let vd = self.number(n, tokens.get(4).copied(), "GLAS ___BLANK vd")?;
+                Ok(Some(MaterialSpec::Model { nd, vd }))
+            }
+            Some(name) => Ok(Some(MaterialSpec::Named(name.to_string()))),
+        }
+    }
+
+    fn finish(mut self) -> Result<LoadedSpec> {
+        if self.surfaces.len() < 3 {
+            return Err(self.error(0, "need an object surface, at least one surface and the image surface"));
+        }
+        if !self.unsupported.is_empty() {
+            let features: Vec<String> = self.unsupported.into_iter().collect();
+            return Err(OpticsError::UnsupportedZemax { path: self.path.to_path_buf(), features: features.join("; ") });
+        }
+        for (surface, parms) in self.surfaces.iter_mut().zip(&self.parms) {
+            if surface.surface_type == SurfaceType::EvenAsphere {
+                let count = parms.iter().map(|(i, _)| *i).max().unwrap_or(0).min(10);
+                surface.aspheric_coefficients = vec![0.0; count];
+                for &(i, value) in parms {
+                    if (1..=count).contains(&i) {
+                        surface.aspheric_coefficients[i - 1] = value;
+                    }
+                }
+            }
+        }
+        let object = self.surfaces.remove(0);
+        if object.stop {
+            return Err(self.error(0, "the object surface cannot be the stop"));
+        }
+        let fields = self.fields()?;
+        let field_count = fields.values().len();
+        let field_weights = (self.field_weights.len() >= field_count && self.field_weights[..field_count].iter().any(|w| *w != 1.0))
+            .then(|| self.field_weights[..field_count].to_vec());
+        let (wavelengths, primary) = self.wavelengths();
+        Ok(LoadedSpec {
+            spec: LensSpec {
+                format_version: FORMAT_VERSION,
+                name: self.name,
+                provenance: self.provenance,
+                object_distance_mm: self.object_distance,
+                aperture: self.aperture.ok_or_else(|| OpticsError::Parse {
+                    path: self.path.to_path_buf(),
+                    location: "0".into(),
+                    message: "no aperture (ENPD, FNUM or FLOA)".into(),
+                })?,
+                fields,
+                field_weights,
+                wavelengths,
+                primary_wavelength_index: primary,
+                glass_catalogs: self.catalogs,
+                surfaces: self.surfaces,
+                sensor: None,
+            },
+            warnings: self.warnings.into_iter().collect(),
+        })
+    }
+
+    fn fields(&self) -> Result<FieldSpec> {
+        let count = self.field_count.unwrap_or_else(|| {
+            // Old files do not state the count: fields end at the first zero after the first entry.
+            1 + self.y_fields.iter().skip(1).take_while(|v| **v != 0.0).count()
+        });
+        let values: Vec<f64> = self.y_fields.iter().copied().take(count.max(1)).collect();
+        let values = if values.is_empty() { vec![0.0] } else { values };
+        match self.field_type {
+            0 => Ok(FieldSpec::AnglesDeg(values)),
+            2 => Ok(FieldSpec::ImageHeightsMm(values)),
+            other => Err(OpticsError::UnsupportedZemax {
+                path: self.path.to_path_buf(),
+                features: format!("FTYP {other} (only field angles and paraxial image heights)"),
+            }),
+        }
+    }
+
+    fn wavelengths(&self) -> (Vec<WavelengthSpec>, Option<usize>) {
+        let mut list: Vec<(usize, WavelengthSpec)> = self.wavelengths.clone();
+        if list.is_empty() {
+            list = self
+                .old_wavelengths
+                .iter()
+                .enumerate()
+                .filter(|(_, w)| **w > 0.0)
+                .map(|(i, w)| (i + 1, WavelengthSpec { wavelength_um: *w, weight: self.old_weights.get(i).copied().unwrap_or(1.0) }))
+                .collect();
+        }
+        list.sort_by_key(|(i, _)| *i);
+        let primary = self.primary.and_then(|p| list.iter().position(|(i, _)| *i == p));
+        (list.into_iter().map(|(_, w)| w).collect(), primary)
+    }
+}
+
+/// Writes a spec as a UTF-8 `.zmx` file that OpticStudio, optiland and ray-optics import.
+/// Floats are written in their shortest exact form, so JSON -> .zmx -> JSON is lossless.
+pub fn to_string(spec: &LensSpec) -> String {
+    let mut out = String::new();
+    let mut line = |text: String| {
+        out.push_str(&text);
+        out.push('\n');
+    };
+    line("VERS 190513 80 123457 L123457".into());
+    line("MODE SEQ".into());
+    line(format!("NAME {}", spec.name));
+    if !spec.provenance.is_empty() {
+        line(format!("NOTE 0 unicac:provenance {}", serde_json::to_string(&spec.provenance).expect("string")));
+    }
+    line("UNIT MM X W X CM MR CPMM".into());
+    match spec.aperture {
+        ApertureSpec::EntrancePupilDiameterMm(d) => line(format!("ENPD {d:?}")),
+        ApertureSpec::FNumber(f) => line(format!("FNUM {f:?} 0")),
+        ApertureSpec::FloatByStopSize => line("FLOA".into()),
+    }
+    let (field_type, values) = match &spec.fields {
+        FieldSpec::AnglesDeg(v) => (0, v),
+        FieldSpec::ImageHeightsMm(v) => (2, v),
+    };
+    line(format!("FTYP {field_type} 0 {} {} 0 0 0", values.len(), spec.wavelengths.len()));
+    line(format!("XFLN {}", join(&vec![0.0; values.len()])));
+    line(format!("YFLN {}", join(values)));
+    if let Some(weights) = &spec.field_weights {
+        line(format!("FWGN {}", join(weights)));
+    }
+    for (i, w) in spec.wavelengths.iter().enumerate() {
+        line(format!("WAVM {} {:?} {:?}", i + 1, w.wavelength_um, w.weight));
+    }
+    if let Some(p) = spec.primary_wavelength_index {
+        line(format!("PWAV {}", p + 1));
+    }
+    if !spec.glass_catalogs.is_empty() {
+        line(format!("GCAT {}", spec.glass_catalogs.join(" ")));
+    }
+    line("SURF 0".into());
+    line("  TYPE STANDARD".into());
+    line("  CURV 0.0".into());
+    match spec.object_distance_mm {
+        Some(d) => line(format!("  DISZ {d:?}")),
+        None => line("  DISZ INFINITY".into()),
+    }
+    for (i, s) in spec.surfaces.iter().enumerate() {
+        line(format!("SURF {}", i + 1));
+        write_surface(s, &mut line);
+    }
+    out
+}
+
+fn write_surface(s: &SurfaceSpec, line: &mut impl FnMut(String)) {
+    if !s.label.is_empty() {
+        line(format!("  COMM {}", s.label));
+    }
+    if s.stop {
+        line("  STOP".into());
+    }
+    match s.surface_type {
+        SurfaceType::Standard => line("  TYPE STANDARD".into()),
+        SurfaceType::EvenAsphere => line("  TYPE EVENASPH".into()),
+    }
+    line(format!("  CURV {:?} 0 0 0 0 \"\"", s.curvature()));
+    for (i, a) in s.aspheric_coefficients.iter().enumerate() {
+        line(format!("  PARM {} {a:?}", i + 1));
+    }
+    line(format!("  DISZ {:?}", s.thickness_mm));
+    match &s.material {
+        None => {}
+        Some(MaterialSpec::Named(name)) => {
+            let bare = name.split_once(':').map_or(name.as_str(), |(_, g)| g);
+            line(format!("  GLAS {bare} 0 0 0 0 0 0 0 0 0 0"));
+        }
+        Some(MaterialSpec::Model { nd, vd }) => line(format!("  GLAS ___BLANK 1 0 {nd:?} {vd:?} 0 0 0 0 0 0")),
+    }
+    if let Some(sd) = s.semi_diameter_mm {
+        line(format!("  DIAM {sd:?} 1 0 0 1 \"\""));
+    }
+    if s.conic != 0.0 {
+        line(format!("  CONI {:?}", s.conic));
+    }
+}
+
+fn join(values: &[f64]) -> String {
+    let mut text = String::new();
+    for (i, v) in values.iter().enumerate() {
+        if i > 0 {
+            text.push(' ');
+        }
+        let _ = write!(text, "{v:?}");
+    }
+    text
+}

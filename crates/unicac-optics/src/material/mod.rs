@@ -1,0 +1,57 @@
+//! Optical media: air, catalogue glasses and model glasses given by (nd, Vd).
+
+pub mod catalog;
+pub mod formula;
+
+pub use catalog::{find_glass, shipped_catalogs, Catalog, Glass};
+pub use formula::{model_glass_index, Formula, LINE_C_UM, LINE_D_UM, LINE_F_UM};
+
+use crate::error::{OpticsError, Result};
+use std::sync::Arc;
+
+/// Relative tolerance on a glass's data range: tiny overshoots (e.g. 0.4 um against a 0.4047 um range
+/// start) are common in lens files and the Sellmeier fits extrapolate smoothly that far.
+const RANGE_SLACK_UM: f64 = 0.02;
+
+/// The medium after a surface.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Medium {
+    Air,
+    Catalog(Arc<Glass>),
+    Model { nd: f64, vd: f64 },
+}
+
+impl Medium {
+    /// Refractive index relative to air at `wavelength_um`.
+    pub fn index(&self, wavelength_um: f64) -> Result<f64> {
+        match self {
+            Medium::Air => Ok(1.0),
+            Medium::Model { nd, vd } => Ok(model_glass_index(*nd, *vd, wavelength_um)),
+            Medium::Catalog(glass) => {
+                let [lo, hi] = glass.wavelength_range_um;
+                if wavelength_um < lo - RANGE_SLACK_UM || wavelength_um > hi + RANGE_SLACK_UM {
+                    return Err(OpticsError::WavelengthOutOfRange {
+                        name: glass.qualified_name(),
+                        wavelength_um,
+                        min_um: lo,
+                        max_um: hi,
+                    });
+                }
+                Ok(glass.index(wavelength_um))
+            }
+        }
+    }
+
+    pub fn is_air(&self) -> bool {
+        matches!(self, Medium::Air)
+    }
+
+    /// Short label for reports and plots.
+    pub fn label(&self) -> String {
+        match self {
+            Medium::Air => "AIR".into(),
+            Medium::Catalog(g) => g.name.clone(),
+            Medium::Model { nd, vd } => format!("{nd:.4}/{vd:.1}"),
+        }
+    }
+}
