@@ -1,0 +1,159 @@
+//! Ray aiming: which object-space ray belongs to a field angle and a normalised pupil point.
+//!
+//! - `Paraxial` (Zemax "ray aiming off"): the ray has direction (0, sin F, cos F) and passes through
+//!   (px, py) * EPD/2 on the paraxial entrance-pupil plane (object at infinity); for a finite object it
+//!   leaves the object point of field F towards that pupil point.
+//! - `Real`: the ray of the same field crosses the stop surface at (px, py) * R_stop, R_stop being the
+//!   paraxial marginal-ray height at the stop. Solved by Newton's method on the entrance-pupil-plane
+//!   point with a finite-difference Jacobian, from the paraxial guess; where that fails (wide fields),
+//!   by continuation from the axis in growing field steps.
+//! Pupils come from the primary wavelength, as in Zemax; each ray is aimed at its own wavelength.
+
+use crate::error::{TraceError, TraceResult};
+use crate::ray::Ray;
+use crate::system::{Clipping, TraceSystem};
+use serde::Serialize;
+use unicac_optics::{FirstOrder, Lens};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Aiming {
+    #[default]
+    Paraxial,
+    Real,
+}
+
+impl std::str::FromStr for Aiming {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text {
+            "paraxial" => Ok(Aiming::Paraxial),
+            "real" => Ok(Aiming::Real),
+            _ => Err(format!("'{text}': expected paraxial or real")),
+        }
+    }
+}
+
+const MAX_AIM_ITERATIONS: usize = 30;
+const CONTINUATION_STEPS: usize = 16;
+
+/// Aims rays of one wavelength.
+pub struct Aimer {
+    unclipped: TraceSystem,
+    pub first_order: FirstOrder,
+    object_distance_mm: Option<f64>,
+    stop_index: usize,
+    pub aiming: Aiming,
+}
+
+impl Aimer {
+    pub fn new(lens: &Lens, wavelength_um: f64, aiming: Aiming) -> TraceResult<Aimer> {
+        Ok(Aimer {
+            unclipped: TraceSystem::new(lens, wavelength_um, Clipping::None)?,
+            first_order: lens.first_order()?,
+            object_distance_mm: lens.object_distance_mm,
+            stop_index: lens.stop_index,
+            aiming,
+        })
+    }
+
+    /// The ray of field angle `field_deg` through normalised pupil point (px, py).
+    pub fn ray(&self, field_deg: f64, px: f64, py: f64) -> TraceResult<Ray> {
+        match self.aiming {
+            Aiming::Paraxial => Ok(self.paraxial_ray(field_deg, px, py)),
+            Aiming::Real => self.real_ray(field_deg, px, py),
+        }
+    }
+
+    /// The ray of field F through the point (sx, sy) of the paraxial entrance-pupil plane.
+    fn ray_through_pupil_plane(&self, field_deg: f64, sx: f64, sy: f64) -> Ray {
+        let z_ep = self.first_order.entrance_pupil_z_mm;
+        let (sin_f, cos_f) = field_deg.to_radians().sin_cos();
+        match self.object_distance_mm {
+            None => Ray::new([sx, sy, z_ep], [0.0, sin_f, cos_f]),
+            Some(distance) => {
+                let object_y = -(sin_f / cos_f) * (z_ep + distance);
+                let start = [0.0, object_y, -distance];
+                Ray::new(start, [sx - start[0], sy - start[1], z_ep - start[2]])
+            }
+        }
+    }
+
+    fn paraxial_ray(&self, field_deg: f64, px: f64, py: f64) -> Ray {
+        let radius = self.first_order.epd_mm / 2.0;
+        self.ray_through_pupil_plane(field_deg, px * radius, py * radius)
+    }
+
+    /// Where the ray through pupil-plane point s meets the stop surface (None if it fails on the way).
+    fn stop_intercept(&self, field_deg: f64, s: [f64; 2]) -> Option<[f64; 2]> {
+        let mut ray = self.ray_through_pupil_plane(field_deg, s[0], s[1]);
+        let status = self.unclipped.trace_through(&mut ray, self.stop_index, false);
+        status.is_ok().then_some([ray.position_mm[0], ray.position_mm[1]])
+    }
+
+    fn real_ray(&self, field_deg: f64, px: f64, py: f64) -> TraceResult<Ray> {
+        let radius = self.first_order.epd_mm / 2.0;
+        let guess = [px * radius, py * radius];
+        let solution = self.solve_stop_point(field_deg, px, py, guess).or_else(|first_failure| {
+            // Continuation: walk the field up from the axis, each solve starting at the previous one.
+            let mut s = guess;
+            for step in 1..=CONTINUATION_STEPS {
+                let field = field_deg * step as f64 / CONTINUATION_STEPS as f64;
+                s = self.solve_stop_point(field, px, py, s).map_err(|_| first_failure.clone())?;
+            }
+            Ok::<_, String>(s)
+        });
+        match solution {
+            Ok(s) => Ok(self.ray_through_pupil_plane(field_deg, s[0], s[1])),
+            Err(reason) => Err(TraceError::AimFailed { field_deg, px, py, reason }),
+        }
+    }
+
+    /// Newton's method for the pupil-plane point whose ray crosses the stop at (px, py) * R_stop.
+    fn solve_stop_point(&self, field_deg: f64, px: f64, py: f64, start: [f64; 2]) -> Result<[f64; 2], String> {
+        let r_stop = self.first_order.stop_radius_mm;
+        let target = [px * r_stop, py * r_stop];
+        let scale = self.first_order.epd_mm.max(1e-9);
+        let tolerance = 1e-13 * r_stop.max(1e-6);
+        let h = 1e-7 * scale;
+        let residual = |s: [f64; 2]| {
+            self.stop_intercept(field_deg, s).map(|hit| [hit[0] - target[0], hit[1] - target[1]])
+        };
+        let mut s = start;
+        let mut r = residual(s).ok_or("the starting ray does not reach the stop")?;
+        for _ in 0..MAX_AIM_ITERATIONS {
+            if r[0].abs().max(r[1].abs()) <= tolerance {
+                return Ok(s);
+            }
+            let rx = residual([s[0] + h, s[1]]).ok_or("a ray near the solution does not reach the stop")?;
+            let ry = residual([s[0], s[1] + h]).ok_or("a ray near the solution does not reach the stop")?;
+            let j = [[(rx[0] - r[0]) / h, (ry[0] - r[0]) / h], [(rx[1] - r[1]) / h, (ry[1] - r[1]) / h]];
+            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+            if det == 0.0 || !det.is_finite() {
+                return Err("singular aiming Jacobian".into());
+            }
+            let delta = [(j[1][1] * r[0] - j[0][1] * r[1]) / det, (j[0][0] * r[1] - j[1][0] * r[0]) / det];
+            // Damped step: halve until the new ray still reaches the stop and the residual shrinks.
+            let mut factor = 1.0;
+            loop {
+                let candidate = [s[0] - factor * delta[0], s[1] - factor * delta[1]];
+                if let Some(rc) = residual(candidate) {
+                    if rc[0].hypot(rc[1]) < r[0].hypot(r[1]) || factor < 1e-3 {
+                        s = candidate;
+                        r = rc;
+                        break;
+                    }
+                }
+                factor *= 0.5;
+                if factor < 1e-6 {
+                    return Err("no step towards the stop point reaches the stop".into());
+                }
+            }
+        }
+        if r[0].abs().max(r[1].abs()) <= 1e3 * tolerance {
+            Ok(s)
+        } else {
+            Err(format!("no convergence (residual {:.3e} mm)", r[0].hypot(r[1])))
+        }
+    }
+}

@@ -1,0 +1,29 @@
+//! Many rays at once, in parallel over chunks with rayon.
+
+use crate::ray::{Ray, RayStatus, StatusCounts};
+use crate::system::TraceSystem;
+use rayon::prelude::*;
+
+/// Rays per rayon task: large enough to amortise scheduling, small enough to balance two cores.
+const CHUNK: usize = 2048;
+
+/// Traces every ray to the image surface in place and returns one status per ray.
+pub fn trace_rays(system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
+    let mut statuses = vec![RayStatus::Ok; rays.len()];
+    rays.par_chunks_mut(CHUNK).zip(statuses.par_chunks_mut(CHUNK)).for_each(|(rays, statuses)| {
+        for (ray, status) in rays.iter_mut().zip(statuses.iter_mut()) {
+            *status = system.trace(ray);
+        }
+    });
+    statuses
+}
+
+/// Traces on the calling thread only (for callers that parallelise at a coarser level).
+pub fn trace_rays_serial(system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
+    rays.iter_mut().map(|ray| system.trace(ray)).collect()
+}
+
+/// Status counts of a finished batch.
+pub fn count(statuses: &[RayStatus]) -> StatusCounts {
+    statuses.par_chunks(CHUNK).map(StatusCounts::from_statuses).reduce(StatusCounts::default, StatusCounts::merge)
+}

@@ -1,0 +1,30 @@
+//! # unicac-trace
+//!
+//! Sequential real-ray tracing in f64, the reference path of unicac (the GPU path is checked against it).
+//!
+//! - `system`: a lens prepared at one wavelength and the per-surface step (cancellation-free conic
+//!   intersection, Newton for even aspheres, aperture clipping, vector Snell refraction, TIR);
+//! - `ray`: rays and per-ray outcomes (`RayStatus`, counted in `StatusCounts`; no NaN ever leaves);
+//! - `batch`: many rays in parallel (rayon);
+//! - `aim`: paraxial and real ray aiming; `pupil`: pupil sampling patterns;
+//! - `spot`: spot diagrams, RMS radii, ray fans, distortion, working F/#;
+//! - `apertures`: clear semi-diameters computed from the beams.
+//!
+//! Everything here is the product's own optics, hence hand-written; parallelism is rayon's.
+
+pub mod aim;
+pub mod apertures;
+pub mod batch;
+pub mod error;
+pub mod pupil;
+pub mod ray;
+pub mod spot;
+pub mod system;
+
+pub use aim::{Aimer, Aiming};
+pub use batch::{trace_rays, trace_rays_serial};
+pub use error::{TraceError, TraceResult};
+pub use pupil::PupilSampling;
+pub use ray::{Ray, RayStatus, StatusCounts};
+pub use spot::{spots, Spot, SpotTracer};
+pub use system::{Clipping, TraceSystem};

@@ -1,0 +1,228 @@
+//! Spot diagrams, RMS spot radius, ray fans and distortion.
+
+use crate::aim::{Aimer, Aiming};
+use crate::batch::{count, trace_rays};
+use crate::error::TraceResult;
+use crate::pupil::PupilSampling;
+use crate::ray::{Ray, RayStatus, StatusCounts};
+use crate::system::{Clipping, TraceSystem};
+use serde::Serialize;
+use unicac_optics::Lens;
+
+/// One field at one wavelength, traced with one pupil sampling.
+#[derive(Debug, Clone, Serialize)]
+pub struct Spot {
+    pub field_deg: f64,
+    pub wavelength_um: f64,
+    pub rays_traced: usize,
+    pub rays_ok: usize,
+    /// Rays that real aiming could not place (counted in `rays_traced`, not traced).
+    pub rays_not_aimed: usize,
+    pub status_counts: StatusCounts,
+    pub centroid_x_mm: Option<f64>,
+    pub centroid_y_mm: Option<f64>,
+    /// RMS radius about the centroid.
+    pub rms_radius_um: Option<f64>,
+    /// RMS radius about the chief ray's intercept.
+    pub rms_radius_chief_um: Option<f64>,
+    /// Largest distance of a ray from the centroid.
+    pub geometric_radius_um: Option<f64>,
+    pub chief_x_mm: Option<f64>,
+    pub chief_y_mm: Option<f64>,
+    /// Image-surface intercepts of the rays that arrived.
+    #[serde(skip)]
+    pub points_mm: Vec<[f64; 2]>,
+}
+
+/// The system and aimer for one wavelength, built once and reused for every field.
+pub struct SpotTracer {
+    pub system: TraceSystem,
+    pub aimer: Aimer,
+}
+
+impl SpotTracer {
+    pub fn new(lens: &Lens, wavelength_um: f64, aiming: Aiming) -> TraceResult<SpotTracer> {
+        Ok(SpotTracer {
+            system: TraceSystem::new(lens, wavelength_um, Clipping::Apertures)?,
+            aimer: Aimer::new(lens, wavelength_um, aiming)?,
+        })
+    }
+
+    /// Rays of one field through the given pupil points; points real aiming cannot place are dropped
+    /// and counted.
+    pub fn aimed_rays(&self, field_deg: f64, pupil: &[[f64; 2]]) -> (Vec<Ray>, usize) {
+        let mut not_aimed = 0;
+        let rays = pupil
+            .iter()
+            .filter_map(|[px, py]| {
+                let ray = self.aimer.ray(field_deg, *px, *py).ok();
+                not_aimed += usize::from(ray.is_none());
+                ray
+            })
+            .collect();
+        (rays, not_aimed)
+    }
+
+    /// The chief ray's image intercept, if it arrives.
+    pub fn chief_intercept(&self, field_deg: f64) -> Option<[f64; 2]> {
+        let mut ray = self.aimer.ray(field_deg, 0.0, 0.0).ok()?;
+        self.system.trace(&mut ray).is_ok().then_some([ray.position_mm[0], ray.position_mm[1]])
+    }
+
+    pub fn spot(&self, field_deg: f64, sampling: &PupilSampling) -> Spot {
+        let pupil = sampling.points();
+        let (mut rays, rays_not_aimed) = self.aimed_rays(field_deg, &pupil);
+        let statuses = trace_rays(&self.system, &mut rays);
+        let status_counts = count(&statuses);
+        let points_mm: Vec<[f64; 2]> = rays
+            .iter()
+            .zip(&statuses)
+            .filter(|(_, s)| s.is_ok())
+            .map(|(r, _)| [r.position_mm[0], r.position_mm[1]])
+            .collect();
+        let chief = self.chief_intercept(field_deg);
+        let centroid = centroid(&points_mm);
+        Spot {
+            field_deg,
+            wavelength_um: self.system.wavelength_um,
+            rays_traced: pupil.len(),
+            rays_ok: points_mm.len(),
+            rays_not_aimed,
+            status_counts,
+            centroid_x_mm: centroid.map(|c| c[0]),
+            centroid_y_mm: centroid.map(|c| c[1]),
+            rms_radius_um: centroid.map(|c| rms_about(&points_mm, c) * 1e3),
+            rms_radius_chief_um: chief.filter(|_| !points_mm.is_empty()).map(|c| rms_about(&points_mm, c) * 1e3),
+            geometric_radius_um: centroid.map(|c| max_distance(&points_mm, c) * 1e3),
+            chief_x_mm: chief.map(|c| c[0]),
+            chief_y_mm: chief.map(|c| c[1]),
+            points_mm,
+        }
+    }
+}
+
+/// Spots for every (field, wavelength) pair, fields varying fastest.
+pub fn spots(
+    lens: &Lens,
+    fields_deg: &[f64],
+    wavelengths_um: &[f64],
+    aiming: Aiming,
+    sampling: &PupilSampling,
+) -> TraceResult<Vec<Spot>> {
+    let mut spots = Vec::with_capacity(fields_deg.len() * wavelengths_um.len());
+    for &wavelength in wavelengths_um {
+        let tracer = SpotTracer::new(lens, wavelength, aiming)?;
+        spots.extend(fields_deg.iter().map(|&field| tracer.spot(field, sampling)));
+    }
+    Ok(spots)
+}
+
+pub fn centroid(points: &[[f64; 2]]) -> Option<[f64; 2]> {
+    if points.is_empty() {
+        return None;
+    }
+    let n = points.len() as f64;
+    let (sx, sy) = points.iter().fold((0.0, 0.0), |(sx, sy), p| (sx + p[0], sy + p[1]));
+    Some([sx / n, sy / n])
+}
+
+pub fn rms_about(points: &[[f64; 2]], reference: [f64; 2]) -> f64 {
+    let sum: f64 = points.iter().map(|p| (p[0] - reference[0]).powi(2) + (p[1] - reference[1]).powi(2)).sum();
+    (sum / points.len() as f64).sqrt()
+}
+
+fn max_distance(points: &[[f64; 2]], reference: [f64; 2]) -> f64 {
+    points.iter().map(|p| (p[0] - reference[0]).hypot(p[1] - reference[1])).fold(0.0, f64::max)
+}
+
+/// One point of a ray fan: transverse aberration relative to the chief ray.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct FanPoint {
+    pub pupil: f64,
+    pub ex_um: f64,
+    pub ey_um: f64,
+    pub status: RayStatus,
+}
+
+/// Tangential (py varies, px = 0) and sagittal (px varies, py = 0) fans.
+#[derive(Debug, Clone, Serialize)]
+pub struct RayFan {
+    pub field_deg: f64,
+    pub wavelength_um: f64,
+    pub tangential: Vec<FanPoint>,
+    pub sagittal: Vec<FanPoint>,
+}
+
+pub fn ray_fan(tracer: &SpotTracer, field_deg: f64, samples: usize) -> Option<RayFan> {
+    let chief = tracer.chief_intercept(field_deg)?;
+    let fan = |tangential: bool| -> Vec<FanPoint> {
+        (0..samples)
+            .filter_map(|i| {
+                let p = -1.0 + 2.0 * i as f64 / (samples.max(2) - 1) as f64;
+                let (px, py) = if tangential { (0.0, p) } else { (p, 0.0) };
+                let mut ray = tracer.aimer.ray(field_deg, px, py).ok()?;
+                let status = tracer.system.trace(&mut ray);
+                let (ex_um, ey_um) = if status.is_ok() {
+                    ((ray.position_mm[0] - chief[0]) * 1e3, (ray.position_mm[1] - chief[1]) * 1e3)
+                } else {
+                    (0.0, 0.0)
+                };
+                Some(FanPoint { pupil: p, ex_um, ey_um, status })
+            })
+            .collect()
+    };
+    Some(RayFan { field_deg, wavelength_um: tracer.system.wavelength_um, tangential: fan(true), sagittal: fan(false) })
+}
+
+/// Real chief-ray image height against the paraxial image height.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct DistortionPoint {
+    pub field_deg: f64,
+    pub real_image_height_mm: f64,
+    pub paraxial_image_height_mm: f64,
+    /// 100 (real - paraxial) / paraxial; 0 on axis.
+    pub distortion_percent: f64,
+}
+
+/// Distortion of the chief ray (real aiming: it passes the stop centre) at the primary wavelength.
+pub fn distortion(lens: &Lens, fields_deg: &[f64]) -> TraceResult<Vec<DistortionPoint>> {
+    let tracer = SpotTracer::new(lens, lens.primary_wavelength_um(), Aiming::Real)?;
+    let first = &tracer.aimer.first_order;
+    let per_tan = if first.field_angles_deg.is_empty() { 0.0 } else { paraxial_height_per_tan(first) };
+    let unclipped = TraceSystem::new(lens, lens.primary_wavelength_um(), Clipping::None)?;
+    Ok(fields_deg
+        .iter()
+        .filter_map(|&field| {
+            let mut ray = tracer.aimer.ray(field, 0.0, 0.0).ok()?;
+            unclipped.trace(&mut ray).is_ok().then_some(())?;
+            let paraxial = per_tan * field.to_radians().tan();
+            let real = ray.position_mm[1];
+            let distortion_percent = if paraxial == 0.0 { 0.0 } else { 100.0 * (real - paraxial) / paraxial };
+            Some(DistortionPoint { field_deg: field, real_image_height_mm: real, paraxial_image_height_mm: paraxial, distortion_percent })
+        })
+        .collect())
+}
+
+fn paraxial_height_per_tan(first: &unicac_optics::FirstOrder) -> f64 {
+    first
+        .field_angles_deg
+        .iter()
+        .zip(&first.paraxial_image_heights_mm)
+        .find(|(f, _)| **f != 0.0)
+        .map(|(f, h)| h / f.to_radians().tan())
+        .unwrap_or(0.0)
+}
+
+/// Working F/# from the real on-axis marginal ray: 1 / (2 n' sin theta') (None if it does not arrive).
+pub fn real_working_f_number(lens: &Lens) -> TraceResult<Option<f64>> {
+    let wavelength = lens.primary_wavelength_um();
+    let system = TraceSystem::new(lens, wavelength, Clipping::None)?;
+    let aimer = Aimer::new(lens, wavelength, Aiming::Real)?;
+    let Ok(mut ray) = aimer.ray(0.0, 0.0, 1.0) else { return Ok(None) };
+    if !system.trace(&mut ray).is_ok() {
+        return Ok(None);
+    }
+    let n_image = system.surfaces[system.image_index() - 1].index_after;
+    let sin_theta = ray.direction[0].hypot(ray.direction[1]);
+    Ok((sin_theta > 0.0).then(|| 1.0 / (2.0 * n_image * sin_theta)))
+}
