@@ -11,6 +11,7 @@
 //! product's own; the .zmx reader/writer is hand-written because no maintained Rust crate reads Zemax files.
 
 pub mod error;
+pub mod examples;
 pub mod format;
 pub mod io;
 pub mod lens;

@@ -2,7 +2,8 @@
 //! (intersection, aperture test, refraction) that every trace in unicac uses.
 //!
 //! Intersection, in the surface's local frame (vertex at the origin):
-//! 1. Transfer the ray to the vertex tangent plane (keeps the quadratic's constant term small).
+//! 1. Transfer the ray to the vertex tangent plane (keeps the quadratic's constant term small), unless it
+//!    runs (nearly) parallel to that plane.
 //! 2. Conic: F = c (x^2 + y^2 + (1+k) z^2) - 2 z = 0 along p + t d gives a t^2 - 2 b t + f = 0 with
 //!    a = c (1 + k N^2), b = N - c (x L + y M + (1+k) z N), f = c (x^2 + y^2 + (1+k) z^2) - 2 z.
 //!    The root nearest the tangent plane is t = f / (b + sign(b) sqrt(b^2 - a f)): no cancellation, exact
@@ -17,6 +18,9 @@ use crate::ray::{Ray, RayStatus};
 use unicac_optics::{Lens, Profile, Result};
 
 pub const MAX_NEWTON_ITERATIONS: usize = 40;
+
+/// Below this |N| a ray counts as parallel to a surface's tangent plane (angle > 89.99994 deg).
+const GRAZING_N: f64 = 1e-6;
 
 /// Whether clear semi-diameters clip rays (aiming and aperture sizing trace without clipping).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -125,7 +129,9 @@ fn step(surface: &TraceSurface, index: u32, ray: &mut Ray, n_before: f64, refrac
     let mut x = ray.position_mm[0];
     let mut y = ray.position_mm[1];
     let mut z = ray.position_mm[2] - surface.z_mm;
-    if n != 0.0 {
+    // Rays (nearly) parallel to the tangent plane are solved from where they are: the transfer would
+    // throw them astronomically far and the quadratic would cancel catastrophically.
+    if n.abs() > GRAZING_N {
         let t0 = -z / n;
         x += t0 * l;
         y += t0 * m;

@@ -1,0 +1,37 @@
+//! `unicac fan`: tangential and sagittal ray fans.
+
+use super::{fields_and_wavelengths, print_json};
+use crate::args::FanArgs;
+use crate::lens_input::load_lens;
+use anyhow::Result;
+use unicac_trace::{spot::ray_fan, SpotTracer};
+
+pub fn run(args: &FanArgs) -> Result<()> {
+    let lens = load_lens(&args.lens.lens)?;
+    let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.fields_deg, &args.wavelengths_um)?;
+    let mut fans = Vec::new();
+    for wavelength in wavelengths {
+        let tracer = SpotTracer::new(&lens, wavelength, args.aim)?;
+        fans.extend(fields.iter().filter_map(|&field| ray_fan(&tracer, field, args.samples.max(2))));
+    }
+    if let Some(path) = &args.plot {
+        unicac_plot::ray_fan_plot(&fans, path)?;
+        eprintln!("wrote {}", path.display());
+    }
+    if args.json {
+        return print_json(&fans);
+    }
+    for fan in &fans {
+        let worst = |points: &[unicac_trace::spot::FanPoint], pick: fn(&unicac_trace::spot::FanPoint) -> f64| {
+            points.iter().map(pick).fold(0.0f64, |m, v| m.max(v.abs()))
+        };
+        println!(
+            "field {:>8.4} deg  wl {:.6} um  max |ey| tangential {:>10.4} um  max |ex| sagittal {:>10.4} um",
+            fan.field_deg,
+            fan.wavelength_um,
+            worst(&fan.tangential, |p| p.ey_um),
+            worst(&fan.sagittal, |p| p.ex_um)
+        );
+    }
+    Ok(())
+}

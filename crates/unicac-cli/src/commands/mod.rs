@@ -1,0 +1,50 @@
+//! One module per command.
+
+mod fan;
+mod layout;
+mod lens;
+mod spot;
+mod trace;
+
+use crate::args::{Command, LensCommand};
+use anyhow::Result;
+use serde::Serialize;
+
+pub fn run(command: Command) -> Result<()> {
+    match command {
+        Command::Lens(LensCommand::Info(args)) => lens::info(&args),
+        Command::Lens(LensCommand::Convert(args)) => lens::convert(&args),
+        Command::Lens(LensCommand::List) => lens::list(),
+        Command::Trace(args) => trace::run(&args),
+        Command::Spot(args) => spot::run(&args),
+        Command::Fan(args) => fan::run(&args),
+        Command::Layout(args) => layout::run(&args),
+    }
+}
+
+pub(crate) fn print_json(value: &impl Serialize) -> Result<()> {
+    println!("{}", serde_json::to_string_pretty(value)?);
+    Ok(())
+}
+
+/// Optional number for tables: "-" when absent.
+pub(crate) fn or_dash(value: Option<f64>, decimals: usize) -> String {
+    value.map_or_else(|| "-".to_string(), |v| format!("{v:.decimals$}"))
+}
+
+/// The fields and wavelengths a command uses: the given ones, else the lens's.
+pub(crate) fn fields_and_wavelengths(
+    lens: &unicac_optics::Lens,
+    fields_deg: &[f64],
+    wavelengths_um: &[f64],
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let fields = if fields_deg.is_empty() { lens.first_order()?.field_angles_deg } else { fields_deg.to_vec() };
+    let wavelengths = if wavelengths_um.is_empty() { lens.wavelengths_um() } else { wavelengths_um.to_vec() };
+    if let Some(bad) = wavelengths.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
+        anyhow::bail!("--wavelength-um {bad}: must be positive");
+    }
+    if let Some(bad) = fields.iter().find(|f| !(f.is_finite() && f.abs() < 90.0)) {
+        anyhow::bail!("--field-deg {bad}: must lie strictly between -90 and 90");
+    }
+    Ok((fields, wavelengths))
+}

@@ -1,0 +1,51 @@
+//! `unicac spot`: spot diagrams and RMS radii.
+
+use super::{fields_and_wavelengths, or_dash, print_json};
+use crate::args::SpotArgs;
+use crate::lens_input::load_lens;
+use anyhow::Result;
+use serde::Serialize;
+use unicac_trace::{spots, Aiming, PupilSampling, Spot};
+
+#[derive(Serialize)]
+struct SpotReport<'a> {
+    lens: &'a str,
+    aiming: Aiming,
+    pupil_sampling: PupilSampling,
+    spots: &'a [Spot],
+}
+
+pub fn run(args: &SpotArgs) -> Result<()> {
+    let lens = load_lens(&args.lens.lens)?;
+    let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.fields_deg, &args.wavelengths_um)?;
+    let spots = spots(&lens, &fields, &wavelengths, args.aim, &args.pupil_sampling)?;
+    if let Some(path) = &args.plot {
+        unicac_plot::spot_diagram(&spots, path)?;
+        eprintln!("wrote {}", path.display());
+    }
+    if args.json {
+        return print_json(&SpotReport {
+            lens: &args.lens.lens,
+            aiming: args.aim,
+            pupil_sampling: args.pupil_sampling,
+            spots: &spots,
+        });
+    }
+    println!(
+        "{:>10} {:>10} {:>12} {:>12} {:>14} {:>14} {:>8}",
+        "field deg", "wl um", "RMS um", "RMS chief um", "centroid x mm", "centroid y mm", "ok/all"
+    );
+    for s in &spots {
+        println!(
+            "{:>10.4} {:>10.6} {:>12} {:>12} {:>14} {:>14} {:>8}",
+            s.field_deg,
+            s.wavelength_um,
+            or_dash(s.rms_radius_um, 4),
+            or_dash(s.rms_radius_chief_um, 4),
+            or_dash(s.centroid_x_mm, 6),
+            or_dash(s.centroid_y_mm, 6),
+            format!("{}/{}", s.rays_ok, s.rays_traced)
+        );
+    }
+    Ok(())
+}
