@@ -102,7 +102,10 @@ PHONE_PROVENANCE = (
     "MIT licence (c) 2022 Xinge Yang. Not a patent example: no verifiable patent table with "
     "even aspheres was reachable offline (ray-optics' US 7,535,658 phone lens uses odd-order "
     "terms). Stop 1.0 mm semi-aperture 0.1 mm before the first lens (EPD 2.0 mm), 12 even "
-    "aspheres with conic and r^2..r^12 terms, image at DeepLens' d_sensor. Plastics (PMMA, OKP4, "
+    "aspheres, image at DeepLens' d_sensor. DeepLens' surfaces carry an r^2 term, which paraxial "
+    "traces (optiland, ray-optics, Zemax) ignore; each asphere was therefore rewritten with "
+    "curvature c + 2 a2, conic -1 and r^4..r^20 terms least-squares fitted to the DeepLens sag "
+    "over 1.05x the used semi-diameter (max sag residual < 1e-8 mm). Plastics (PMMA, OKP4, "
     "COC, polycarbonate) as model glasses with DeepLens' nd/Vd. Half field 28 deg from its "
     "3.565 mm image half-diagonal. Entered by hand in lenses/tools/from_optiland.py."
 )
@@ -203,10 +206,36 @@ def phone_lens() -> dict:
             s["label"] = mat.upper()
         surfaces.append(s)
     surfaces.append({"curvature_per_mm": 0.0, "thickness_mm": 0.0})
-    return lens_skeleton("Six-element plastic phone lens (DeepLens cellphone68deg)",
+    lens = lens_skeleton("Six-element plastic phone lens (DeepLens cellphone68deg)",
                          PHONE_PROVENANCE,
                          {"entrance_pupil_diameter_mm": 2 * PHONE_STOP["semi_aperture_mm"]},
                          PHONE_HALF_FOV_DEG, surfaces, [])
+    heights, _ = full_pupil_heights(lens)
+    for s, h in zip(lens["surfaces"], heights):
+        if s.get("type") == "even_asphere":
+            s.update(refit_without_r2(s, 1.05 * h))
+    return lens
+
+
+def refit_without_r2(s: dict, r_max: float) -> dict:
+    """Same sag with no r^2 term: curvature c + 2 a2 (the paraxial curvature, which
+    optiland's and ray-optics' paraxial traces read from the curvature only), conic -1,
+    and r^4..r^20 fitted by least squares to the original sag on [0, r_max]."""
+    c, k, a = s["curvature_per_mm"], s["conic"], s["aspheric_coefficients"]
+    r = np.linspace(0.0, r_max, 4000)
+    sag = c * r**2 / (1 + np.sqrt(1 - (1 + k) * c**2 * r**2))
+    sag += sum(ai * r ** (2 * i + 2) for i, ai in enumerate(a))
+    c_new = c + 2.0 * a[0]
+    powers = np.arange(4, 22, 2)
+    scale = r_max ** powers.astype(float)
+    basis = (r[:, None] ** powers) / scale
+    coef, *_ = np.linalg.lstsq(basis, sag - c_new * r**2 / 2, rcond=None)
+    coef = coef / scale
+    residual = np.abs(sag - c_new * r**2 / 2 - (r[:, None] ** powers) @ coef).max()
+    if residual > 1e-8:
+        raise SystemExit(f"asphere refit residual {residual:.2e} mm")
+    return {"curvature_per_mm": c_new, "conic": -1.0,
+            "aspheric_coefficients": [0.0, *map(float, coef)]}
 
 
 # ---------------------------------------------------------------- semi-diameters

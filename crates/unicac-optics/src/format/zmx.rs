@@ -291,8 +291,8 @@ impl<'a> Reader<'a> {
         }
         let fields = self.fields()?;
         let field_count = fields.values().len();
-        let field_weights = (self.field_weights.len() >= field_count && self.field_weights[..field_count].iter().any(|w| *w != 1.0))
-            .then(|| self.field_weights[..field_count].to_vec());
+        let field_weights =
+            (self.field_weights.len() >= field_count).then(|| self.field_weights[..field_count].to_vec());
         let (wavelengths, primary) = self.wavelengths();
         Ok(LoadedSpec {
             spec: LensSpec {

@@ -1,0 +1,139 @@
+//! Lens file formats: exact round trips, Zemax encodings, and clear errors for bad input.
+
+use std::path::Path;
+use unicac_optics::format::{json, zmx};
+use unicac_optics::spec::{ApertureSpec, FieldSpec, MaterialSpec, SurfaceType};
+use unicac_optics::{examples, Lens, OpticsError};
+
+fn temp_dir() -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("unicac-formats-{}-{:?}", std::process::id(), std::thread::current().id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn json_to_zmx_to_json_round_trips_exactly_for_every_bundled_lens() {
+    for name in examples::names() {
+        let spec = examples::spec(name).unwrap();
+        let zmx_text = zmx::to_string(&spec);
+        let back = zmx::parse(zmx_text.as_bytes(), Path::new("x.zmx")).unwrap();
+        assert!(back.warnings.is_empty(), "{name}: {:?}", back.warnings);
+        let mut expected = spec.clone();
+        // .zmx carries no sensor; everything else must come back bit for bit.
+        expected.sensor = None;
+        assert_eq!(back.spec, expected, "{name}");
+        assert_eq!(json::to_string(&back.spec), json::to_string(&expected), "{name}");
+    }
+}
+
+#[test]
+fn json_text_round_trips_exactly() {
+    for name in examples::names() {
+        let spec = examples::spec(name).unwrap();
+        let text = json::to_string(&spec);
+        assert_eq!(json::parse(text.as_bytes(), Path::new("x.json")).unwrap(), spec, "{name}");
+    }
+}
+
+/// A small hand-written Zemax file in the style OpticStudio writes.
+const ZEMAX_SAMPLE: &str = "VERS 140716 214 54014 L54014\nMODE SEQ\nNAME Test doublet\nUNIT MM X W X CM MR CPMM\nENPD 1.0E+1\nFTYP 0 0 3 3 0 0 0\nXFLN 0 0 0 0 0 0 0 0 0 0 0 0\nYFLN 0 7 10 0 0 0 0 0 0 0 0 0\nFWGN 1 1 1 1 1 1 1 1 1 1 1 1\nWAVM 1 0.4861327 1\nWAVM 2 0.5875618 2\nWAVM 3 0.6562725 1\nPWAV 2\nGCAT SCHOTT\nRAIM 0 0 1 1 0 0 0 0 0\nSURF 0\n  TYPE STANDARD\n  CURV 0.0 0 0 0 0 \"\"\n  HIDE 0 0 0 0 0 0 0 0 0 0\n  DISZ INFINITY\nSURF 1\n  STOP\n  TYPE STANDARD\n  CURV 1.6129032258064516E-2 0 0 0 0 \"\"\n  DISZ 6\n  GLAS N-BK7 0 0 1.5168 64.17 0 0 0 0 0 0\n  DIAM 6 1 0 0 1 \"\"\nSURF 2\n  TYPE EVENASPH\n  CURV -2.3E-2 0 0 0 0 \"\"\n  PARM 1 0\n  PARM 2 1.5E-5\n  PARM 3 -2E-8\n  CONI -0.5\n  DISZ 2.5\n  GLAS ___BLANK 1 0 1.6727 32.2 0 0 0 0 0 0\nSURF 3\n  TYPE STANDARD\n  CURV -4.0E-3\n  DISZ 95\nSURF 4\n  TYPE STANDARD\n  CURV 0\n  DISZ 0\n";
+
+fn check_sample(spec: &unicac_optics::LensSpec) {
+    assert_eq!(spec.name, "Test doublet");
+    assert_eq!(spec.aperture, ApertureSpec::EntrancePupilDiameterMm(10.0));
+    assert_eq!(spec.fields, FieldSpec::AnglesDeg(vec![0.0, 7.0, 10.0]));
+    assert_eq!(spec.wavelengths.len(), 3);
+    assert_eq!(spec.wavelengths[1].weight, 2.0);
+    assert_eq!(spec.primary_wavelength_index, Some(1));
+    assert_eq!(spec.surfaces.len(), 4);
+    assert!(spec.surfaces[0].stop);
+    assert_eq!(spec.surfaces[0].material, Some(MaterialSpec::Named("N-BK7".into())));
+    assert_eq!(spec.surfaces[0].semi_diameter_mm, Some(6.0));
+    let asphere = &spec.surfaces[1];
+    assert_eq!(asphere.surface_type, SurfaceType::EvenAsphere);
+    // PARM n is the coefficient of r^(2n).
+    assert_eq!(asphere.aspheric_coefficients, vec![0.0, 1.5e-5, -2e-8]);
+    assert_eq!(asphere.conic, -0.5);
+    assert_eq!(asphere.material, Some(MaterialSpec::Model { nd: 1.6727, vd: 32.2 }));
+    assert_eq!(spec.surfaces[2].thickness_mm, 95.0);
+    Lens::from_spec(spec).unwrap();
+}
+
+#[test]
+fn reads_zemax_in_utf8_and_utf16() {
+    let utf8 = zmx::parse(ZEMAX_SAMPLE.as_bytes(), Path::new("a.zmx")).unwrap();
+    check_sample(&utf8.spec);
+    let mut utf16le = vec![0xFF, 0xFE];
+    utf16le.extend(ZEMAX_SAMPLE.encode_utf16().flat_map(|u| u.to_le_bytes()));
+    check_sample(&zmx::parse(&utf16le, Path::new("b.zmx")).unwrap().spec);
+    let mut utf16be = vec![0xFE, 0xFF];
+    utf16be.extend(ZEMAX_SAMPLE.encode_utf16().flat_map(|u| u.to_be_bytes()));
+    check_sample(&zmx::parse(&utf16be, Path::new("c.zmx")).unwrap().spec);
+    let no_bom: Vec<u8> = ZEMAX_SAMPLE.encode_utf16().flat_map(|u| u.to_le_bytes()).collect();
+    check_sample(&zmx::parse(&no_bom, Path::new("d.zmx")).unwrap().spec);
+}
+
+#[test]
+fn unsupported_zemax_features_are_named() {
+    let text = ZEMAX_SAMPLE.replace("SURF 3\n  TYPE STANDARD", "SURF 3\n  TYPE TOROIDAL\n  DECX 0.1");
+    let err = zmx::parse(text.as_bytes(), Path::new("t.zmx")).unwrap_err();
+    let message = err.to_string();
+    assert!(matches!(err, OpticsError::UnsupportedZemax { .. }));
+    assert!(message.contains("TYPE TOROIDAL") && message.contains("DECX"), "{message}");
+    assert!(message.contains("t.zmx"), "{message}");
+    let unknown = ZEMAX_SAMPLE.replace("PWAV 2", "PWAV 2\nZZZZ 1 2 3");
+    let loaded = zmx::parse(unknown.as_bytes(), Path::new("u.zmx")).unwrap();
+    assert_eq!(loaded.warnings, vec!["ZZZZ (keyword ignored)".to_string()]);
+}
+
+#[test]
+fn bad_numbers_in_zemax_name_the_line() {
+    let text = ZEMAX_SAMPLE.replace("DISZ 2.5", "DISZ two");
+    let message = zmx::parse(text.as_bytes(), Path::new("n.zmx")).unwrap_err().to_string();
+    assert!(message.starts_with("n.zmx:35:"), "{message}");
+    assert!(message.contains("'two' is not a number"), "{message}");
+}
+
+#[test]
+fn json_errors_name_file_line_and_field() {
+    let broken = "{\n  \"format_version\": 1,\n  \"aperture\": {\"f_number\": 4.0},\n  \"fields\": {\"angles_deg\": [0]},\n  \"wavelengths\": [{\"wavelength_um\": 0.55}],\n  \"surfaces\": [{\"thickness_mm\": \"x\"}]\n}";
+    let message = json::parse(broken.as_bytes(), Path::new("bad.json")).unwrap_err().to_string();
+    assert!(message.starts_with("bad.json:6:"), "{message}");
+    let unknown_key = broken.replace("\"thickness_mm\": \"x\"", "\"thicknes_mm\": 1");
+    let message = json::parse(unknown_key.as_bytes(), Path::new("k.json")).unwrap_err().to_string();
+    assert!(message.contains("thicknes_mm"), "{message}");
+}
+
+#[test]
+fn invalid_lenses_name_the_field() {
+    let mut spec = examples::spec("cooke_triplet").unwrap();
+    spec.surfaces[2].material = Some(MaterialSpec::Named("N-BK8".into()));
+    let message = Lens::from_spec(&spec).unwrap_err().to_string();
+    assert!(message.contains("unknown glass 'N-BK8'") && message.contains("N-BK7"), "{message}");
+    let mut spec = examples::spec("cooke_triplet").unwrap();
+    spec.surfaces[1].stop = true;
+    assert!(Lens::from_spec(&spec).unwrap_err().to_string().contains("surfaces[].stop"));
+    let mut spec = examples::spec("cooke_triplet").unwrap();
+    spec.surfaces[0].semi_diameter_mm = Some(-1.0);
+    assert!(Lens::from_spec(&spec).unwrap_err().to_string().contains("surfaces[0].semi_diameter_mm"));
+    let mut spec = examples::spec("cooke_triplet").unwrap();
+    spec.wavelengths[0].wavelength_um = 12.0;
+    assert!(matches!(Lens::from_spec(&spec).unwrap_err(), OpticsError::WavelengthOutOfRange { .. }));
+}
+
+#[test]
+fn written_files_are_complete_or_absent() {
+    let dir = temp_dir();
+    let spec = examples::spec("double_gauss").unwrap();
+    for file in ["a.json", "a.zmx"] {
+        let path = dir.join(file);
+        unicac_optics::write_spec(&spec, &path).unwrap();
+        let loaded = unicac_optics::read_spec(&path).unwrap();
+        assert_eq!(loaded.spec.surfaces, spec.surfaces);
+    }
+    let missing_dir = dir.join("no/such/dir/a.json");
+    assert!(unicac_optics::write_spec(&spec, &missing_dir).is_err());
+    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().contains(".tmp-")).collect();
+    assert!(leftovers.is_empty());
+    std::fs::remove_dir_all(dir).unwrap();
+}
