@@ -44,6 +44,7 @@ PUPIL_POINTS = [(0, 0), (0, 1), (0, -1), (1, 0), (0, 0.5), (0.7, 0.7), (-0.3, 0.
 AIMED_POINTS = [(0, 0), (0, 1), (0, -1), (1, 0)]
 HEX_RINGS = 6
 START_GAP_MM = 10.0  # rays start this far in front of min(surface 1, entrance pupil)
+ASPHERE_TOL = 1e-15  # optiland Newton-Raphson tolerance (floored at round-off by optiland)
 
 
 # ---------------------------------------------------------------- lens reader
@@ -157,7 +158,8 @@ class OptilandModel:
 
     name = "optiland"
 
-    def __init__(self, lens: dict, indices: list[float], wl_um: float):
+    def __init__(self, lens: dict, indices: list[float], wl_um: float,
+                 asphere_tol: float | None = ASPHERE_TOL):
         from optiland import optic
         from optiland.materials import IdealMaterial
 
@@ -177,6 +179,9 @@ class OptilandModel:
                 kw.update(surface_type="even_asphere",
                           coefficients=list(s.get("aspheric_coefficients", [])))
             op.surfaces.add(**kw)
+        for surf in op.surfaces:  # tighten the asphere intersection (default 1e-10)
+            if asphere_tol is not None and hasattr(surf.geometry, "tol"):
+                surf.geometry.tol = asphere_tol
         ap = lens["aperture"]
         if "entrance_pupil_diameter_mm" in ap:
             op.set_aperture("EPD", ap["entrance_pupil_diameter_mm"])
@@ -211,9 +216,11 @@ class OptilandModel:
         return fo
 
     def paraxial_image_height(self, angle: float) -> float:
-        fmax = max(abs(a) for a in field_angles(self.lens)) or 1.0
-        self.op.paraxial.trace(angle / fmax, 0.0, self.wl)
-        return float(np.ravel(self.op.surfaces.y[-1])[0])
+        """Paraxial chief ray: slope tan(F) through the entrance-pupil centre."""
+        pa = self.op.paraxial
+        u = math.tan(math.radians(angle))
+        y, _ = pa.trace_generic(-u * float(pa.EPL()), u, 0.0, self.wl)
+        return float(np.ravel(y[-1])[0])
 
     def trace(self, starts: np.ndarray, dirs: np.ndarray):
         """Per-surface intercepts [n_rays, n_surfaces, 3] (surface 1..image) and ok mask."""
@@ -257,7 +264,7 @@ class RayOpticsModel:
         osp["fov"] = FieldSpec(osp, key=["object", "angle"], value=fmax,
                                flds=[a / fmax for a in angles], is_relative=True)
         osp["wvls"] = WvlSpec([(wl_um * 1e3, 1.0)], ref_wl=0)
-        sm.gaps[0].thi = 1e10
+        sm.gaps[0].thi = 1e10  # ray-optics' stand-in for an object at infinity
         for i, s in enumerate(lens["surfaces"][:-1]):
             n = indices[i]
             medium = ConstantIndex(n, f"n{n:.6f}") if n != 1.0 else "air"
@@ -290,7 +297,9 @@ class RayOpticsModel:
             "ffl_mm": float(fod.ffl),
             "epd_mm": float(2 * fod.enp_radius),
             "entrance_pupil_z_mm": float(fod.enp_dist),
-            "exit_pupil_z_mm": float(z[-2] + fod.exp_dist),
+            # fod.exp_dist is measured from the paraxial focus, not the image surface
+            # when the two differ; use the chief ray at the image surface instead.
+            "exit_pupil_z_mm": float(z[-1] - pr[-1][0] / pr[-1][1]),
             "exit_pupil_diameter_mm": float(2 * fod.exp_radius),
             "f_number": float(fod.fno),
             "total_track_mm": float(z[-1]),
@@ -303,33 +312,38 @@ class RayOpticsModel:
             "tool_version": version("rayoptics"),
         }
 
+    def path_from_plane(self, z_start: float):
+        """The model's path with the object surface moved to the plane z = z_start
+        (only the object->surface-1 transform changes; the model is not touched)."""
+        path = list(self.sm.path(wl=self.wl * 1e3))
+        first = list(path[0])
+        first[2] = (np.identity(3), np.array([0.0, 0.0, -z_start]))
+        return iter([tuple(first)] + path[1:])
+
     def trace(self, starts: np.ndarray, dirs: np.ndarray):
         from rayoptics.raytr.raytrace import trace_raw
         from rayoptics.raytr.traceerror import TraceError
 
-        z_start = float(starts[0, 2])
-        self.sm.gaps[0].thi = -z_start  # object plane = start plane (global z_start)
         nsurf = len(self.lens["surfaces"])
         pts = np.full((len(starts), nsurf, 3), np.nan)
         ok = np.zeros(len(starts), dtype=bool)
         zv = np.array(vertex_z(self.lens))
         for k, (p, d) in enumerate(zip(starts, dirs)):
-            path = self.sm.path(wl=self.wl * 1e3)
             try:
-                ray, _, _ = trace_raw(path, np.array([p[0], p[1], 0.0]), d.copy(),
+                ray, _, _ = trace_raw(self.path_from_plane(float(p[2])),
+                                      np.array([p[0], p[1], 0.0]), d.copy(),
                                       self.wl * 1e3, eps=1e-15)
             except TraceError:
                 continue
             seg = np.array([r[0] for r in ray[1:nsurf + 1]])
             seg[:, 2] += zv  # local sag -> global z
             pts[k], ok[k] = seg, True
-        self.sm.gaps[0].thi = 1e10
         return pts, ok
 
 
 # ---------------------------------------------------------------- analyses
-def start_plane(fo: dict) -> float:
-    return min(0.0, fo["entrance_pupil_z_mm"]) - START_GAP_MM
+def start_plane(aim: dict) -> float:
+    return min(0.0, aim["entrance_pupil_z_mm"]) - START_GAP_MM
 
 
 def clipped(lens: dict, pts: np.ndarray) -> np.ndarray:
@@ -338,11 +352,11 @@ def clipped(lens: dict, pts: np.ndarray) -> np.ndarray:
     return np.any(r > sd[None, :] * (1 + 1e-12), axis=1)
 
 
-def ray_records(model, fo: dict) -> list[dict]:
+def ray_records(model, aim: dict) -> list[dict]:
     out = []
     for f in field_angles(model.lens):
-        starts, dirs = pupil_rays(f, PUPIL_POINTS, fo["epd_mm"], fo["entrance_pupil_z_mm"],
-                                  start_plane(fo))
+        starts, dirs = pupil_rays(f, PUPIL_POINTS, aim["epd_mm"], aim["entrance_pupil_z_mm"],
+                                  start_plane(aim))
         pts, ok = model.trace(starts, dirs)
         for (px, py), s, d, p, good in zip(PUPIL_POINTS, starts, dirs, pts, ok):
             rec = {"field_deg": f, "wavelength_um": model.wl, "pupil": [px, py],
@@ -353,11 +367,11 @@ def ray_records(model, fo: dict) -> list[dict]:
     return out
 
 
-def spot_records(model, fo: dict) -> list[dict]:
+def spot_records(model, aim: dict) -> list[dict]:
     out, pupil = [], hexapolar_pupil()
     for f in field_angles(model.lens):
-        starts, dirs = pupil_rays(f, pupil, fo["epd_mm"], fo["entrance_pupil_z_mm"],
-                                  start_plane(fo))
+        starts, dirs = pupil_rays(f, pupil, aim["epd_mm"], aim["entrance_pupil_z_mm"],
+                                  start_plane(aim))
         pts, ok = model.trace(starts, dirs)
         good = ok & ~clipped(model.lens, np.nan_to_num(pts, nan=np.inf))
         xy = pts[good, -1, :2]
@@ -390,13 +404,13 @@ def aim_at_stop(model, f: float, target: np.ndarray, z0: float, guess: np.ndarra
     return None
 
 
-def aimed_records(model, fo: dict) -> list[dict]:
+def aimed_records(model, aim: dict) -> list[dict]:
     out = []
-    r_stop = fo["stop_marginal_height_mm"]
-    z0 = start_plane(fo)
+    r_stop = aim["stop_marginal_height_mm"]
+    z0 = start_plane(aim)
     for f in field_angles(model.lens):
         for px, py in AIMED_POINTS:
-            s, _ = pupil_rays(f, [(px, py)], fo["epd_mm"], fo["entrance_pupil_z_mm"], z0)
+            s, _ = pupil_rays(f, [(px, py)], aim["epd_mm"], aim["entrance_pupil_z_mm"], z0)
             res = aim_at_stop(model, f, np.array([px, py]) * r_stop, z0, s[0, :2])
             rec = {"field_deg": f, "wavelength_um": model.wl, "pupil": [px, py], "ok": res is not None}
             if res is not None:
@@ -408,22 +422,28 @@ def aimed_records(model, fo: dict) -> list[dict]:
     return out
 
 
-def reference_for(lens: dict, tool_cls) -> dict:
+def common_aiming(lens: dict) -> dict:
+    """Pupil data that defines every traced ray, for both tools: optiland's exact
+    infinite-conjugate paraxial values at the primary wavelength."""
+    prim = primary_index(lens)
+    fo = OptilandModel(lens, lens_indices(lens)[prim], wavelengths(lens)[prim]).first_order()
+    return {k: fo[k] for k in ("epd_mm", "entrance_pupil_z_mm", "stop_marginal_height_mm")}
+
+
+def reference_for(lens: dict, tool_cls, aim: dict) -> dict:
     idx = lens_indices(lens)
     wls = wavelengths(lens)
     prim = primary_index(lens)
     models = [tool_cls(lens, idx[i], wl) for i, wl in enumerate(wls)]
     fo = models[prim].first_order()
-    fos = [m.first_order() for m in models]
     rays, spots = [], []
-    for m, fo_w in zip(models, fos):
-        # every wavelength is aimed with the primary-wavelength paraxial pupil
-        rays += ray_records(m, fo)
-        spots += spot_records(m, fo)
+    for m in models:  # every wavelength is aimed with the primary-wavelength pupil
+        rays += ray_records(m, aim)
+        spots += spot_records(m, aim)
     return {"lens": lens["name_stem"], "tool": tool_cls.name, "tool_version": fo.pop("tool_version"),
             "wavelengths_um": wls, "primary_wavelength_index": prim,
-            "indices": idx, "first_order": fo, "rays": rays, "spots": spots,
-            "real_aimed": aimed_records(models[prim], fo)}
+            "indices": idx, "first_order": fo, "aiming": aim, "rays": rays, "spots": spots,
+            "real_aimed": aimed_records(models[prim], aim)}
 
 
 # ---------------------------------------------------------------- comparison
@@ -457,9 +477,9 @@ def main(names: list[str]) -> None:
     summary = {}
     for path in paths:
         lens = load_lens(path)
-        refs = {}
+        refs, aim = {}, common_aiming(lens)
         for tool in (OptilandModel, RayOpticsModel):
-            refs[tool.name] = reference_for(lens, tool)
+            refs[tool.name] = reference_for(lens, tool, aim)
             out = HERE / tool.name / f"{path.stem}.json"
             out.parent.mkdir(exist_ok=True)
             out.write_text(json.dumps(refs[tool.name], indent=1) + "\n")

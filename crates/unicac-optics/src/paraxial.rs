@@ -41,6 +41,9 @@ pub struct FirstOrder {
     pub field_angles_deg: Vec<f64>,
     /// Chief-ray heights at the paraxial image plane, signed (see module docs).
     pub paraxial_image_heights_mm: Vec<f64>,
+    /// The same paraxial chief rays' heights on the lens's image surface (differs when the image
+    /// surface is not at the paraxial focus; optiland and ray-optics report this one).
+    pub paraxial_chief_heights_at_image_surface_mm: Vec<f64>,
 }
 
 /// A paraxial ray state after each surface: height at the vertex plane and reduced slope after refraction.
@@ -173,7 +176,9 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
     // Chief ray of unit slope tan F = 1 through the entrance-pupil centre; heights scale with tan F.
     let unit_chief = ParaxialRay { y_mm: -entrance_pupil_z_mm, nu: n0 };
     let chief = sys.trace(unit_chief, last)[last];
-    let image_height_per_tan = chief.y_mm + chief.nu / n_image * (paraxial_image_z_mm - z_last);
+    let chief_height_at = |z: f64| chief.y_mm + chief.nu / n_image * (z - z_last);
+    let image_height_per_tan = chief_height_at(paraxial_image_z_mm);
+    let surface_height_per_tan = chief_height_at(lens.total_track_mm());
     let (exit_pupil_z_mm, exit_pupil_diameter_mm) = if chief.nu == 0.0 {
         (None, None)
     } else {
@@ -187,8 +192,9 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
             heights.iter().map(|h| (h / image_height_per_tan).atan().to_degrees()).collect()
         }
     };
-    let paraxial_image_heights_mm =
-        field_angles_deg.iter().map(|f| f.to_radians().tan() * image_height_per_tan).collect();
+    let heights = |per_tan: f64| field_angles_deg.iter().map(|f| f.to_radians().tan() * per_tan).collect();
+    let paraxial_image_heights_mm = heights(image_height_per_tan);
+    let paraxial_chief_heights_at_image_surface_mm = heights(surface_height_per_tan);
 
     Ok(FirstOrder {
         wavelength_um,
@@ -209,6 +215,7 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
         magnification,
         field_angles_deg,
         paraxial_image_heights_mm,
+        paraxial_chief_heights_at_image_surface_mm,
     })
 }
 

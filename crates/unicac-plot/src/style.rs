@@ -157,8 +157,8 @@ fn equal_aspect(x: Range<f64>, y: Range<f64>, (width, height): (u32, u32)) -> (R
 }
 
 /// Draws a polyline, entered in the legend under `label` if given.
-pub(crate) fn line<DB: DrawingBackend>(
-    chart: &mut Chart<'_, DB>,
+pub(crate) fn line<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
     points: impl IntoIterator<Item = (f64, f64)>,
     style: ShapeStyle,
     label: Option<String>,
@@ -174,7 +174,7 @@ where
 }
 
 /// The legend of the labelled series, in the upper left corner.
-pub(crate) fn legend<DB: DrawingBackend>(chart: &mut Chart<'_, DB>) -> Result<(), PlotError>
+pub(crate) fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>) -> Result<(), PlotError>
 where
     DB::ErrorType: 'static,
 {
