@@ -4,7 +4,7 @@
 //! nu' = nu - y * phi with phi = c_par (n' - n); transfer over t in index n': y' = y + t * nu' / n'.
 //! The paraxial curvature of an even asphere includes its r^2 term: c_par = c + 2 a_2.
 //! Conventions (docs/conventions.md): global z from surface 1's vertex, signed; field angle F > 0 means a
-//! chief ray travelling towards +y, so a positive lens images it at negative y.
+//! chief ray travelling towards +y (an object below the axis), so a positive lens images it at +y.
 
 use crate::error::{OpticsError, Result};
 use crate::lens::Lens;

@@ -18,10 +18,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let fields = lens.first_order()?.field_angles_deg;
 
     let semi_diameters = clear_semi_diameters(&lens, Aiming::Paraxial)?;
-    unicac_plot::layout(&lens, &unicac_plot::layout_bundles(&lens, 11)?, &semi_diameters, Path::new(&out("layout")))?;
+    unicac_plot::layout(
+        &lens,
+        &unicac_plot::layout_bundles(&lens, 11)?,
+        &semi_diameters,
+        Path::new(&out("layout")),
+    )?;
 
     let sampling = PupilSampling::Hexapolar { rings: 8 };
-    let spots = unicac_trace::spots(&lens, &fields, &lens.wavelengths_um(), Aiming::Paraxial, &sampling)?;
+    let spots = unicac_trace::spots(
+        &lens,
+        &fields,
+        &lens.wavelengths_um(),
+        Aiming::Paraxial,
+        &sampling,
+    )?;
     unicac_plot::spot_diagram(&spots, Path::new(&out("spot")))?;
 
     let mut fans = Vec::new();

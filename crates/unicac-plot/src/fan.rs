@@ -19,7 +19,12 @@ pub fn ray_fan_plot(fans: &[RayFan], path: &Path) -> Result<(), PlotError> {
     }
     let largest_um = fans
         .iter()
-        .flat_map(|f| f.tangential.iter().map(|p| p.ey_um).chain(f.sagittal.iter().map(|p| p.ex_um)))
+        .flat_map(|f| {
+            f.tangential
+                .iter()
+                .map(|p| p.ey_um)
+                .chain(f.sagittal.iter().map(|p| p.ex_um))
+        })
         .fold(0.0, |m: f64, e| if e.is_finite() { m.max(e.abs()) } else { m });
     render(
         &FanPlot {
@@ -41,7 +46,10 @@ struct FanPlot<'a> {
 
 impl Picture for FanPlot<'_> {
     fn size(&self) -> (u32, u32) {
-        (2 * PANEL_SIZE.0, self.fields.len() as u32 * PANEL_SIZE.1 + style::TITLE_HEIGHT)
+        (
+            2 * PANEL_SIZE.0,
+            self.fields.len() as u32 * PANEL_SIZE.1 + style::TITLE_HEIGHT,
+        )
     }
 
     fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), PlotError>
@@ -68,20 +76,49 @@ impl FanPlot<'_> {
     where
         DB::ErrorType: 'static,
     {
-        let (name, x_desc, y_desc) = if tangential { ("tangential", "py", "ey (µm)") } else { ("sagittal", "px", "ex (µm)") };
+        let (name, x_desc, y_desc) = if tangential {
+            ("tangential", "py", "ey (µm)")
+        } else {
+            ("sagittal", "px", "ex (µm)")
+        };
         let caption = format!("{}   {name}", style::field_label(field_deg));
         let h = self.half_range_um;
-        let mut chart =
-            style::panel(area, Axes { caption: &caption, x: -1.0..1.0, y: -h..h, x_desc, y_desc, equal_aspect: false })?;
+        let mut chart = style::panel(
+            area,
+            Axes {
+                caption: &caption,
+                x: -1.0..1.0,
+                y: -h..h,
+                x_desc,
+                y_desc,
+                equal_aspect: false,
+            },
+        )?;
         style::line(&mut chart, [(-1.0, 0.0), (1.0, 0.0)], BLACK.mix(0.5).into(), None)?;
         for fan in self.fans.iter().filter(|f| f.field_deg == field_deg) {
-            let colour = style::ramp(style::rank(&self.wavelengths, fan.wavelength_um), self.wavelengths.len());
-            let points = if tangential { &fan.tangential } else { &fan.sagittal };
+            let colour = style::ramp(
+                style::rank(&self.wavelengths, fan.wavelength_um),
+                self.wavelengths.len(),
+            );
+            let points = if tangential {
+                &fan.tangential
+            } else {
+                &fan.sagittal
+            };
             let value = |p: &FanPoint| if tangential { p.ey_um } else { p.ex_um };
             // Consecutive arriving rays form one curve; a failed ray breaks it.
-            for (k, run) in points.split(|p| !p.status.is_ok()).filter(|run| !run.is_empty()).enumerate() {
+            for (k, run) in points
+                .split(|p| !p.status.is_ok())
+                .filter(|run| !run.is_empty())
+                .enumerate()
+            {
                 let label = (with_legend && k == 0).then(|| style::wavelength_label(fan.wavelength_um));
-                style::line(&mut chart, run.iter().map(|p| (p.pupil, value(p))), colour.stroke_width(2), label)?;
+                style::line(
+                    &mut chart,
+                    run.iter().map(|p| (p.pupil, value(p))),
+                    colour.stroke_width(2),
+                    label,
+                )?;
             }
         }
         if with_legend {

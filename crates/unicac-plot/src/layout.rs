@@ -8,7 +8,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 use unicac_optics::Lens;
-use unicac_trace::{Aimer, Aiming, Clipping, Ray, TraceSystem};
+use unicac_trace::{Aimer, Aiming, Clipping, Ray, RayStatus, TraceSystem};
 
 /// Traced rays of one field: each path is the list of points from `TraceSystem::trace_path` (start,
 /// then one point per surface reached, global mm).
@@ -26,8 +26,8 @@ const PROFILE_SAMPLES: usize = 81;
 
 /// Meridional fans for `layout`: for every field angle of the lens (first-order data), `rays_per_field`
 /// rays with px = 0 and py evenly from -1 to 1 (just the chief ray for 1), paraxially aimed at the primary
-/// wavelength and traced with clipping at the clear semi-diameters. Rays that fail keep the part of their
-/// path up to where they stopped. Each ray starts on the plane z = min(entrance pupil z, 0) - 0.2 total
+/// wavelength and traced with clipping at the clear semi-diameters. A ray that fails (clipped, missed,
+/// totally reflected) is drawn up to the surface where it stopped. Each ray starts on the plane z = min(entrance pupil z, 0) - 0.2 total
 /// track (or at the object, if nearer), so it is seen entering the lens.
 pub fn layout_bundles(lens: &Lens, rays_per_field: usize) -> Result<Vec<RayBundle>, PlotError> {
     let first = lens.first_order()?;
@@ -44,14 +44,49 @@ pub fn layout_bundles(lens: &Lens, rays_per_field: usize) -> Result<Vec<RayBundl
         .map(|&field_deg| {
             let paths = (0..rays_per_field)
                 .map(|i| {
-                    let py = if rays_per_field > 1 { -1.0 + 2.0 * i as f64 / (rays_per_field - 1) as f64 } else { 0.0 };
-                    let ray = aimer.ray(field_deg, 0.0, py)?;
-                    Ok(system.trace_path(moved_to(ray, start_z)).0)
+                    let py = if rays_per_field > 1 {
+                        -1.0 + 2.0 * i as f64 / (rays_per_field - 1) as f64
+                    } else {
+                        0.0
+                    };
+                    let ray = moved_to(aimer.ray(field_deg, 0.0, py)?, start_z);
+                    let (mut points, status) = system.trace_path(ray);
+                    if let Some(surface) = failed_at(status) {
+                        points.extend(to_surface(lens, surface, &points, ray.direction));
+                    }
+                    Ok(points)
                 })
                 .collect::<Result<_, PlotError>>()?;
             Ok(RayBundle { field_deg, paths })
         })
         .collect()
+}
+
+/// The surface where a ray's trace stopped, if it failed at one.
+fn failed_at(status: RayStatus) -> Option<usize> {
+    match status {
+        RayStatus::Missed { surface }
+        | RayStatus::Tir { surface }
+        | RayStatus::Clipped { surface }
+        | RayStatus::NoConvergence { surface } => Some(surface as usize),
+        RayStatus::Ok | RayStatus::InvalidInput => None,
+    }
+}
+
+/// Where a failed ray's last straight segment meets (approximately) surface `index` extended beyond its
+/// edge, so the drawing shows it stopped there: the point on the vertex plane, moved once to the sag at
+/// that height. `first_direction` is the ray's direction when the path holds only its start.
+fn to_surface(lens: &Lens, index: usize, points: &[[f64; 3]], first_direction: [f64; 3]) -> Option<[f64; 3]> {
+    let last = *points.last()?;
+    let d = match points {
+        [.., before, last] => [0, 1, 2].map(|k| last[k] - before[k]),
+        _ => first_direction,
+    };
+    let surface = &lens.surfaces[index];
+    let at_z = |z: f64| (d[2] != 0.0).then(|| [0, 1, 2].map(|k| last[k] + (z - last[2]) / d[2] * d[k]));
+    let on_plane = at_z(surface.z_mm)?;
+    let rho = (on_plane[0] * on_plane[0] + on_plane[1] * on_plane[1]).min(surface.profile.conic_rho_limit());
+    at_z(surface.z_mm + surface.profile.sag(rho)).filter(|p| p.iter().all(|v| v.is_finite()))
 }
 
 /// The same ray, its start moved along it to the plane z = `z` (unchanged if it runs parallel to it).
@@ -62,14 +97,22 @@ fn moved_to(ray: Ray, z: f64) -> Ray {
     }
     let t = (z - ray.position_mm[2]) / n;
     let p = ray.position_mm;
-    Ray { position_mm: [p[0] + t * l, p[1] + t * m, z], direction: ray.direction }
+    Ray {
+        position_mm: [p[0] + t * l, p[1] + t * m, z],
+        direction: ray.direction,
+    }
 }
 
 /// Draws the lens in the y-z plane (z right, y up, one scale for both): surface profiles over
 /// `semi_diameters` (one per surface, as from `unicac_trace::apertures::clear_semi_diameters`), glass
 /// elements shaded and closed by flat edges, the stop's blades, the image surface, and the rays of each
 /// bundle in the field's colour.
-pub fn layout(lens: &Lens, bundles: &[RayBundle], semi_diameters: &[f64], path: &Path) -> Result<(), PlotError> {
+pub fn layout(
+    lens: &Lens,
+    bundles: &[RayBundle],
+    semi_diameters: &[f64],
+    path: &Path,
+) -> Result<(), PlotError> {
     if semi_diameters.len() != lens.surfaces.len() {
         return Err(PlotError::InvalidInput(format!(
             "{} semi-diameters for {} surfaces",
@@ -77,20 +120,39 @@ pub fn layout(lens: &Lens, bundles: &[RayBundle], semi_diameters: &[f64], path: 
             lens.surfaces.len()
         )));
     }
-    let surfaces: Vec<Vec<(f64, f64)>> =
-        (0..lens.surfaces.len()).map(|i| profile(lens, i, semi_diameters[i])).collect();
-    let points = surfaces.iter().flatten().copied().chain(bundles.iter().flat_map(|b| &b.paths).flatten().map(|p| (p[2], p[1])));
+    let surfaces: Vec<Vec<(f64, f64)>> = (0..lens.surfaces.len())
+        .map(|i| profile(lens, i, semi_diameters[i]))
+        .collect();
+    let points = surfaces.iter().flatten().copied().chain(
+        bundles
+            .iter()
+            .flat_map(|b| &b.paths)
+            .flatten()
+            .map(|p| (p[2], p[1])),
+    );
     let (mut z, mut y) = (f64::INFINITY..f64::NEG_INFINITY, 0.0f64);
     for (pz, py) in points.filter(|(pz, py)| pz.is_finite() && py.is_finite()) {
         (z.start, z.end, y) = (z.start.min(pz), z.end.max(pz), y.max(py.abs()));
     }
-    if !(z.start < z.end) {
+    if z.is_empty() {
         return Err(PlotError::InvalidInput("the lens has no extent to draw".into()));
     }
     let pad = 0.04 * (z.end - z.start);
     let (z, y) = (z.start - pad..z.end + pad, y.max(pad) + pad);
-    let plot_height = (PLOT_WIDTH * 2.0 * y / (z.end - z.start)).clamp(PLOT_HEIGHT_LIMITS.0, PLOT_HEIGHT_LIMITS.1);
-    render(&Layout { lens, bundles, semi_diameters, surfaces, z, y_half: y, plot_height }, path)
+    let plot_height =
+        (PLOT_WIDTH * 2.0 * y / (z.end - z.start)).clamp(PLOT_HEIGHT_LIMITS.0, PLOT_HEIGHT_LIMITS.1);
+    render(
+        &Layout {
+            lens,
+            bundles,
+            semi_diameters,
+            surfaces,
+            z,
+            y_half: y,
+            plot_height,
+        },
+        path,
+    )
 }
 
 /// Points (z, y) of surface `index`'s profile for |y| <= semi-diameter (within the conic's domain).
@@ -127,7 +189,11 @@ impl Picture for Layout<'_> {
     where
         DB::ErrorType: 'static,
     {
-        let name = if self.lens.name.is_empty() { "lens".to_string() } else { self.lens.name.clone() };
+        let name = if self.lens.name.is_empty() {
+            "lens".to_string()
+        } else {
+            self.lens.name.clone()
+        };
         let first = self.lens.first_order()?;
         let caption = format!(
             "Layout: {name}   (EFL {} mm, F/{}, total track {} mm)",
@@ -147,17 +213,31 @@ impl Picture for Layout<'_> {
         self.draw_glass(&mut chart)?;
         let image = self.lens.image_index();
         for (i, points) in self.surfaces.iter().enumerate() {
-            let style = if i == image { BLACK.stroke_width(3) } else { BLACK.stroke_width(1) };
+            let style = if i == image {
+                BLACK.stroke_width(3)
+            } else {
+                BLACK.stroke_width(1)
+            };
             // Air-to-air surfaces other than the image (dummy planes, an air stop) are drawn faintly.
             let in_air = i != image && !self.is_glass_face(i);
-            style::line(&mut chart, points.iter().copied(), if in_air { BLACK.mix(0.25).into() } else { style }, None)?;
+            style::line(
+                &mut chart,
+                points.iter().copied(),
+                if in_air { BLACK.mix(0.25).into() } else { style },
+                None,
+            )?;
         }
         let fields = style::distinct(self.bundles.iter().map(|b| b.field_deg));
         for bundle in self.bundles {
             let colour = style::ramp(style::rank(&fields, bundle.field_deg), fields.len());
             for (k, ray) in bundle.paths.iter().enumerate() {
                 let label = (k == 0).then(|| format!("field {}", style::field_label(bundle.field_deg)));
-                style::line(&mut chart, ray.iter().map(|p| (p[2], p[1])), colour.stroke_width(1), label)?;
+                style::line(
+                    &mut chart,
+                    ray.iter().map(|p| (p[2], p[1])),
+                    colour.stroke_width(1),
+                    label,
+                )?;
             }
         }
         self.draw_stop(&mut chart)?;
@@ -183,13 +263,18 @@ impl Layout<'_> {
                 continue;
             }
             let (front, back) = (&self.surfaces[i], &self.surfaces[i + 1]);
-            let (Some(&front_top), Some(&back_top)) = (front.last(), back.last()) else { continue };
+            let (Some(&front_top), Some(&back_top)) = (front.last(), back.last()) else {
+                continue;
+            };
             let edge = self.semi_diameters[i].max(self.semi_diameters[i + 1]);
             let mut outline = front.clone();
             outline.extend([(front_top.0, edge), (back_top.0, edge)]);
             outline.extend(back.iter().rev());
             outline.extend([(back_top.0, -edge), (front_top.0, -edge), front[0]]);
-            chart.draw_series(std::iter::once(Polygon::new(outline.clone(), RGBColor(150, 190, 230).mix(0.35))))?;
+            chart.draw_series(std::iter::once(Polygon::new(
+                outline.clone(),
+                RGBColor(150, 190, 230).mix(0.35),
+            )))?;
             style::line(chart, outline, BLACK.stroke_width(1), None)?;
         }
         Ok(())
@@ -201,12 +286,24 @@ impl Layout<'_> {
         DB::ErrorType: 'static,
     {
         let stop = self.lens.stop_index;
-        let (z, y) = self.surfaces[stop].last().copied().unwrap_or((self.lens.surfaces[stop].z_mm, 0.0));
+        let (z, y) = self.surfaces[stop]
+            .last()
+            .copied()
+            .unwrap_or((self.lens.surfaces[stop].z_mm, 0.0));
         let blade = 0.1 * self.y_half;
         for sign in [1.0, -1.0] {
-            style::line(chart, [(z, sign * y), (z, sign * (y + blade))], BLACK.stroke_width(4), None)?;
+            style::line(
+                chart,
+                [(z, sign * y), (z, sign * (y + blade))],
+                BLACK.stroke_width(4),
+                None,
+            )?;
         }
-        let label = Text::new("STOP", (z, y + blade), style::font(13.0).pos(Pos::new(HPos::Center, VPos::Bottom)));
+        let label = Text::new(
+            "STOP",
+            (z, y + blade),
+            style::font(13.0).pos(Pos::new(HPos::Center, VPos::Bottom)),
+        );
         chart.draw_series(std::iter::once(label))?;
         Ok(())
     }

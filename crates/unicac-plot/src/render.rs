@@ -17,26 +17,40 @@ pub(crate) trait Picture {
 /// Draws `picture` into `path`, as PNG or SVG according to the extension. The file appears complete or
 /// not at all: the picture is drawn to a temporary sibling (PNG) or to memory (SVG) and renamed into place.
 pub(crate) fn render(picture: &impl Picture, path: &Path) -> Result<(), PlotError> {
-    let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
     match extension.as_deref() {
         Some("svg") => {
             let mut svg = String::new();
-            draw_on(picture, SVGBackend::with_string(&mut svg, picture.size()).into_drawing_area())?;
+            draw_on(
+                picture,
+                SVGBackend::with_string(&mut svg, picture.size()).into_drawing_area(),
+            )?;
             Ok(unicac_optics::io::write_atomically(path, svg.as_bytes())?)
         }
         Some("png") => {
             // The bitmap backend writes on drop even after an error, hence the temporary file.
             let temporary = temporary_sibling(path);
-            let result = draw_on(picture, BitMapBackend::new(&temporary, picture.size()).into_drawing_area())
-                .and_then(|()| {
-                    std::fs::rename(&temporary, path).map_err(|source| PlotError::Io { path: path.into(), source })
-                });
+            let result = draw_on(
+                picture,
+                BitMapBackend::new(&temporary, picture.size()).into_drawing_area(),
+            )
+            .and_then(|()| {
+                std::fs::rename(&temporary, path).map_err(|source| PlotError::Io {
+                    path: path.into(),
+                    source,
+                })
+            });
             if result.is_err() {
                 let _ = std::fs::remove_file(&temporary);
             }
             result
         }
-        _ => Err(PlotError::UnknownExtension { path: path.to_path_buf() }),
+        _ => Err(PlotError::UnknownExtension {
+            path: path.to_path_buf(),
+        }),
     }
 }
 
@@ -52,6 +66,9 @@ where
 
 /// `.name.tmp-PID.png` next to `path` (the bitmap encoder picks its format from the extension).
 fn temporary_sibling(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp-{}.png", std::process::id()))
 }

@@ -47,7 +47,10 @@ struct SpotDiagram<'a> {
 impl Picture for SpotDiagram<'_> {
     fn size(&self) -> (u32, u32) {
         let (columns, rows) = (self.wavelengths.len() as u32, self.fields.len() as u32);
-        ((columns * PANEL_SIZE.0).max(MIN_WIDTH), rows * PANEL_SIZE.1 + style::TITLE_HEIGHT)
+        (
+            (columns * PANEL_SIZE.0).max(MIN_WIDTH),
+            rows * PANEL_SIZE.1 + style::TITLE_HEIGHT,
+        )
     }
 
     fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), PlotError>
@@ -60,9 +63,15 @@ impl Picture for SpotDiagram<'_> {
         );
         let panels = style::figure(&root, &title)?.split_evenly((self.fields.len(), self.wavelengths.len()));
         for (i, area) in panels.iter().enumerate() {
-            let (field, wavelength) =
-                (self.fields[i / self.wavelengths.len()], self.wavelengths[i % self.wavelengths.len()]);
-            if let Some(spot) = self.spots.iter().find(|s| s.field_deg == field && s.wavelength_um == wavelength) {
+            let (field, wavelength) = (
+                self.fields[i / self.wavelengths.len()],
+                self.wavelengths[i % self.wavelengths.len()],
+            );
+            if let Some(spot) = self
+                .spots
+                .iter()
+                .find(|s| s.field_deg == field && s.wavelength_um == wavelength)
+            {
                 self.draw_panel(area, spot)?;
             }
         }
@@ -71,7 +80,11 @@ impl Picture for SpotDiagram<'_> {
 }
 
 impl SpotDiagram<'_> {
-    fn draw_panel<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>, spot: &Spot) -> Result<(), PlotError>
+    fn draw_panel<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        spot: &Spot,
+    ) -> Result<(), PlotError>
     where
         DB::ErrorType: 'static,
     {
@@ -87,12 +100,23 @@ impl SpotDiagram<'_> {
         let h = self.half_width_um;
         let mut chart = style::panel(
             area,
-            Axes { caption: &caption, x: -h..h, y: -h..h, x_desc: "Δx (µm)", y_desc: "Δy (µm)", equal_aspect: true },
+            Axes {
+                caption: &caption,
+                x: -h..h,
+                y: -h..h,
+                x_desc: "Δx (µm)",
+                y_desc: "Δy (µm)",
+                equal_aspect: true,
+            },
         )?;
-        let colour = style::ramp(style::rank(&self.wavelengths, spot.wavelength_um), self.wavelengths.len());
+        let colour = style::ramp(
+            style::rank(&self.wavelengths, spot.wavelength_um),
+            self.wavelengths.len(),
+        );
         match centroid(&spot.points_mm) {
             Some([cx, cy]) => {
-                let dot = |p: &[f64; 2]| Circle::new(((p[0] - cx) * 1e3, (p[1] - cy) * 1e3), 1.6, colour.filled());
+                let dot =
+                    |p: &[f64; 2]| Circle::new(((p[0] - cx) * 1e3, (p[1] - cy) * 1e3), 1.6, colour.filled());
                 chart.draw_series(spot.points_mm.iter().map(dot))?;
             }
             None => {

@@ -41,8 +41,12 @@ where
 
 /// Colour `rank` of `count` series, from blue (first) through green to red (last).
 pub(crate) fn ramp(rank: usize, count: usize) -> RGBColor {
-    let t = if count > 1 { rank as f64 / (count - 1) as f64 } else { 0.0 };
-    let (r, g, b) = HSLColor((1.0 - t) * 240.0 / 360.0, 0.9, 0.42).rgb();
+    let t = if count > 1 {
+        rank as f64 / (count - 1) as f64
+    } else {
+        0.0
+    };
+    let (r, g, b) = HSLColor((1.0 - t) * 240.0 / 360.0, 0.9, 0.38).rgb();
     RGBColor(r, g, b)
 }
 
@@ -75,20 +79,40 @@ pub(crate) fn nice_ceiling(x: f64) -> f64 {
         return 1.0;
     }
     let power = 10f64.powf(x.log10().floor());
-    [1.0, 2.0, 2.5, 5.0, 10.0].iter().map(|m| m * power).find(|v| *v >= x * (1.0 - 1e-12)).unwrap_or(10.0 * power)
+    [1.0, 2.0, 2.5, 5.0, 10.0]
+        .iter()
+        .map(|m| m * power)
+        .find(|v| *v >= x * (1.0 - 1e-12))
+        .unwrap_or(10.0 * power)
 }
 
 /// `x` with `digits` significant digits, never in exponent form.
 pub(crate) fn significant(x: f64, digits: i32) -> String {
-    let decimals = if x == 0.0 { 0 } else { (digits - 1 - x.abs().log10().floor() as i32).max(0) };
+    let decimals = if x == 0.0 {
+        0
+    } else {
+        (digits - 1 - x.abs().log10().floor() as i32).max(0)
+    };
     format!("{x:.*}", decimals as usize)
 }
 
 /// `x` with at most `decimals` decimals, trailing zeros dropped ("14", "2.85").
 fn trimmed(x: f64, decimals: usize) -> String {
     let text = format!("{x:.decimals$}");
-    let text = if text.contains('.') { text.trim_end_matches('0').trim_end_matches('.') } else { &text };
-    if text == "-0" { "0".into() } else { text.into() }
+    let text = if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        &text
+    };
+    if text == "-0" {
+        "0".into()
+    } else {
+        text.into()
+    }
+}
+
+fn tick_label(value: &f64) -> String {
+    trimmed(*value, 6)
 }
 
 pub(crate) fn field_label(field_deg: f64) -> String {
@@ -142,6 +166,8 @@ where
         .light_line_style(BLACK.mix(0.04))
         .x_labels(7)
         .y_labels(7)
+        .x_label_formatter(&tick_label)
+        .y_label_formatter(&tick_label)
         .draw()?;
     Ok(chart)
 }
@@ -168,7 +194,9 @@ where
 {
     let series = chart.draw_series(LineSeries::new(points, style))?;
     if let Some(label) = label {
-        series.label(label).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
+        series
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
     }
     Ok(())
 }

@@ -93,6 +93,26 @@ impl TraceSystem {
         RayStatus::Ok
     }
 
+    /// Traces a chunk of rays to the image surface, surface by surface: the rays of one surface are
+    /// independent, so the CPU overlaps their long division/square-root chains, where ray-by-ray
+    /// order would serialise them. Rays that failed are skipped from then on. Same results, bit for bit,
+    /// as `trace` on each ray.
+    pub fn trace_chunk(&self, rays: &mut [Ray], statuses: &mut [RayStatus]) {
+        for (ray, status) in rays.iter().zip(statuses.iter_mut()) {
+            *status = if ray.is_finite() { RayStatus::Ok } else { RayStatus::InvalidInput };
+        }
+        let last = self.image_index();
+        let mut n_before = self.object_index;
+        for (i, surface) in self.surfaces.iter().enumerate() {
+            for (ray, status) in rays.iter_mut().zip(statuses.iter_mut()) {
+                if status.is_ok() {
+                    *status = step(surface, i as u32, ray, n_before, i < last);
+                }
+            }
+            n_before = surface.index_after;
+        }
+    }
+
     /// Traces to the image surface (the last surface).
     #[inline]
     pub fn trace(&self, ray: &mut Ray) -> RayStatus {

@@ -1,0 +1,58 @@
+//! Ray-surface intersection throughput on the bundled Cooke triplet and phone lens, for
+//! docs/performance.md: the same workload as bench/peers/optiland_throughput.py (1,000,000 rays,
+//! half on axis and half at the largest field, uniform over the paraxial entrance pupil, primary
+//! wavelength, paraxial aiming), timed on 1 and on 2 threads (median of 5 runs after one warm-up).
+//!
+//! Run: cargo run --release -p unicac-trace --example throughput
+
+use std::time::Instant;
+use unicac_optics::examples;
+use unicac_trace::{trace_rays, Aimer, Aiming, Clipping, PupilSampling, Ray, TraceSystem};
+
+const RAYS: usize = 1_000_000;
+const RUNS: usize = 5;
+
+fn rays_for(lens: &unicac_optics::Lens) -> Vec<Ray> {
+    let aimer = Aimer::new(lens, lens.primary_wavelength_um(), Aiming::Paraxial).unwrap();
+    let max_field = aimer.first_order.field_angles_deg.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+    let pupil = PupilSampling::Random { n: RAYS, seed: 12345 }.points();
+    pupil
+        .iter()
+        .enumerate()
+        .map(|(i, [px, py])| aimer.ray(if i < RAYS / 2 { 0.0 } else { max_field }, *px, *py).unwrap())
+        .collect()
+}
+
+fn median_seconds(system: &TraceSystem, rays: &[Ray], threads: usize) -> (f64, usize) {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let mut ok = 0;
+    let mut times: Vec<f64> = (0..=RUNS)
+        .map(|_| {
+            let mut batch = rays.to_vec();
+            let start = Instant::now();
+            let statuses = pool.install(|| trace_rays(system, &mut batch));
+            let seconds = start.elapsed().as_secs_f64();
+            ok = statuses.iter().filter(|s| s.is_ok()).count();
+            seconds
+        })
+        .skip(1)
+        .collect();
+    times.sort_by(f64::total_cmp);
+    (times[RUNS / 2], ok)
+}
+
+fn main() {
+    for name in ["cooke_triplet", "phone_asphere"] {
+        let lens = examples::lens(name).unwrap();
+        let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
+        let rays = rays_for(&lens);
+        let surfaces = lens.surfaces.len();
+        for threads in [1, 2] {
+            let (seconds, ok) = median_seconds(&system, &rays, threads);
+            println!(
+                "{{\"lens\": \"{name}\", \"rays\": {RAYS}, \"rays_ok\": {ok}, \"surfaces_traced_per_ray\": {surfaces}, \"threads\": {threads}, \"seconds\": {seconds:.5}, \"ray_surface_intersections_per_s\": {:.4e}}}",
+                (RAYS * surfaces) as f64 / seconds
+            );
+        }
+    }
+}
