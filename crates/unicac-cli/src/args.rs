@@ -5,7 +5,11 @@ use std::path::PathBuf;
 use unicac_trace::{Aiming, PupilSampling};
 
 #[derive(Parser)]
-#[command(name = "unicac", version, about = "Universal computational aberration correction: lens design, simulation, evaluation and benchmarking")]
+#[command(
+    name = "unicac",
+    version,
+    about = "Universal computational aberration correction: lens design, simulation, evaluation and benchmarking"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -141,9 +145,15 @@ pub struct LayoutArgs {
 fn parse_numbers<const N: usize>(text: &str, what: &str) -> Result<[f64; N], String> {
     let values: Vec<f64> = text
         .split(',')
-        .map(|v| v.trim().parse::<f64>().map_err(|_| format!("'{v}' is not a number")))
+        .map(|v| {
+            v.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{v}' is not a number"))
+        })
         .collect::<Result<_, _>>()?;
-    let array: [f64; N] = values.try_into().map_err(|_| format!("expected {N} comma-separated numbers {what}"))?;
+    let array: [f64; N] = values
+        .try_into()
+        .map_err(|_| format!("expected {N} comma-separated numbers {what}"))?;
     if array.iter().any(|v| !v.is_finite()) {
         return Err("values must be finite".into());
     }

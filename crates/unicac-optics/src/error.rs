@@ -13,14 +13,23 @@ pub enum OpticsError {
     },
     /// A file could not be parsed; `location` names the line (and column where known).
     #[error("{path}:{location}: {message}")]
-    Parse { path: PathBuf, location: String, message: String },
+    Parse {
+        path: PathBuf,
+        location: String,
+        message: String,
+    },
     /// A lens description is well formed but not a valid lens; `field` names the offending key.
     #[error("invalid lens: {field}: {message}")]
     InvalidLens { field: String, message: String },
     #[error("unknown glass '{name}'{}", nearest_names_hint(.nearest))]
     UnknownGlass { name: String, nearest: Vec<String> },
     #[error("glass '{name}': wavelength {wavelength_um} um is outside its data range {min_um}-{max_um} um")]
-    WavelengthOutOfRange { name: String, wavelength_um: f64, min_um: f64, max_um: f64 },
+    WavelengthOutOfRange {
+        name: String,
+        wavelength_um: f64,
+        min_um: f64,
+        max_um: f64,
+    },
     /// A Zemax feature this reader does not support; never silently dropped.
     #[error("{path}: unsupported Zemax feature(s): {features}")]
     UnsupportedZemax { path: PathBuf, features: String },
@@ -43,6 +52,9 @@ pub type Result<T, E = OpticsError> = std::result::Result<T, E>;
 
 impl OpticsError {
     pub(crate) fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
-        OpticsError::InvalidLens { field: field.into(), message: message.into() }
+        OpticsError::InvalidLens {
+            field: field.into(),
+            message: message.into(),
+        }
     }
 }

@@ -11,11 +11,17 @@ use std::path::Path;
 pub const LENSES: &[(&str, &str)] = &[
     ("singlet", include_str!("../../../lenses/singlet.json")),
     ("achromat", include_str!("../../../lenses/achromat.json")),
-    ("cooke_triplet", include_str!("../../../lenses/cooke_triplet.json")),
+    (
+        "cooke_triplet",
+        include_str!("../../../lenses/cooke_triplet.json"),
+    ),
     ("double_gauss", include_str!("../../../lenses/double_gauss.json")),
     ("petzval", include_str!("../../../lenses/petzval.json")),
     ("wide_angle", include_str!("../../../lenses/wide_angle.json")),
-    ("phone_asphere", include_str!("../../../lenses/phone_asphere.json")),
+    (
+        "phone_asphere",
+        include_str!("../../../lenses/phone_asphere.json"),
+    ),
 ];
 
 pub fn names() -> impl Iterator<Item = &'static str> {
@@ -25,7 +31,13 @@ pub fn names() -> impl Iterator<Item = &'static str> {
 /// The spec of a bundled lens.
 pub fn spec(name: &str) -> Result<LensSpec> {
     let (_, text) = LENSES.iter().find(|(n, _)| *n == name).ok_or_else(|| {
-        OpticsError::invalid("builtin", format!("no bundled lens '{name}' (have: {})", names().collect::<Vec<_>>().join(", ")))
+        OpticsError::invalid(
+            "builtin",
+            format!(
+                "no bundled lens '{name}' (have: {})",
+                names().collect::<Vec<_>>().join(", ")
+            ),
+        )
     })?;
     json::parse(text.as_bytes(), Path::new(&format!("builtin:{name}")))
 }

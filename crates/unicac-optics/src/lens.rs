@@ -41,24 +41,46 @@ impl Lens {
         if spec.format_version != FORMAT_VERSION {
             return Err(OpticsError::invalid(
                 "format_version",
-                format!("version {} is not supported (this reader knows {FORMAT_VERSION})", spec.format_version),
+                format!(
+                    "version {} is not supported (this reader knows {FORMAT_VERSION})",
+                    spec.format_version
+                ),
             ));
         }
         if spec.surfaces.len() < 2 {
-            return Err(OpticsError::invalid("surfaces", "need at least one surface and the image surface"));
+            return Err(OpticsError::invalid(
+                "surfaces",
+                "need at least one surface and the image surface",
+            ));
         }
         let surfaces = build_surfaces(spec)?;
-        let stops: Vec<usize> = spec.surfaces.iter().enumerate().filter(|(_, s)| s.stop).map(|(i, _)| i).collect();
+        let stops: Vec<usize> = spec
+            .surfaces
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.stop)
+            .map(|(i, _)| i)
+            .collect();
         let stop_index = match stops.as_slice() {
             [] => 0,
             [one] => *one,
-            _ => return Err(OpticsError::invalid("surfaces[].stop", format!("{} surfaces are marked as stop", stops.len()))),
+            _ => {
+                return Err(OpticsError::invalid(
+                    "surfaces[].stop",
+                    format!("{} surfaces are marked as stop", stops.len()),
+                ))
+            }
         };
         if stop_index == spec.surfaces.len() - 1 {
-            return Err(OpticsError::invalid("surfaces[].stop", "the image surface cannot be the stop"));
+            return Err(OpticsError::invalid(
+                "surfaces[].stop",
+                "the image surface cannot be the stop",
+            ));
         }
         check_object_distance(spec.object_distance_mm)?;
-        if spec.aperture == ApertureSpec::FloatByStopSize && spec.surfaces[stop_index].semi_diameter_mm.is_none() {
+        if spec.aperture == ApertureSpec::FloatByStopSize
+            && spec.surfaces[stop_index].semi_diameter_mm.is_none()
+        {
             return Err(OpticsError::invalid(
                 format!("surfaces[{stop_index}].semi_diameter_mm"),
                 "aperture float_by_stop_size needs the stop's semi-diameter",
@@ -66,9 +88,15 @@ impl Lens {
         }
         check_aperture(&spec.aperture)?;
         check_fields(&spec.fields)?;
-        let field_weights = spec.field_weights.clone().unwrap_or_else(|| vec![1.0; spec.fields.values().len()]);
+        let field_weights = spec
+            .field_weights
+            .clone()
+            .unwrap_or_else(|| vec![1.0; spec.fields.values().len()]);
         if field_weights.len() != spec.fields.values().len() || field_weights.iter().any(|w| !(*w >= 0.0)) {
-            return Err(OpticsError::invalid("field_weights", "need one non-negative weight per field"));
+            return Err(OpticsError::invalid(
+                "field_weights",
+                "need one non-negative weight per field",
+            ));
         }
         check_wavelengths(&spec.wavelengths)?;
         let primary_wavelength_index = match spec.primary_wavelength_index {
@@ -82,8 +110,14 @@ impl Lens {
             None => closest_to_d_line(&spec.wavelengths),
         };
         if let Some(sensor) = &spec.sensor {
-            if [sensor.width_mm, sensor.height_mm, sensor.pixel_pitch_um].iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-                return Err(OpticsError::invalid("sensor", "width_mm, height_mm and pixel_pitch_um must be positive"));
+            if [sensor.width_mm, sensor.height_mm, sensor.pixel_pitch_um]
+                .iter()
+                .any(|v| !(v.is_finite() && *v > 0.0))
+            {
+                return Err(OpticsError::invalid(
+                    "sensor",
+                    "width_mm, height_mm and pixel_pitch_um must be positive",
+                ));
             }
         }
         let lens = Lens {
@@ -120,7 +154,9 @@ impl Lens {
     /// Refractive indices of every medium at `wavelength_um`: entry 0 is object space (air), entry i + 1
     /// the medium after surface index i.
     pub fn media_indices(&self, wavelength_um: f64) -> Result<Vec<f64>> {
-        std::iter::once(Ok(1.0)).chain(self.surfaces.iter().map(|s| s.medium_after.index(wavelength_um))).collect()
+        std::iter::once(Ok(1.0))
+            .chain(self.surfaces.iter().map(|s| s.medium_after.index(wavelength_um)))
+            .collect()
     }
 
     /// Surface 1 vertex to the image surface.
@@ -140,10 +176,17 @@ fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
     for (i, s) in spec.surfaces.iter().enumerate() {
         let field = |name: &str| format!("surfaces[{i}].{name}");
         if s.curvature_per_mm.is_some() && s.radius_mm.is_some() {
-            return Err(OpticsError::invalid(field("radius_mm"), "give curvature_per_mm or radius_mm, not both"));
+            return Err(OpticsError::invalid(
+                field("radius_mm"),
+                "give curvature_per_mm or radius_mm, not both",
+            ));
         }
         let curvature = s.curvature();
-        for (name, value) in [("curvature_per_mm", curvature), ("conic", s.conic), ("thickness_mm", s.thickness_mm)] {
+        for (name, value) in [
+            ("curvature_per_mm", curvature),
+            ("conic", s.conic),
+            ("thickness_mm", s.thickness_mm),
+        ] {
             if !value.is_finite() {
                 return Err(OpticsError::invalid(field(name), "must be a finite number"));
             }
@@ -164,14 +207,20 @@ fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
                     ));
                 }
                 if s.aspheric_coefficients.iter().any(|a| !a.is_finite()) {
-                    return Err(OpticsError::invalid(field("aspheric_coefficients"), "must be finite numbers"));
+                    return Err(OpticsError::invalid(
+                        field("aspheric_coefficients"),
+                        "must be finite numbers",
+                    ));
                 }
                 Profile::even_asphere(curvature, s.conic, &s.aspheric_coefficients)
             }
         };
         if let Some(sd) = s.semi_diameter_mm {
             if !(sd.is_finite() && sd > 0.0) {
-                return Err(OpticsError::invalid(field("semi_diameter_mm"), "must be positive"));
+                return Err(OpticsError::invalid(
+                    field("semi_diameter_mm"),
+                    "must be positive",
+                ));
             }
         }
         let medium_after = match &s.material {
@@ -180,7 +229,10 @@ fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
             Some(MaterialSpec::Named(name)) => Medium::Catalog(find_glass(name, &spec.glass_catalogs)?),
             Some(MaterialSpec::Model { nd, vd }) => {
                 if !(nd.is_finite() && *nd >= 1.0 && vd.is_finite() && *vd > 0.0) {
-                    return Err(OpticsError::invalid(field("material"), "model glass needs nd >= 1 and vd > 0"));
+                    return Err(OpticsError::invalid(
+                        field("material"),
+                        "model glass needs nd >= 1 and vd > 0",
+                    ));
                 }
                 Medium::Model { nd: *nd, vd: *vd }
             }
@@ -200,9 +252,10 @@ fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
 
 fn check_object_distance(distance: Option<f64>) -> Result<()> {
     match distance {
-        Some(d) if !(d.is_finite() && d > 0.0) => {
-            Err(OpticsError::invalid("object_distance_mm", "must be positive (null for an object at infinity)"))
-        }
+        Some(d) if !(d.is_finite() && d > 0.0) => Err(OpticsError::invalid(
+            "object_distance_mm",
+            "must be positive (null for an object at infinity)",
+        )),
         _ => Ok(()),
     }
 }
@@ -223,11 +276,17 @@ fn check_aperture(aperture: &ApertureSpec) -> Result<()> {
 fn check_fields(fields: &FieldSpec) -> Result<()> {
     let values = fields.values();
     if values.is_empty() || values.iter().any(|v| !v.is_finite()) {
-        return Err(OpticsError::invalid("fields", "need at least one finite field value"));
+        return Err(OpticsError::invalid(
+            "fields",
+            "need at least one finite field value",
+        ));
     }
     if let FieldSpec::AnglesDeg(angles) = fields {
         if angles.iter().any(|a| a.abs() >= 90.0) {
-            return Err(OpticsError::invalid("fields.angles_deg", "angles must lie strictly between -90 and 90"));
+            return Err(OpticsError::invalid(
+                "fields.angles_deg",
+                "angles must lie strictly between -90 and 90",
+            ));
         }
     }
     Ok(())
@@ -235,14 +294,23 @@ fn check_fields(fields: &FieldSpec) -> Result<()> {
 
 fn check_wavelengths(wavelengths: &[WavelengthSpec]) -> Result<()> {
     if wavelengths.is_empty() {
-        return Err(OpticsError::invalid("wavelengths", "need at least one wavelength"));
+        return Err(OpticsError::invalid(
+            "wavelengths",
+            "need at least one wavelength",
+        ));
     }
     for (i, w) in wavelengths.iter().enumerate() {
         if !(w.wavelength_um.is_finite() && w.wavelength_um > 0.0) {
-            return Err(OpticsError::invalid(format!("wavelengths[{i}].wavelength_um"), "must be positive"));
+            return Err(OpticsError::invalid(
+                format!("wavelengths[{i}].wavelength_um"),
+                "must be positive",
+            ));
         }
         if !(w.weight.is_finite() && w.weight >= 0.0) {
-            return Err(OpticsError::invalid(format!("wavelengths[{i}].weight"), "must be non-negative"));
+            return Err(OpticsError::invalid(
+                format!("wavelengths[{i}].weight"),
+                "must be non-negative",
+            ));
         }
     }
     Ok(())
@@ -250,5 +318,7 @@ fn check_wavelengths(wavelengths: &[WavelengthSpec]) -> Result<()> {
 
 fn closest_to_d_line(wavelengths: &[WavelengthSpec]) -> usize {
     let distance = |w: &WavelengthSpec| (w.wavelength_um - LINE_D_UM).abs();
-    (0..wavelengths.len()).min_by(|&a, &b| distance(&wavelengths[a]).total_cmp(&distance(&wavelengths[b]))).unwrap_or(0)
+    (0..wavelengths.len())
+        .min_by(|&a, &b| distance(&wavelengths[a]).total_cmp(&distance(&wavelengths[b])))
+        .unwrap_or(0)
 }

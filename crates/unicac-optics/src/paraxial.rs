@@ -69,11 +69,14 @@ impl ParaxialSystem {
         let n = lens.media_indices(wavelength_um)?;
         let optical = lens.image_index();
         let surfaces = &lens.surfaces[..optical];
-        let paraxial_curvature = |s: &crate::lens::Surface| {
-            s.profile.curvature_per_mm + 2.0 * s.profile.aspheric_coefficients[0]
-        };
+        let paraxial_curvature =
+            |s: &crate::lens::Surface| s.profile.curvature_per_mm + 2.0 * s.profile.aspheric_coefficients[0];
         Ok(ParaxialSystem {
-            powers: surfaces.iter().enumerate().map(|(i, s)| paraxial_curvature(s) * (n[i + 1] - n[i])).collect(),
+            powers: surfaces
+                .iter()
+                .enumerate()
+                .map(|(i, s)| paraxial_curvature(s) * (n[i + 1] - n[i]))
+                .collect(),
             index_after: n[1..=optical].to_vec(),
             index_before: n[..optical].to_vec(),
             thickness_after: surfaces.iter().map(|s| s.thickness_mm).collect(),
@@ -115,7 +118,9 @@ impl ParaxialSystem {
     }
 
     pub fn petzval_sum_per_mm(&self) -> f64 {
-        (0..self.powers.len()).map(|i| self.powers[i] / (self.index_before[i] * self.index_after[i])).sum()
+        (0..self.powers.len())
+            .map(|i| self.powers[i] / (self.index_before[i] * self.index_after[i]))
+            .sum()
     }
 }
 
@@ -144,7 +149,9 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
     let stop_a = sys.height_at(ParaxialRay { y_mm: 1.0, nu: 0.0 }, stop);
     let stop_b = sys.height_at(ParaxialRay { y_mm: 0.0, nu: 1.0 }, stop);
     if stop_a == 0.0 {
-        return Err(OpticsError::Paraxial("the stop is imaged to infinity in object space".into()));
+        return Err(OpticsError::Paraxial(
+            "the stop is imaged to infinity in object space".into(),
+        ));
     }
     let entrance_pupil_z_mm = stop_b * n0 / stop_a;
     let epd_mm = match lens.aperture {
@@ -152,16 +159,29 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
         ApertureSpec::FNumber(f_number) => efl_mm.abs() / f_number,
         ApertureSpec::FloatByStopSize => {
             let stop_semi_diameter = lens.surfaces[stop].semi_diameter_mm.unwrap_or(0.0);
-            epd_from_stop_radius(stop_semi_diameter, stop_a, stop_b, n0, entrance_pupil_z_mm, lens.object_distance_mm)
+            epd_from_stop_radius(
+                stop_semi_diameter,
+                stop_a,
+                stop_b,
+                n0,
+                entrance_pupil_z_mm,
+                lens.object_distance_mm,
+            )
         }
     };
 
     // Marginal ray through the entrance-pupil edge, from infinity or from the axial object point.
     let marginal_start = match lens.object_distance_mm {
-        None => ParaxialRay { y_mm: epd_mm / 2.0, nu: 0.0 },
+        None => ParaxialRay {
+            y_mm: epd_mm / 2.0,
+            nu: 0.0,
+        },
         Some(distance) => {
             let u = (epd_mm / 2.0) / (entrance_pupil_z_mm + distance);
-            ParaxialRay { y_mm: u * distance, nu: n0 * u }
+            ParaxialRay {
+                y_mm: u * distance,
+                nu: n0 * u,
+            }
         }
     };
     let stop_radius_mm = sys.height_at(marginal_start, stop).abs();
@@ -174,7 +194,10 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
     };
 
     // Chief ray of unit slope tan F = 1 through the entrance-pupil centre; heights scale with tan F.
-    let unit_chief = ParaxialRay { y_mm: -entrance_pupil_z_mm, nu: n0 };
+    let unit_chief = ParaxialRay {
+        y_mm: -entrance_pupil_z_mm,
+        nu: n0,
+    };
     let chief = sys.trace(unit_chief, last)[last];
     let chief_height_at = |z: f64| chief.y_mm + chief.nu / n_image * (z - z_last);
     let image_height_per_tan = chief_height_at(paraxial_image_z_mm);
@@ -188,11 +211,17 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
     };
     let field_angles_deg = match &lens.fields {
         FieldSpec::AnglesDeg(angles) => angles.clone(),
-        FieldSpec::ImageHeightsMm(heights) => {
-            heights.iter().map(|h| (h / image_height_per_tan).atan().to_degrees()).collect()
-        }
+        FieldSpec::ImageHeightsMm(heights) => heights
+            .iter()
+            .map(|h| (h / image_height_per_tan).atan().to_degrees())
+            .collect(),
     };
-    let heights = |per_tan: f64| field_angles_deg.iter().map(|f| f.to_radians().tan() * per_tan).collect();
+    let heights = |per_tan: f64| {
+        field_angles_deg
+            .iter()
+            .map(|f| f.to_radians().tan() * per_tan)
+            .collect()
+    };
     let paraxial_image_heights_mm = heights(image_height_per_tan);
     let paraxial_chief_heights_at_image_surface_mm = heights(surface_height_per_tan);
 
@@ -221,7 +250,14 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
 
 /// The entrance-pupil diameter whose marginal ray just fills a stop of radius `stop_radius`.
 /// `stop_a`, `stop_b`: stop heights of the unit rays (y=1, nu=0) and (y=0, nu=1).
-fn epd_from_stop_radius(stop_radius: f64, stop_a: f64, stop_b: f64, n0: f64, z_ep: f64, object: Option<f64>) -> f64 {
+fn epd_from_stop_radius(
+    stop_radius: f64,
+    stop_a: f64,
+    stop_b: f64,
+    n0: f64,
+    z_ep: f64,
+    object: Option<f64>,
+) -> f64 {
     match object {
         None => 2.0 * stop_radius / stop_a.abs(),
         Some(distance) => {

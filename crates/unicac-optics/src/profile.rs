@@ -33,8 +33,11 @@ impl Profile {
         let mut profile = Profile::conic(curvature_per_mm, conic);
         let used = coefficients.len().min(MAX_ASPHERE_TERMS);
         profile.aspheric_coefficients[..used].copy_from_slice(&coefficients[..used]);
-        profile.aspheric_terms =
-            profile.aspheric_coefficients.iter().rposition(|&a| a != 0.0).map_or(0, |last| last + 1);
+        profile.aspheric_terms = profile
+            .aspheric_coefficients
+            .iter()
+            .rposition(|&a| a != 0.0)
+            .map_or(0, |last| last + 1);
         profile
     }
 
@@ -135,8 +138,16 @@ mod tests {
         let coefficients = [1e-3, -2e-5, 3e-7, -4e-9, 5e-11];
         let p = Profile::even_asphere(0.0, 0.0, &coefficients);
         let rho: f64 = 7.3;
-        let value: f64 = coefficients.iter().enumerate().map(|(i, a)| a * rho.powi(i as i32 + 1)).sum();
-        let slope: f64 = coefficients.iter().enumerate().map(|(i, a)| (i as f64 + 1.0) * a * rho.powi(i as i32)).sum();
+        let value: f64 = coefficients
+            .iter()
+            .enumerate()
+            .map(|(i, a)| a * rho.powi(i as i32 + 1))
+            .sum();
+        let slope: f64 = coefficients
+            .iter()
+            .enumerate()
+            .map(|(i, a)| (i as f64 + 1.0) * a * rho.powi(i as i32))
+            .sum();
         let (v, s) = p.polynomial(rho);
         assert!((v - value).abs() < 1e-15 * value.abs().max(1.0));
         assert!((s - slope).abs() < 1e-15 * slope.abs().max(1.0));

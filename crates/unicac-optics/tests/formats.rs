@@ -6,7 +6,11 @@ use unicac_optics::spec::{ApertureSpec, FieldSpec, MaterialSpec, SurfaceType};
 use unicac_optics::{examples, Lens, OpticsError};
 
 fn temp_dir() -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("unicac-formats-{}-{:?}", std::process::id(), std::thread::current().id()));
+    let dir = std::env::temp_dir().join(format!(
+        "unicac-formats-{}-{:?}",
+        std::process::id(),
+        std::thread::current().id()
+    ));
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
@@ -31,7 +35,11 @@ fn json_text_round_trips_exactly() {
     for name in examples::names() {
         let spec = examples::spec(name).unwrap();
         let text = json::to_string(&spec);
-        assert_eq!(json::parse(text.as_bytes(), Path::new("x.json")).unwrap(), spec, "{name}");
+        assert_eq!(
+            json::parse(text.as_bytes(), Path::new("x.json")).unwrap(),
+            spec,
+            "{name}"
+        );
     }
 }
 
@@ -47,14 +55,20 @@ fn check_sample(spec: &unicac_optics::LensSpec) {
     assert_eq!(spec.primary_wavelength_index, Some(1));
     assert_eq!(spec.surfaces.len(), 4);
     assert!(spec.surfaces[0].stop);
-    assert_eq!(spec.surfaces[0].material, Some(MaterialSpec::Named("N-BK7".into())));
+    assert_eq!(
+        spec.surfaces[0].material,
+        Some(MaterialSpec::Named("N-BK7".into()))
+    );
     assert_eq!(spec.surfaces[0].semi_diameter_mm, Some(6.0));
     let asphere = &spec.surfaces[1];
     assert_eq!(asphere.surface_type, SurfaceType::EvenAsphere);
     // PARM n is the coefficient of r^(2n).
     assert_eq!(asphere.aspheric_coefficients, vec![0.0, 1.5e-5, -2e-8]);
     assert_eq!(asphere.conic, -0.5);
-    assert_eq!(asphere.material, Some(MaterialSpec::Model { nd: 1.6727, vd: 32.2 }));
+    assert_eq!(
+        asphere.material,
+        Some(MaterialSpec::Model { nd: 1.6727, vd: 32.2 })
+    );
     assert_eq!(spec.surfaces[2].thickness_mm, 95.0);
     Lens::from_spec(spec).unwrap();
 }
@@ -69,7 +83,10 @@ fn reads_zemax_in_utf8_and_utf16() {
     let mut utf16be = vec![0xFE, 0xFF];
     utf16be.extend(ZEMAX_SAMPLE.encode_utf16().flat_map(|u| u.to_be_bytes()));
     check_sample(&zmx::parse(&utf16be, Path::new("c.zmx")).unwrap().spec);
-    let no_bom: Vec<u8> = ZEMAX_SAMPLE.encode_utf16().flat_map(|u| u.to_le_bytes()).collect();
+    let no_bom: Vec<u8> = ZEMAX_SAMPLE
+        .encode_utf16()
+        .flat_map(|u| u.to_le_bytes())
+        .collect();
     check_sample(&zmx::parse(&no_bom, Path::new("d.zmx")).unwrap().spec);
 }
 
@@ -79,7 +96,10 @@ fn unsupported_zemax_features_are_named() {
     let err = zmx::parse(text.as_bytes(), Path::new("t.zmx")).unwrap_err();
     let message = err.to_string();
     assert!(matches!(err, OpticsError::UnsupportedZemax { .. }));
-    assert!(message.contains("TYPE TOROIDAL") && message.contains("DECX"), "{message}");
+    assert!(
+        message.contains("TYPE TOROIDAL") && message.contains("DECX"),
+        "{message}"
+    );
     assert!(message.contains("t.zmx"), "{message}");
     let unknown = ZEMAX_SAMPLE.replace("PWAV 2", "PWAV 2\nZZZZ 1 2 3");
     let loaded = zmx::parse(unknown.as_bytes(), Path::new("u.zmx")).unwrap();
@@ -89,7 +109,9 @@ fn unsupported_zemax_features_are_named() {
 #[test]
 fn bad_numbers_in_zemax_name_the_line() {
     let text = ZEMAX_SAMPLE.replace("DISZ 2.5", "DISZ two");
-    let message = zmx::parse(text.as_bytes(), Path::new("n.zmx")).unwrap_err().to_string();
+    let message = zmx::parse(text.as_bytes(), Path::new("n.zmx"))
+        .unwrap_err()
+        .to_string();
     assert!(message.starts_with("n.zmx:35:"), "{message}");
     assert!(message.contains("'two' is not a number"), "{message}");
 }
@@ -97,10 +119,14 @@ fn bad_numbers_in_zemax_name_the_line() {
 #[test]
 fn json_errors_name_file_line_and_field() {
     let broken = "{\n  \"format_version\": 1,\n  \"aperture\": {\"f_number\": 4.0},\n  \"fields\": {\"angles_deg\": [0]},\n  \"wavelengths\": [{\"wavelength_um\": 0.55}],\n  \"surfaces\": [{\"thickness_mm\": \"x\"}]\n}";
-    let message = json::parse(broken.as_bytes(), Path::new("bad.json")).unwrap_err().to_string();
+    let message = json::parse(broken.as_bytes(), Path::new("bad.json"))
+        .unwrap_err()
+        .to_string();
     assert!(message.starts_with("bad.json:6:"), "{message}");
     let unknown_key = broken.replace("\"thickness_mm\": \"x\"", "\"thicknes_mm\": 1");
-    let message = json::parse(unknown_key.as_bytes(), Path::new("k.json")).unwrap_err().to_string();
+    let message = json::parse(unknown_key.as_bytes(), Path::new("k.json"))
+        .unwrap_err()
+        .to_string();
     assert!(message.contains("thicknes_mm"), "{message}");
 }
 
@@ -109,16 +135,28 @@ fn invalid_lenses_name_the_field() {
     let mut spec = examples::spec("cooke_triplet").unwrap();
     spec.surfaces[2].material = Some(MaterialSpec::Named("N-BK8".into()));
     let message = Lens::from_spec(&spec).unwrap_err().to_string();
-    assert!(message.contains("unknown glass 'N-BK8'") && message.contains("N-BK7"), "{message}");
+    assert!(
+        message.contains("unknown glass 'N-BK8'") && message.contains("N-BK7"),
+        "{message}"
+    );
     let mut spec = examples::spec("cooke_triplet").unwrap();
     spec.surfaces[1].stop = true;
-    assert!(Lens::from_spec(&spec).unwrap_err().to_string().contains("surfaces[].stop"));
+    assert!(Lens::from_spec(&spec)
+        .unwrap_err()
+        .to_string()
+        .contains("surfaces[].stop"));
     let mut spec = examples::spec("cooke_triplet").unwrap();
     spec.surfaces[0].semi_diameter_mm = Some(-1.0);
-    assert!(Lens::from_spec(&spec).unwrap_err().to_string().contains("surfaces[0].semi_diameter_mm"));
+    assert!(Lens::from_spec(&spec)
+        .unwrap_err()
+        .to_string()
+        .contains("surfaces[0].semi_diameter_mm"));
     let mut spec = examples::spec("cooke_triplet").unwrap();
     spec.wavelengths[0].wavelength_um = 12.0;
-    assert!(matches!(Lens::from_spec(&spec).unwrap_err(), OpticsError::WavelengthOutOfRange { .. }));
+    assert!(matches!(
+        Lens::from_spec(&spec).unwrap_err(),
+        OpticsError::WavelengthOutOfRange { .. }
+    ));
 }
 
 #[test]
@@ -133,7 +171,30 @@ fn written_files_are_complete_or_absent() {
     }
     let missing_dir = dir.join("no/such/dir/a.json");
     assert!(unicac_optics::write_spec(&spec, &missing_dir).is_err());
-    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().contains(".tmp-")).collect();
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp-"))
+        .collect();
     assert!(leftovers.is_empty());
     std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn the_json_schema_names_every_key_the_writer_emits() {
+    let schema: serde_json::Value =
+        serde_json::from_str(include_str!("../../../docs/lens-format.schema.json")).unwrap();
+    let top = schema["properties"].as_object().unwrap();
+    let surface = schema["$defs"]["surface"]["properties"].as_object().unwrap();
+    for name in examples::names() {
+        let value = serde_json::to_value(examples::spec(name).unwrap()).unwrap();
+        for key in value.as_object().unwrap().keys() {
+            assert!(top.contains_key(key), "{name}: top-level key {key} missing from the schema");
+        }
+        for s in value["surfaces"].as_array().unwrap() {
+            for key in s.as_object().unwrap().keys() {
+                assert!(surface.contains_key(key), "{name}: surface key {key} missing from the schema");
+            }
+        }
+    }
 }

@@ -28,7 +28,14 @@ fn catalogue_indices_match_optiland() {
         let glass = find_glass(&format!("{}:{}", e.catalog, e.name), &[]).unwrap();
         let n = glass.index(e.wavelength_um);
         worst = worst.max((n - e.n).abs());
-        assert!((n - e.n).abs() < 1e-12, "{}:{} at {} um: {n} vs optiland {}", e.catalog, e.name, e.wavelength_um, e.n);
+        assert!(
+            (n - e.n).abs() < 1e-12,
+            "{}:{} at {} um: {n} vs optiland {}",
+            e.catalog,
+            e.name,
+            e.wavelength_um,
+            e.n
+        );
     }
     println!("worst |dn| against optiland: {worst:e}");
 }

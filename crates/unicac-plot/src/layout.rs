@@ -21,6 +21,8 @@ pub struct RayBundle {
 /// Plot width (pixels) of the layout; the height follows from the lens's aspect ratio.
 const PLOT_WIDTH: f64 = 1300.0;
 const PLOT_HEIGHT_LIMITS: (f64, f64) = (320.0, 820.0);
+/// Length of the stop's blades as a fraction of the plot's half-height.
+const STOP_BLADE: f64 = 0.08;
 /// Points sampled along each surface profile.
 const PROFILE_SAMPLES: usize = 81;
 
@@ -138,7 +140,9 @@ pub fn layout(
         return Err(PlotError::InvalidInput("the lens has no extent to draw".into()));
     }
     let pad = 0.04 * (z.end - z.start);
-    let (z, y) = (z.start - pad..z.end + pad, y.max(pad) + pad);
+    // Room above the stop for its blades (STOP_BLADE of the half-height) and its label.
+    let stop_room = semi_diameters[lens.stop_index] / (1.0 - STOP_BLADE - 0.06);
+    let (z, y) = (z.start - pad..z.end + pad, (y.max(pad) + pad).max(stop_room));
     let plot_height =
         (PLOT_WIDTH * 2.0 * y / (z.end - z.start)).clamp(PLOT_HEIGHT_LIMITS.0, PLOT_HEIGHT_LIMITS.1);
     render(
@@ -290,7 +294,7 @@ impl Layout<'_> {
             .last()
             .copied()
             .unwrap_or((self.lens.surfaces[stop].z_mm, 0.0));
-        let blade = 0.1 * self.y_half;
+        let blade = STOP_BLADE * self.y_half;
         for sign in [1.0, -1.0] {
             style::line(
                 chart,

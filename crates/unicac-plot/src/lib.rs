@@ -16,7 +16,7 @@
 //! degrees; wavelength colours run from blue (shortest) to red (longest) whatever the actual
 //! wavelengths, so any set stays distinguishable; field colours use the same ramp in field order.
 //!
-//! Each picture is drawn once by a generic `draw` over plotters' `DrawingBackend`; [`render`](crate::render)
+//! Each picture is drawn once by a generic `draw` over plotters' `DrawingBackend`; a small `render`
 //! picks the bitmap or SVG backend. Files are written to a temporary sibling and renamed into place, so a
 //! failed plot never leaves a partial file. Text uses the system's sans-serif font through fontconfig.
 

@@ -11,6 +11,8 @@ use std::ops::Range;
 pub(crate) type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 const MARGIN: u32 = 10;
+/// Wider on the right, where half of the last x tick label sticks out of the plot.
+const MARGIN_RIGHT: u32 = 28;
 const X_LABEL_AREA: u32 = 46;
 const Y_LABEL_AREA: u32 = 62;
 /// Height taken by a figure title drawn with `figure`.
@@ -73,13 +75,14 @@ pub(crate) fn rank(values: &[f64], value: f64) -> usize {
     values.iter().position(|v| *v == value).unwrap_or(0)
 }
 
-/// `x` rounded up to 1, 2, 2.5 or 5 times a power of ten (1 for zero or non-finite input).
+/// `x` rounded up to a round number (1, 1.5, 2, 2.5, 3, 4, 5, 6 or 8 times a power of ten; 1 for zero or
+/// non-finite input).
 pub(crate) fn nice_ceiling(x: f64) -> f64 {
     if !(x > 0.0 && x.is_finite()) {
         return 1.0;
     }
     let power = 10f64.powf(x.log10().floor());
-    [1.0, 2.0, 2.5, 5.0, 10.0]
+    [1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0]
         .iter()
         .map(|m| m * power)
         .find(|v| *v >= x * (1.0 - 1e-12))
@@ -145,7 +148,7 @@ where
     let area = area.titled(axes.caption, font(16.0))?;
     let (x, y) = if axes.equal_aspect {
         let (width, height) = area.dim_in_pixel();
-        let plot_width = width.saturating_sub(Y_LABEL_AREA + 2 * MARGIN).max(1);
+        let plot_width = width.saturating_sub(Y_LABEL_AREA + MARGIN + MARGIN_RIGHT).max(1);
         let plot_height = height.saturating_sub(X_LABEL_AREA + 2 * MARGIN).max(1);
         equal_aspect(axes.x, axes.y, (plot_width, plot_height))
     } else {
@@ -153,6 +156,7 @@ where
     };
     let mut chart = ChartBuilder::on(&area)
         .margin(MARGIN)
+        .margin_right(MARGIN_RIGHT)
         .x_label_area_size(X_LABEL_AREA)
         .y_label_area_size(Y_LABEL_AREA)
         .build_cartesian_2d(x, y)?;
@@ -222,10 +226,11 @@ mod tests {
 
     #[test]
     fn nice_ceiling_rounds_up_to_round_numbers() {
-        assert_eq!(nice_ceiling(3.2), 5.0);
+        assert_eq!(nice_ceiling(3.2), 4.0);
         assert_eq!(nice_ceiling(20.0), 20.0);
         assert_eq!(nice_ceiling(21.0), 25.0);
-        assert_eq!(nice_ceiling(0.013), 0.02);
+        assert_eq!(nice_ceiling(7150.0), 8000.0);
+        assert!((nice_ceiling(0.013) - 0.015).abs() < 1e-15);
         assert_eq!(nice_ceiling(0.0), 1.0);
     }
 

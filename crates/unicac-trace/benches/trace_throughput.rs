@@ -11,19 +11,31 @@ const RAYS: usize = 100_000;
 fn bench_lens(c: &mut Criterion, name: &str) {
     let lens = examples::lens(name).unwrap();
     let aimer = Aimer::new(&lens, lens.primary_wavelength_um(), Aiming::Paraxial).unwrap();
-    let max_field = aimer.first_order.field_angles_deg.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+    let max_field = aimer
+        .first_order
+        .field_angles_deg
+        .iter()
+        .fold(0.0f64, |m, f| m.max(f.abs()));
     let rays: Vec<Ray> = PupilSampling::Random { n: RAYS, seed: 1 }
         .points()
         .iter()
         .enumerate()
-        .map(|(i, [px, py])| aimer.ray(if i % 2 == 0 { 0.0 } else { max_field }, *px, *py).unwrap())
+        .map(|(i, [px, py])| {
+            aimer
+                .ray(if i % 2 == 0 { 0.0 } else { max_field }, *px, *py)
+                .unwrap()
+        })
         .collect();
     let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
     let mut group = c.benchmark_group(format!("trace/{name}"));
     group.throughput(Throughput::Elements((RAYS * lens.surfaces.len()) as u64));
     group.sample_size(20);
     group.bench_function("100k rays", |b| {
-        b.iter_batched_ref(|| rays.clone(), |batch| trace_rays(&system, batch), criterion::BatchSize::LargeInput)
+        b.iter_batched_ref(
+            || rays.clone(),
+            |batch| trace_rays(&system, batch),
+            criterion::BatchSize::LargeInput,
+        )
     });
     group.finish();
 }

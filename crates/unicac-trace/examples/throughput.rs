@@ -14,17 +14,28 @@ const RUNS: usize = 5;
 
 fn rays_for(lens: &unicac_optics::Lens) -> Vec<Ray> {
     let aimer = Aimer::new(lens, lens.primary_wavelength_um(), Aiming::Paraxial).unwrap();
-    let max_field = aimer.first_order.field_angles_deg.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+    let max_field = aimer
+        .first_order
+        .field_angles_deg
+        .iter()
+        .fold(0.0f64, |m, f| m.max(f.abs()));
     let pupil = PupilSampling::Random { n: RAYS, seed: 12345 }.points();
     pupil
         .iter()
         .enumerate()
-        .map(|(i, [px, py])| aimer.ray(if i < RAYS / 2 { 0.0 } else { max_field }, *px, *py).unwrap())
+        .map(|(i, [px, py])| {
+            aimer
+                .ray(if i < RAYS / 2 { 0.0 } else { max_field }, *px, *py)
+                .unwrap()
+        })
         .collect()
 }
 
 fn median_seconds(system: &TraceSystem, rays: &[Ray], threads: usize) -> (f64, usize) {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     let mut ok = 0;
     let mut times: Vec<f64> = (0..=RUNS)
         .map(|_| {

@@ -7,6 +7,7 @@
 //!   paraxial marginal-ray height at the stop. Solved by Newton's method on the entrance-pupil-plane
 //!   point with a finite-difference Jacobian, from the paraxial guess; where that fails (wide fields),
 //!   by continuation from the axis in growing field steps.
+//!
 //! Pupils come from the primary wavelength, as in Zemax; each ray is aimed at its own wavelength.
 
 use crate::error::{TraceError, TraceResult};
@@ -94,30 +95,46 @@ impl Aimer {
     fn real_ray(&self, field_deg: f64, px: f64, py: f64) -> TraceResult<Ray> {
         let radius = self.first_order.epd_mm / 2.0;
         let guess = [px * radius, py * radius];
-        let solution = self.solve_stop_point(field_deg, px, py, guess).or_else(|first_failure| {
-            // Continuation: walk the field up from the axis, each solve starting at the previous one.
-            let mut s = guess;
-            for step in 1..=CONTINUATION_STEPS {
-                let field = field_deg * step as f64 / CONTINUATION_STEPS as f64;
-                s = self.solve_stop_point(field, px, py, s).map_err(|_| first_failure.clone())?;
-            }
-            Ok::<_, String>(s)
-        });
+        let solution = self
+            .solve_stop_point(field_deg, px, py, guess)
+            .or_else(|first_failure| {
+                // Continuation: walk the field up from the axis, each solve starting at the previous one.
+                let mut s = guess;
+                for step in 1..=CONTINUATION_STEPS {
+                    let field = field_deg * step as f64 / CONTINUATION_STEPS as f64;
+                    s = self
+                        .solve_stop_point(field, px, py, s)
+                        .map_err(|_| first_failure.clone())?;
+                }
+                Ok::<_, String>(s)
+            });
         match solution {
             Ok(s) => Ok(self.ray_through_pupil_plane(field_deg, s[0], s[1])),
-            Err(reason) => Err(TraceError::AimFailed { field_deg, px, py, reason }),
+            Err(reason) => Err(TraceError::AimFailed {
+                field_deg,
+                px,
+                py,
+                reason,
+            }),
         }
     }
 
     /// Newton's method for the pupil-plane point whose ray crosses the stop at (px, py) * R_stop.
-    fn solve_stop_point(&self, field_deg: f64, px: f64, py: f64, start: [f64; 2]) -> Result<[f64; 2], String> {
+    fn solve_stop_point(
+        &self,
+        field_deg: f64,
+        px: f64,
+        py: f64,
+        start: [f64; 2],
+    ) -> Result<[f64; 2], String> {
         let r_stop = self.first_order.stop_radius_mm;
         let target = [px * r_stop, py * r_stop];
         let scale = self.first_order.epd_mm.max(1e-9);
         let tolerance = 1e-13 * r_stop.max(1e-6);
         let h = 1e-7 * scale;
         let residual = |s: [f64; 2]| {
-            self.stop_intercept(field_deg, s).map(|hit| [hit[0] - target[0], hit[1] - target[1]])
+            self.stop_intercept(field_deg, s)
+                .map(|hit| [hit[0] - target[0], hit[1] - target[1]])
         };
         let mut s = start;
         let mut r = residual(s).ok_or("the starting ray does not reach the stop")?;
@@ -127,12 +144,18 @@ impl Aimer {
             }
             let rx = residual([s[0] + h, s[1]]).ok_or("a ray near the solution does not reach the stop")?;
             let ry = residual([s[0], s[1] + h]).ok_or("a ray near the solution does not reach the stop")?;
-            let j = [[(rx[0] - r[0]) / h, (ry[0] - r[0]) / h], [(rx[1] - r[1]) / h, (ry[1] - r[1]) / h]];
+            let j = [
+                [(rx[0] - r[0]) / h, (ry[0] - r[0]) / h],
+                [(rx[1] - r[1]) / h, (ry[1] - r[1]) / h],
+            ];
             let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
             if det == 0.0 || !det.is_finite() {
                 return Err("singular aiming Jacobian".into());
             }
-            let delta = [(j[1][1] * r[0] - j[0][1] * r[1]) / det, (j[0][0] * r[1] - j[1][0] * r[0]) / det];
+            let delta = [
+                (j[1][1] * r[0] - j[0][1] * r[1]) / det,
+                (j[0][0] * r[1] - j[1][0] * r[0]) / det,
+            ];
             // Damped step: halve until the new ray still reaches the stop and the residual shrinks.
             let mut factor = 1.0;
             loop {

@@ -24,7 +24,9 @@ pub fn clear_semi_diameters(lens: &Lens, aiming: Aiming) -> TraceResult<Vec<f64>
                     [angle.cos(), angle.sin()]
                 }));
                 for [px, py] in pupil {
-                    let Ok(ray) = aimer.ray(signed_field, px, py) else { continue };
+                    let Ok(ray) = aimer.ray(signed_field, px, py) else {
+                        continue;
+                    };
                     let (points, _) = system.trace_path(ray);
                     for (surface, point) in points.iter().skip(1).enumerate() {
                         envelope[surface] = envelope[surface].max(point[0].hypot(point[1]));
@@ -33,5 +35,10 @@ pub fn clear_semi_diameters(lens: &Lens, aiming: Aiming) -> TraceResult<Vec<f64>
             }
         }
     }
-    Ok(lens.surfaces.iter().zip(envelope).map(|(s, computed)| s.semi_diameter_mm.unwrap_or(computed)).collect())
+    Ok(lens
+        .surfaces
+        .iter()
+        .zip(envelope)
+        .map(|(s, computed)| s.semi_diameter_mm.unwrap_or(computed))
+        .collect())
 }

@@ -14,9 +14,11 @@ const LANE_BLOCK: usize = 64;
 /// Traces every ray to the image surface in place and returns one status per ray.
 pub fn trace_rays(system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
     let mut statuses = vec![RayStatus::Ok; rays.len()];
-    rays.par_chunks_mut(CHUNK).zip(statuses.par_chunks_mut(CHUNK)).for_each(|(rays, statuses)| {
-        trace_blocks(system, rays, statuses);
-    });
+    rays.par_chunks_mut(CHUNK)
+        .zip(statuses.par_chunks_mut(CHUNK))
+        .for_each(|(rays, statuses)| {
+            trace_blocks(system, rays, statuses);
+        });
     statuses
 }
 
@@ -35,5 +37,8 @@ fn trace_blocks(system: &TraceSystem, rays: &mut [Ray], statuses: &mut [RayStatu
 
 /// Status counts of a finished batch.
 pub fn count(statuses: &[RayStatus]) -> StatusCounts {
-    statuses.par_chunks(CHUNK).map(StatusCounts::from_statuses).reduce(StatusCounts::default, StatusCounts::merge)
+    statuses
+        .par_chunks(CHUNK)
+        .map(StatusCounts::from_statuses)
+        .reduce(StatusCounts::default, StatusCounts::merge)
 }

@@ -9,7 +9,12 @@ pub enum TraceError {
     Optics(#[from] OpticsError),
     /// Real aiming found no ray through the requested stop point.
     #[error("real ray aiming failed for field {field_deg} deg, pupil ({px}, {py}): {reason}")]
-    AimFailed { field_deg: f64, px: f64, py: f64, reason: String },
+    AimFailed {
+        field_deg: f64,
+        px: f64,
+        py: f64,
+        reason: String,
+    },
     #[error("invalid request: {0}")]
     InvalidRequest(String),
 }

@@ -12,6 +12,9 @@
 //!
 //! Everything here is the product's own optics, hence hand-written; parallelism is rayon's.
 
+// `!(x >= 0.0)` and friends are deliberate: they reject NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod aim;
 pub mod apertures;
 pub mod batch;

@@ -5,7 +5,7 @@ use serde::Serialize;
 use std::f64::consts::PI;
 
 /// Fixed default seed of `random:N`, so two runs sample the same rays.
-pub const DEFAULT_SEED: u64 = 0x5EED_0F_C0FFEE;
+pub const DEFAULT_SEED: u64 = 0x5EED_0FC0_FFEE;
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -48,7 +48,11 @@ impl std::str::FromStr for PupilSampling {
                     None => DEFAULT_SEED,
                 },
             },
-            _ => return Err(format!("'{text}': expected hexapolar:R, grid:N, fibonacci:N or random:N[:SEED]")),
+            _ => {
+                return Err(format!(
+                    "'{text}': expected hexapolar:R, grid:N, fibonacci:N or random:N[:SEED]"
+                ))
+            }
         };
         Ok(sampling)
     }
@@ -131,7 +135,10 @@ mod tests {
         for pattern in ["hexapolar:5", "grid:16", "fibonacci:500", "random:500"] {
             let points = pattern.parse::<PupilSampling>().unwrap().points();
             assert!(!points.is_empty());
-            assert!(points.iter().all(|[x, y]| x * x + y * y <= 1.0 + 1e-15), "{pattern}");
+            assert!(
+                points.iter().all(|[x, y]| x * x + y * y <= 1.0 + 1e-15),
+                "{pattern}"
+            );
         }
     }
 
@@ -152,6 +159,9 @@ mod tests {
         for bad in ["hexapolar", "grid:0", "spiral:4", "random:x"] {
             assert!(bad.parse::<PupilSampling>().is_err(), "{bad}");
         }
-        assert_eq!("random:10:3".parse::<PupilSampling>().unwrap(), PupilSampling::Random { n: 10, seed: 3 });
+        assert_eq!(
+            "random:10:3".parse::<PupilSampling>().unwrap(),
+            PupilSampling::Random { n: 10, seed: 3 }
+        );
     }
 }

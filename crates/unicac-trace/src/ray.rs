@@ -13,12 +13,19 @@ pub struct Ray {
 impl Ray {
     /// A ray from `position_mm` along `direction`, normalised here so callers may pass any non-zero vector.
     pub fn new(position_mm: [f64; 3], direction: [f64; 3]) -> Ray {
-        let norm = (direction[0] * direction[0] + direction[1] * direction[1] + direction[2] * direction[2]).sqrt();
-        Ray { position_mm, direction: direction.map(|d| d / norm) }
+        let norm =
+            (direction[0] * direction[0] + direction[1] * direction[1] + direction[2] * direction[2]).sqrt();
+        Ray {
+            position_mm,
+            direction: direction.map(|d| d / norm),
+        }
     }
 
     pub fn is_finite(&self) -> bool {
-        self.position_mm.iter().chain(&self.direction).all(|v| v.is_finite())
+        self.position_mm
+            .iter()
+            .chain(&self.direction)
+            .all(|v| v.is_finite())
     }
 }
 
@@ -28,13 +35,21 @@ impl Ray {
 pub enum RayStatus {
     Ok,
     /// The ray does not meet surface `surface` (0-based), or meets it outside the surface's valid region.
-    Missed { surface: u32 },
+    Missed {
+        surface: u32,
+    },
     /// Total internal reflection at surface `surface`.
-    Tir { surface: u32 },
+    Tir {
+        surface: u32,
+    },
     /// The ray meets surface `surface` outside its clear semi-diameter.
-    Clipped { surface: u32 },
+    Clipped {
+        surface: u32,
+    },
     /// The even-asphere intersection did not converge at surface `surface`.
-    NoConvergence { surface: u32 },
+    NoConvergence {
+        surface: u32,
+    },
     /// The ray given to the tracer was not finite or had a zero direction.
     InvalidInput,
 }

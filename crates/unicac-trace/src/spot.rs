@@ -66,7 +66,10 @@ impl SpotTracer {
     /// The chief ray's image intercept, if it arrives.
     pub fn chief_intercept(&self, field_deg: f64) -> Option<[f64; 2]> {
         let mut ray = self.aimer.ray(field_deg, 0.0, 0.0).ok()?;
-        self.system.trace(&mut ray).is_ok().then_some([ray.position_mm[0], ray.position_mm[1]])
+        self.system
+            .trace(&mut ray)
+            .is_ok()
+            .then_some([ray.position_mm[0], ray.position_mm[1]])
     }
 
     pub fn spot(&self, field_deg: f64, sampling: &PupilSampling) -> Spot {
@@ -92,7 +95,9 @@ impl SpotTracer {
             centroid_x_mm: centroid.map(|c| c[0]),
             centroid_y_mm: centroid.map(|c| c[1]),
             rms_radius_um: centroid.map(|c| rms_about(&points_mm, c) * 1e3),
-            rms_radius_chief_um: chief.filter(|_| !points_mm.is_empty()).map(|c| rms_about(&points_mm, c) * 1e3),
+            rms_radius_chief_um: chief
+                .filter(|_| !points_mm.is_empty())
+                .map(|c| rms_about(&points_mm, c) * 1e3),
             geometric_radius_um: centroid.map(|c| max_distance(&points_mm, c) * 1e3),
             chief_x_mm: chief.map(|c| c[0]),
             chief_y_mm: chief.map(|c| c[1]),
@@ -122,17 +127,25 @@ pub fn centroid(points: &[[f64; 2]]) -> Option<[f64; 2]> {
         return None;
     }
     let n = points.len() as f64;
-    let (sx, sy) = points.iter().fold((0.0, 0.0), |(sx, sy), p| (sx + p[0], sy + p[1]));
+    let (sx, sy) = points
+        .iter()
+        .fold((0.0, 0.0), |(sx, sy), p| (sx + p[0], sy + p[1]));
     Some([sx / n, sy / n])
 }
 
 pub fn rms_about(points: &[[f64; 2]], reference: [f64; 2]) -> f64 {
-    let sum: f64 = points.iter().map(|p| (p[0] - reference[0]).powi(2) + (p[1] - reference[1]).powi(2)).sum();
+    let sum: f64 = points
+        .iter()
+        .map(|p| (p[0] - reference[0]).powi(2) + (p[1] - reference[1]).powi(2))
+        .sum();
     (sum / points.len() as f64).sqrt()
 }
 
 fn max_distance(points: &[[f64; 2]], reference: [f64; 2]) -> f64 {
-    points.iter().map(|p| (p[0] - reference[0]).hypot(p[1] - reference[1])).fold(0.0, f64::max)
+    points
+        .iter()
+        .map(|p| (p[0] - reference[0]).hypot(p[1] - reference[1]))
+        .fold(0.0, f64::max)
 }
 
 /// One point of a ray fan: transverse aberration relative to the chief ray.
@@ -163,15 +176,28 @@ pub fn ray_fan(tracer: &SpotTracer, field_deg: f64, samples: usize) -> Option<Ra
                 let mut ray = tracer.aimer.ray(field_deg, px, py).ok()?;
                 let status = tracer.system.trace(&mut ray);
                 let (ex_um, ey_um) = if status.is_ok() {
-                    ((ray.position_mm[0] - chief[0]) * 1e3, (ray.position_mm[1] - chief[1]) * 1e3)
+                    (
+                        (ray.position_mm[0] - chief[0]) * 1e3,
+                        (ray.position_mm[1] - chief[1]) * 1e3,
+                    )
                 } else {
                     (0.0, 0.0)
                 };
-                Some(FanPoint { pupil: p, ex_um, ey_um, status })
+                Some(FanPoint {
+                    pupil: p,
+                    ex_um,
+                    ey_um,
+                    status,
+                })
             })
             .collect()
     };
-    Some(RayFan { field_deg, wavelength_um: tracer.system.wavelength_um, tangential: fan(true), sagittal: fan(false) })
+    Some(RayFan {
+        field_deg,
+        wavelength_um: tracer.system.wavelength_um,
+        tangential: fan(true),
+        sagittal: fan(false),
+    })
 }
 
 /// Real chief-ray image height against the paraxial image height.
@@ -188,7 +214,11 @@ pub struct DistortionPoint {
 pub fn distortion(lens: &Lens, fields_deg: &[f64]) -> TraceResult<Vec<DistortionPoint>> {
     let tracer = SpotTracer::new(lens, lens.primary_wavelength_um(), Aiming::Real)?;
     let first = &tracer.aimer.first_order;
-    let per_tan = if first.field_angles_deg.is_empty() { 0.0 } else { paraxial_height_per_tan(first) };
+    let per_tan = if first.field_angles_deg.is_empty() {
+        0.0
+    } else {
+        paraxial_height_per_tan(first)
+    };
     let unclipped = TraceSystem::new(lens, lens.primary_wavelength_um(), Clipping::None)?;
     Ok(fields_deg
         .iter()
@@ -197,8 +227,17 @@ pub fn distortion(lens: &Lens, fields_deg: &[f64]) -> TraceResult<Vec<Distortion
             unclipped.trace(&mut ray).is_ok().then_some(())?;
             let paraxial = per_tan * field.to_radians().tan();
             let real = ray.position_mm[1];
-            let distortion_percent = if paraxial == 0.0 { 0.0 } else { 100.0 * (real - paraxial) / paraxial };
-            Some(DistortionPoint { field_deg: field, real_image_height_mm: real, paraxial_image_height_mm: paraxial, distortion_percent })
+            let distortion_percent = if paraxial == 0.0 {
+                0.0
+            } else {
+                100.0 * (real - paraxial) / paraxial
+            };
+            Some(DistortionPoint {
+                field_deg: field,
+                real_image_height_mm: real,
+                paraxial_image_height_mm: paraxial,
+                distortion_percent,
+            })
         })
         .collect())
 }
@@ -218,7 +257,9 @@ pub fn real_working_f_number(lens: &Lens) -> TraceResult<Option<f64>> {
     let wavelength = lens.primary_wavelength_um();
     let system = TraceSystem::new(lens, wavelength, Clipping::None)?;
     let aimer = Aimer::new(lens, wavelength, Aiming::Real)?;
-    let Ok(mut ray) = aimer.ray(0.0, 0.0, 1.0) else { return Ok(None) };
+    let Ok(mut ray) = aimer.ray(0.0, 0.0, 1.0) else {
+        return Ok(None);
+    };
     if !system.trace(&mut ray).is_ok() {
         return Ok(None);
     }

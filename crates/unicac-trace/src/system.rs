@@ -12,6 +12,7 @@
 //! 3. Even asphere: Newton's method on g(t) = z(t) - sag(r(t)^2), started from the conic hit.
 //!    Convergence rule: |dt| <= 4 eps (|t| + |z| + r) + 1e-300 within `MAX_NEWTON_ITERATIONS` steps,
 //!    else `NoConvergence`.
+//!
 //! Refraction is vector Snell's law; a negative radicand is total internal reflection.
 
 use crate::ray::{Ray, RayStatus};
@@ -68,7 +69,11 @@ impl TraceSystem {
                 index_after: n[i + 1],
             })
             .collect();
-        Ok(TraceSystem { surfaces, object_index: n[0], wavelength_um })
+        Ok(TraceSystem {
+            surfaces,
+            object_index: n[0],
+            wavelength_um,
+        })
     }
 
     pub fn image_index(&self) -> usize {
@@ -99,7 +104,11 @@ impl TraceSystem {
     /// as `trace` on each ray.
     pub fn trace_chunk(&self, rays: &mut [Ray], statuses: &mut [RayStatus]) {
         for (ray, status) in rays.iter().zip(statuses.iter_mut()) {
-            *status = if ray.is_finite() { RayStatus::Ok } else { RayStatus::InvalidInput };
+            *status = if ray.is_finite() {
+                RayStatus::Ok
+            } else {
+                RayStatus::InvalidInput
+            };
         }
         let last = self.image_index();
         let mut n_before = self.object_index;
@@ -226,7 +235,13 @@ impl NewtonFailure {
 }
 
 #[inline]
-fn newton_asphere(p: &Profile, rho_limit: f64, start: [f64; 3], d: [f64; 3], t0: f64) -> Result<f64, NewtonFailure> {
+fn newton_asphere(
+    p: &Profile,
+    rho_limit: f64,
+    start: [f64; 3],
+    d: [f64; 3],
+    t0: f64,
+) -> Result<f64, NewtonFailure> {
     let mut t = t0;
     for _ in 0..MAX_NEWTON_ITERATIONS {
         let x = start[0] + t * d[0];
@@ -245,7 +260,11 @@ fn newton_asphere(p: &Profile, rho_limit: f64, start: [f64; 3], d: [f64; 3], t0:
         let dt = residual / derivative;
         t -= dt;
         if dt.abs() <= 4.0 * f64::EPSILON * (t.abs() + z.abs() + rho.sqrt()) + 1e-300 {
-            return if t.is_finite() { Ok(t) } else { Err(NewtonFailure::Missed) };
+            return if t.is_finite() {
+                Ok(t)
+            } else {
+                Err(NewtonFailure::Missed)
+            };
         }
     }
     Err(NewtonFailure::NoConvergence)
@@ -267,5 +286,9 @@ pub fn refract_direction(d: [f64; 3], normal: [f64; 3], mu: f64) -> Option<[f64;
         return None;
     }
     let g = cos_t_squared.sqrt() - mu * cos_i;
-    Some([mu * d[0] + g * nrm[0], mu * d[1] + g * nrm[1], mu * d[2] + g * nrm[2]])
+    Some([
+        mu * d[0] + g * nrm[0],
+        mu * d[1] + g * nrm[1],
+        mu * d[2] + g * nrm[2],
+    ])
 }

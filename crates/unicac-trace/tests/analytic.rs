@@ -29,7 +29,12 @@ fn relative(a: f64, b: f64) -> f64 {
 #[test]
 fn thick_lens_focal_lengths_match_the_lensmaker_formula() {
     // 1/f = (n-1) (1/R1 - 1/R2 + (n-1) d / (n R1 R2)); BFL = f (1 - (n-1) d / (n R1)); FFL = -f (1 + (n-1) d / (n R2)).
-    for (r1, r2, d, n) in [(50.0, -50.0, 5.0, 1.5168), (30.0, 200.0, 8.0, 1.8), (-40.0, -25.0, 3.0, 1.6), (1e9, -20.0, 2.0, 1.5)] {
+    for (r1, r2, d, n) in [
+        (50.0, -50.0, 5.0, 1.5168),
+        (30.0, 200.0, 8.0, 1.8),
+        (-40.0, -25.0, 3.0, 1.6),
+        (1e9, -20.0, 2.0, 1.5),
+    ] {
         let lens = singlet(r1, r2, d, n, 40.0);
         let first = lens.first_order().unwrap();
         let f = 1.0 / ((n - 1.0) * (1.0 / r1 - 1.0 / r2 + (n - 1.0) * d / (n * r1 * r2)));
@@ -71,7 +76,11 @@ fn entrance_pupil_of_a_rear_stop_is_its_image_through_the_front_lens() {
     ));
     let first = lens.first_order().unwrap();
     assert!(relative(first.efl_mm, 50.0) < 1e-12);
-    assert!(relative(first.entrance_pupil_z_mm, 12.5) < 1e-12, "{}", first.entrance_pupil_z_mm);
+    assert!(
+        relative(first.entrance_pupil_z_mm, 12.5) < 1e-12,
+        "{}",
+        first.entrance_pupil_z_mm
+    );
 }
 
 #[test]
@@ -131,7 +140,11 @@ fn perfect_conic_refractors_focus_collimated_light_to_a_point() {
         for h in [0.5, 2.0, 4.0, 5.9] {
             let mut ray = Ray::new([0.0, h, -1.0], [0.0, 0.0, 1.0]);
             assert_eq!(system.trace(&mut ray), RayStatus::Ok);
-            assert!(ray.position_mm[1].abs() < 1e-12, "height {h}: {}", ray.position_mm[1]);
+            assert!(
+                ray.position_mm[1].abs() < 1e-12,
+                "height {h}: {}",
+                ray.position_mm[1]
+            );
         }
     }
 }
@@ -147,7 +160,9 @@ fn paraboloid_as_conic_and_as_polynomial_trace_identically() {
             "surfaces": [{surface}, {{"radius_mm": -60.0, "thickness_mm": 50.0}}, {{"thickness_mm": 0.0}}]}}"#
         ))
     };
-    let conic = make(format!(r#"{{"curvature_per_mm": {c}, "conic": -1.0, "thickness_mm": 4.0, "material": {{"nd": 1.6, "vd": 40.0}}}}"#));
+    let conic = make(format!(
+        r#"{{"curvature_per_mm": {c}, "conic": -1.0, "thickness_mm": 4.0, "material": {{"nd": 1.6, "vd": 40.0}}}}"#
+    ));
     let poly = make(format!(
         r#"{{"type": "even_asphere", "aspheric_coefficients": [{a2}], "thickness_mm": 4.0, "material": {{"nd": 1.6, "vd": 40.0}}}}"#,
         a2 = c / 2.0
@@ -184,8 +199,14 @@ fn real_aiming_hits_the_stop_where_asked() {
         for (px, py) in [(0.0, 0.0), (0.0, 1.0), (0.0, -1.0), (1.0, 0.0), (0.6, -0.6)] {
             let mut ray = aimer.ray(field, px, py).unwrap();
             assert_eq!(system.trace_through(&mut ray, 2, false), RayStatus::Ok);
-            assert!((ray.position_mm[0] - px * r_stop).abs() < 1e-10, "field {field} ({px},{py})");
-            assert!((ray.position_mm[1] - py * r_stop).abs() < 1e-10, "field {field} ({px},{py})");
+            assert!(
+                (ray.position_mm[0] - px * r_stop).abs() < 1e-10,
+                "field {field} ({px},{py})"
+            );
+            assert!(
+                (ray.position_mm[1] - py * r_stop).abs() < 1e-10,
+                "field {field} ({px},{py})"
+            );
         }
     }
 }
@@ -194,7 +215,8 @@ fn real_aiming_hits_the_stop_where_asked() {
 fn failing_rays_are_flagged_and_never_nan() {
     let lens = singlet(10.0, -10.0, 4.0, 1.5, 10.0);
     let clipped = {
-        let mut spec: LensSpec = serde_json::from_str(&unicac_optics::format::json::to_string(&to_spec(&lens))).unwrap();
+        let mut spec: LensSpec =
+            serde_json::from_str(&unicac_optics::format::json::to_string(&to_spec(&lens))).unwrap();
         spec.surfaces[0].semi_diameter_mm = Some(2.0);
         Lens::from_spec(&spec).unwrap()
     };
@@ -202,7 +224,13 @@ fn failing_rays_are_flagged_and_never_nan() {
     let cases = [
         (Ray::new([0.0, 3.0, -1.0], [0.0, 0.0, 1.0]), "clipped"),
         (Ray::new([0.0, 50.0, -1.0], [0.0, 0.0, 1.0]), "missed"),
-        (Ray { position_mm: [f64::NAN, 0.0, 0.0], direction: [0.0, 0.0, 1.0] }, "invalid_input"),
+        (
+            Ray {
+                position_mm: [f64::NAN, 0.0, 0.0],
+                direction: [0.0, 0.0, 1.0],
+            },
+            "invalid_input",
+        ),
         (Ray::new([0.0, 0.0, -1.0], [0.0, 1.0, 0.0]), "missed"),
     ];
     for (mut ray, kind) in cases {
@@ -228,7 +256,9 @@ fn to_spec(lens: &Lens) -> LensSpec {
             curvature_per_mm: Some(s.profile.curvature_per_mm),
             thickness_mm: s.thickness_mm,
             material: match &s.medium_after {
-                unicac_optics::Medium::Model { nd, vd } => Some(unicac_optics::spec::MaterialSpec::Model { nd: *nd, vd: *vd }),
+                unicac_optics::Medium::Model { nd, vd } => {
+                    Some(unicac_optics::spec::MaterialSpec::Model { nd: *nd, vd: *vd })
+                }
                 _ => None,
             },
             ..Default::default()

@@ -14,7 +14,10 @@ use unicac_trace::{spots, Aimer, Aiming, Clipping, PupilSampling, Ray, TraceSyst
 const TOOLS: [&str; 2] = ["optiland", "rayoptics"];
 
 fn reference(tool: &str, lens: &str) -> Value {
-    let path = format!("{}/../../tests/reference/{tool}/{lens}.json", env!("CARGO_MANIFEST_DIR"));
+    let path = format!(
+        "{}/../../tests/reference/{tool}/{lens}.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
     serde_json::from_str(&std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"))).unwrap()
 }
 
@@ -32,10 +35,20 @@ fn refractive_indices_match_the_references() {
         for name in examples::names() {
             let lens = examples::lens(name).unwrap();
             let r = reference(tool, name);
-            for (w, row) in r["wavelengths_um"].as_array().unwrap().iter().zip(r["indices"].as_array().unwrap()) {
+            for (w, row) in r["wavelengths_um"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .zip(r["indices"].as_array().unwrap())
+            {
                 let ours = lens.media_indices(f(w)).unwrap();
                 for (i, n) in row.as_array().unwrap().iter().enumerate() {
-                    assert!(close(ours[i + 1], f(n), 0.0, 1e-12), "{tool} {name} surface {} at {w}: {} vs {n}", i + 1, ours[i + 1]);
+                    assert!(
+                        close(ours[i + 1], f(n), 0.0, 1e-12),
+                        "{tool} {name} surface {} at {w}: {} vs {n}",
+                        i + 1,
+                        ours[i + 1]
+                    );
                 }
             }
         }
@@ -50,7 +63,11 @@ fn first_order_data_match_the_references() {
         for name in examples::names() {
             let first = examples::lens(name).unwrap().first_order().unwrap();
             let r = &reference(tool, name)["first_order"];
-            let (relative, absolute) = if tool == "rayoptics" { (1e-7, 2e-6) } else { (1e-9, 1e-12) };
+            let (relative, absolute) = if tool == "rayoptics" {
+                (1e-7, 2e-6)
+            } else {
+                (1e-9, 1e-12)
+            };
             let pairs = [
                 ("efl_mm", Some(first.efl_mm)),
                 ("bfl_mm", Some(first.bfl_mm)),
@@ -64,7 +81,9 @@ fn first_order_data_match_the_references() {
                 ("stop_marginal_height_mm", Some(first.stop_radius_mm)),
             ];
             for (key, ours) in pairs {
-                let Some(theirs) = r.get(key).and_then(Value::as_f64) else { continue };
+                let Some(theirs) = r.get(key).and_then(Value::as_f64) else {
+                    continue;
+                };
                 let ours = ours.unwrap_or_else(|| panic!("{name}: {key} missing"));
                 if tool == "optiland" {
                     worst = worst.max((ours - theirs).abs() / theirs.abs().max(1e-300));
@@ -75,7 +94,11 @@ fn first_order_data_match_the_references() {
             }
             // Both tools report the paraxial chief ray's height on the image surface.
             if let Some(heights) = r.get("paraxial_image_heights_mm").and_then(Value::as_array) {
-                for (ours, theirs) in first.paraxial_chief_heights_at_image_surface_mm.iter().zip(heights) {
+                for (ours, theirs) in first
+                    .paraxial_chief_heights_at_image_surface_mm
+                    .iter()
+                    .zip(heights)
+                {
                     // Sign conventions differ between tools; magnitudes must agree.
                     if !close(ours.abs(), f(theirs).abs(), relative, absolute) {
                         failures.push(format!("{tool} {name} image height {ours} vs {theirs}"));
@@ -101,12 +124,21 @@ fn real_ray_intercepts_match_the_references() {
                 let dir: Vec<f64> = ray["direction"].as_array().unwrap().iter().map(f).collect();
                 let mut traced = Ray::new([start[0], start[1], start[2]], [dir[0], dir[1], dir[2]]);
                 let status = system.trace(&mut traced);
-                assert_eq!(status.is_ok(), ray["ok"].as_bool().unwrap(), "{tool} {name} {ray}: {status}");
+                assert_eq!(
+                    status.is_ok(),
+                    ray["ok"].as_bool().unwrap(),
+                    "{tool} {name} {ray}: {status}"
+                );
                 if status.is_ok() {
                     for (axis, key) in ["x_mm", "y_mm", "z_mm"].iter().enumerate() {
                         let d = (traced.position_mm[axis] - f(&ray[*key])).abs();
                         worst = worst.max(d);
-                        assert!(d < 1e-9, "{tool} {name} {key}: {} vs {}", traced.position_mm[axis], ray[*key]);
+                        assert!(
+                            d < 1e-9,
+                            "{tool} {name} {key}: {} vs {}",
+                            traced.position_mm[axis],
+                            ray[*key]
+                        );
                     }
                 }
             }
@@ -127,14 +159,17 @@ fn paraxially_aimed_rays_start_where_the_references_start_them() {
                 let ours = aimer.ray(f(&ray["field_deg"]), pupil[0], pupil[1]).unwrap();
                 let start: Vec<f64> = ray["start_mm"].as_array().unwrap().iter().map(f).collect();
                 let dir: Vec<f64> = ray["direction"].as_array().unwrap().iter().map(f).collect();
-                for axis in 0..3 {
-                    assert!((ours.direction[axis] - dir[axis]).abs() < 1e-12, "{tool} {name} direction");
+                for (o, d) in ours.direction.iter().zip(&dir) {
+                    assert!((o - d).abs() < 1e-12, "{tool} {name} direction");
                 }
                 // Same line: the reference start point lies on our ray.
                 let t = (start[2] - ours.position_mm[2]) / ours.direction[2];
-                for axis in 0..2 {
-                    let on_ours = ours.position_mm[axis] + t * ours.direction[axis];
-                    assert!((on_ours - start[axis]).abs() < 1e-9, "{tool} {name} {ray}: {on_ours} vs {}", start[axis]);
+                for ((p, d), s) in ours.position_mm.iter().zip(&ours.direction).zip(&start).take(2) {
+                    let on_ours = p + t * d;
+                    assert!(
+                        (on_ours - s).abs() < 1e-9,
+                        "{tool} {name} {ray}: {on_ours} vs {s}"
+                    );
                 }
             }
         }
@@ -148,13 +183,28 @@ fn rms_spot_radii_match_the_references() {
         for name in examples::names() {
             let lens = examples::lens(name).unwrap();
             for spot in reference(tool, name)["spots"].as_array().unwrap() {
-                let ours = &spots(&lens, &[f(&spot["field_deg"])], &[f(&spot["wavelength_um"])], Aiming::Paraxial, &PupilSampling::Hexapolar { rings: 6 }).unwrap()[0];
+                let ours = &spots(
+                    &lens,
+                    &[f(&spot["field_deg"])],
+                    &[f(&spot["wavelength_um"])],
+                    Aiming::Paraxial,
+                    &PupilSampling::Hexapolar { rings: 6 },
+                )
+                .unwrap()[0];
                 assert_eq!(ours.rays_traced as u64, spot["rays_traced"].as_u64().unwrap());
-                assert_eq!(ours.rays_ok as u64, spot["rays_ok"].as_u64().unwrap(), "{tool} {name}");
+                assert_eq!(
+                    ours.rays_ok as u64,
+                    spot["rays_ok"].as_u64().unwrap(),
+                    "{tool} {name}"
+                );
                 let theirs = f(&spot["rms_radius_um"]);
                 let rms = ours.rms_radius_um.unwrap();
                 worst = worst.max((rms - theirs).abs() / theirs);
-                assert!(close(rms, theirs, 1e-9, 1e-12), "{tool} {name} field {}: {rms} vs {theirs}", spot["field_deg"]);
+                assert!(
+                    close(rms, theirs, 1e-9, 1e-12),
+                    "{tool} {name} field {}: {rms} vs {theirs}",
+                    spot["field_deg"]
+                );
                 assert!((ours.centroid_y_mm.unwrap() - f(&spot["centroid_y_mm"])).abs() < 1e-9);
             }
         }
@@ -168,7 +218,9 @@ fn real_aimed_rays_match_the_references() {
         for name in examples::names() {
             let lens = examples::lens(name).unwrap();
             let r = reference(tool, name);
-            let Some(rays) = r.get("real_aimed").and_then(Value::as_array) else { continue };
+            let Some(rays) = r.get("real_aimed").and_then(Value::as_array) else {
+                continue;
+            };
             for ray in rays.iter().filter(|r| r["ok"].as_bool() == Some(true)) {
                 let wavelength = f(&ray["wavelength_um"]);
                 let aimer = Aimer::new(&lens, wavelength, Aiming::Real).unwrap();
@@ -180,7 +232,13 @@ fn real_aimed_rays_match_the_references() {
                 assert!(status.is_ok(), "{tool} {name} {ray}: {status}");
                 for (axis, key) in ["x_mm", "y_mm"].iter().enumerate() {
                     let d = (ours.position_mm[axis] - f(&ray[*key])).abs();
-                    assert!(d < 1e-8, "{tool} {name} {key} field {}: {} vs {} (diff {d:e})", ray["field_deg"], ours.position_mm[axis], ray[*key]);
+                    assert!(
+                        d < 1e-8,
+                        "{tool} {name} {key} field {}: {} vs {} (diff {d:e})",
+                        ray["field_deg"],
+                        ours.position_mm[axis],
+                        ray[*key]
+                    );
                 }
             }
         }

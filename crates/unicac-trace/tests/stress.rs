@@ -2,7 +2,9 @@
 //! conic's domain, zero gaps, extreme scales, random lenses (proptest), and reversibility.
 
 use proptest::prelude::*;
-use unicac_optics::spec::{ApertureSpec, FieldSpec, LensSpec, MaterialSpec, SurfaceSpec, SurfaceType, WavelengthSpec};
+use unicac_optics::spec::{
+    ApertureSpec, FieldSpec, LensSpec, MaterialSpec, SurfaceSpec, SurfaceType, WavelengthSpec,
+};
 use unicac_optics::{examples, Lens};
 use unicac_trace::{spots, Aiming, Clipping, PupilSampling, Ray, RayStatus, TraceSystem};
 
@@ -13,7 +15,12 @@ fn glass(nd: f64) -> Option<MaterialSpec> {
 }
 
 fn surface(curvature: f64, thickness: f64, material: Option<MaterialSpec>) -> SurfaceSpec {
-    SurfaceSpec { curvature_per_mm: Some(curvature), thickness_mm: thickness, material, ..Default::default() }
+    SurfaceSpec {
+        curvature_per_mm: Some(curvature),
+        thickness_mm: thickness,
+        material,
+        ..Default::default()
+    }
 }
 
 fn lens_of(surfaces: Vec<SurfaceSpec>) -> Lens {
@@ -25,7 +32,10 @@ fn lens_of(surfaces: Vec<SurfaceSpec>) -> Lens {
         aperture: ApertureSpec::EntrancePupilDiameterMm(2.0),
         fields: FieldSpec::AnglesDeg(vec![0.0]),
         field_weights: None,
-        wavelengths: vec![WavelengthSpec { wavelength_um: D_LINE, weight: 1.0 }],
+        wavelengths: vec![WavelengthSpec {
+            wavelength_um: D_LINE,
+            weight: 1.0,
+        }],
         primary_wavelength_index: None,
         glass_catalogs: vec![],
         surfaces,
@@ -44,23 +54,38 @@ fn trace(lens: &Lens, ray: Ray) -> (Ray, RayStatus) {
 
 #[test]
 fn near_flat_surfaces_converge_to_the_plane() {
-    let plane = lens_of(vec![surface(0.0, 5.0, glass(1.5)), surface(0.0, 10.0, None), surface(0.0, 0.0, None)]);
+    let plane = lens_of(vec![
+        surface(0.0, 5.0, glass(1.5)),
+        surface(0.0, 10.0, None),
+        surface(0.0, 0.0, None),
+    ]);
     let start = Ray::new([0.0, 3.0, -1.0], [0.0, 0.2, 1.0]);
     let (reference, _) = trace(&plane, start);
     for c in [1e-15, -1e-12, 1e-9] {
-        let near = lens_of(vec![surface(c, 5.0, glass(1.5)), surface(0.0, 10.0, None), surface(0.0, 0.0, None)]);
+        let near = lens_of(vec![
+            surface(c, 5.0, glass(1.5)),
+            surface(0.0, 10.0, None),
+            surface(0.0, 0.0, None),
+        ]);
         let (ray, status) = trace(&near, start);
         assert!(status.is_ok());
         // The sag at r = 3 is c * 4.5 mm; the intercept may move by a few times that.
         let bound = 1e-6f64.max(100.0 * c.abs() * 10.0);
-        assert!((ray.position_mm[1] - reference.position_mm[1]).abs() < bound, "c = {c}");
+        assert!(
+            (ray.position_mm[1] - reference.position_mm[1]).abs() < bound,
+            "c = {c}"
+        );
     }
 }
 
 #[test]
 fn steep_surfaces_near_the_hemisphere() {
     // R = 5 hemisphere-ish front: rays up to 0.9999 R arrive or are cleanly flagged; none NaN.
-    let lens = lens_of(vec![surface(0.2, 6.0, glass(1.5)), surface(-0.05, 20.0, None), surface(0.0, 0.0, None)]);
+    let lens = lens_of(vec![
+        surface(0.2, 6.0, glass(1.5)),
+        surface(-0.05, 20.0, None),
+        surface(0.0, 0.0, None),
+    ]);
     let mut arrived = 0;
     for h in [0.0, 2.0, 4.0, 4.9, 4.99, 4.9999, 5.0, 5.0001, 7.0] {
         let (_, status) = trace(&lens, Ray::new([0.0, h, -1.0], [0.0, 0.0, 1.0]));
@@ -92,7 +117,11 @@ fn high_order_asphere_converges_and_flags_out_of_domain_rays() {
 
 #[test]
 fn grazing_rays_never_produce_nan() {
-    let lens = lens_of(vec![surface(0.05, 4.0, glass(1.7)), surface(-0.02, 20.0, None), surface(0.0, 0.0, None)]);
+    let lens = lens_of(vec![
+        surface(0.05, 4.0, glass(1.7)),
+        surface(-0.02, 20.0, None),
+        surface(0.0, 0.0, None),
+    ]);
     for angle_deg in [80.0f64, 89.0, 89.9, 89.999, 90.0, 95.0] {
         let (s, c) = angle_deg.to_radians().sin_cos();
         let (_, status) = trace(&lens, Ray::new([0.0, -3.0, -0.5], [0.0, s, c]));
@@ -131,7 +160,14 @@ fn spot_sizes_scale_linearly_with_the_lens() {
             spec.aperture = ApertureSpec::EntrancePupilDiameterMm(d * scale);
         }
         let lens = Lens::from_spec(&spec).unwrap();
-        let spot = &spots(&lens, &[14.0], &[D_LINE], Aiming::Paraxial, &PupilSampling::Hexapolar { rings: 6 }).unwrap()[0];
+        let spot = &spots(
+            &lens,
+            &[14.0],
+            &[D_LINE],
+            Aiming::Paraxial,
+            &PupilSampling::Hexapolar { rings: 6 },
+        )
+        .unwrap()[0];
         spot.rms_radius_um.unwrap() / scale
     };
     let reference = rms(1.0);
@@ -153,7 +189,11 @@ fn reversed(lens: &Lens) -> Lens {
         .enumerate()
         .rev()
         .map(|(i, s)| {
-            let before = if i == 0 { None } else { medium(&optical[i - 1].medium_after) };
+            let before = if i == 0 {
+                None
+            } else {
+                medium(&optical[i - 1].medium_after)
+            };
             let gap_before = if i == 0 { 10.0 } else { optical[i - 1].thickness_mm };
             surface(-s.profile.curvature_per_mm, gap_before, before)
         })

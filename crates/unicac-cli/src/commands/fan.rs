@@ -12,7 +12,11 @@ pub fn run(args: &FanArgs) -> Result<()> {
     let mut fans = Vec::new();
     for wavelength in wavelengths {
         let tracer = SpotTracer::new(&lens, wavelength, args.aim)?;
-        fans.extend(fields.iter().filter_map(|&field| ray_fan(&tracer, field, args.samples.max(2))));
+        fans.extend(
+            fields
+                .iter()
+                .filter_map(|&field| ray_fan(&tracer, field, args.samples.max(2))),
+        );
     }
     if let Some(path) = &args.plot {
         unicac_plot::ray_fan_plot(&fans, path)?;
@@ -22,7 +26,8 @@ pub fn run(args: &FanArgs) -> Result<()> {
         return print_json(&fans);
     }
     for fan in &fans {
-        let worst = |points: &[unicac_trace::spot::FanPoint], pick: fn(&unicac_trace::spot::FanPoint) -> f64| {
+        let worst = |points: &[unicac_trace::spot::FanPoint],
+                     pick: fn(&unicac_trace::spot::FanPoint) -> f64| {
             points.iter().map(pick).fold(0.0f64, |m, v| m.max(v.abs()))
         };
         println!(

@@ -37,7 +37,14 @@ pub fn info(args: &LensInfoArgs) -> Result<()> {
         return print_json(&info);
     }
     let f = &info.first_order;
-    println!("{}", if info.name.is_empty() { &args.lens.lens } else { &info.name });
+    println!(
+        "{}",
+        if info.name.is_empty() {
+            &args.lens.lens
+        } else {
+            &info.name
+        }
+    );
     let rows: [(&str, String); 16] = [
         ("surfaces (incl. image)", info.surfaces.to_string()),
         ("stop surface", info.stop_surface_number.to_string()),
@@ -50,7 +57,10 @@ pub fn info(args: &LensInfoArgs) -> Result<()> {
         ("exit pupil z (mm)", or_dash(f.exit_pupil_z_mm, 6)),
         ("exit pupil diameter (mm)", or_dash(f.exit_pupil_diameter_mm, 6)),
         ("F/# (EFL/EPD)", format!("{:.4}", f.f_number)),
-        ("paraxial working F/#", format!("{:.4}", f.paraxial_working_f_number)),
+        (
+            "paraxial working F/#",
+            format!("{:.4}", f.paraxial_working_f_number),
+        ),
         ("working F/# (real)", or_dash(info.working_f_number, 4)),
         ("total track (mm)", format!("{:.6}", f.total_track_mm)),
         ("Petzval sum (1/mm)", format!("{:.6e}", f.petzval_sum_per_mm)),
@@ -59,7 +69,10 @@ pub fn info(args: &LensInfoArgs) -> Result<()> {
     for (label, value) in rows {
         println!("  {label:<26} {value}");
     }
-    println!("  {:<12} {:>16} {:>16} {:>14}", "field (deg)", "paraxial y (mm)", "real y (mm)", "distortion %");
+    println!(
+        "  {:<12} {:>16} {:>16} {:>14}",
+        "field (deg)", "paraxial y (mm)", "real y (mm)", "distortion %"
+    );
     for d in &info.distortion {
         println!(
             "  {:<12.4} {:>16.6} {:>16.6} {:>14.4}",

@@ -38,8 +38,16 @@ pub(crate) fn fields_and_wavelengths(
     fields_deg: &[f64],
     wavelengths_um: &[f64],
 ) -> Result<(Vec<f64>, Vec<f64>)> {
-    let fields = if fields_deg.is_empty() { lens.first_order()?.field_angles_deg } else { fields_deg.to_vec() };
-    let wavelengths = if wavelengths_um.is_empty() { lens.wavelengths_um() } else { wavelengths_um.to_vec() };
+    let fields = if fields_deg.is_empty() {
+        lens.first_order()?.field_angles_deg
+    } else {
+        fields_deg.to_vec()
+    };
+    let wavelengths = if wavelengths_um.is_empty() {
+        lens.wavelengths_um()
+    } else {
+        wavelengths_um.to_vec()
+    };
     if let Some(bad) = wavelengths.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
         anyhow::bail!("--wavelength-um {bad}: must be positive");
     }

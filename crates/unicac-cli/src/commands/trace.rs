@@ -32,7 +32,9 @@ pub fn run(args: &TraceArgs) -> Result<()> {
     let wavelength_um = args.wavelength_um.unwrap_or_else(|| lens.primary_wavelength_um());
     let ray = match (args.ray, args.field_deg, args.pupil) {
         (Some(r), _, _) => Ray::new([r[0], r[1], r[2]], [r[3], r[4], r[5]]),
-        (None, Some(field), Some([px, py])) => Aimer::new(&lens, wavelength_um, args.aim)?.ray(field, px, py)?,
+        (None, Some(field), Some([px, py])) => {
+            Aimer::new(&lens, wavelength_um, args.aim)?.ray(field, px, py)?
+        }
         _ => bail!("give either --ray=X,Y,Z,L,M,N or --field-deg F with --pupil PX,PY"),
     };
     let system = TraceSystem::new(&lens, wavelength_um, Clipping::Apertures)?;

@@ -9,7 +9,12 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<LensSpec> {
     serde_json::from_slice(bytes).map_err(|e| OpticsError::Parse {
         path: path.to_path_buf(),
         location: format!("{}:{}", e.line(), e.column()),
-        message: e.to_string().split(" at line ").next().unwrap_or_default().to_string(),
+        message: e
+            .to_string()
+            .split(" at line ")
+            .next()
+            .unwrap_or_default()
+            .to_string(),
     })
 }
 

@@ -18,11 +18,19 @@ pub struct LoadedSpec {
 
 /// Reads a `.json` or `.zmx` lens file into its spec.
 pub fn read_spec(path: &Path) -> Result<LoadedSpec> {
-    let bytes = std::fs::read(path).map_err(|source| OpticsError::Io { path: path.to_path_buf(), source })?;
+    let bytes = std::fs::read(path).map_err(|source| OpticsError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
     match extension(path).as_str() {
-        "json" => Ok(LoadedSpec { spec: json::parse(&bytes, path)?, warnings: Vec::new() }),
+        "json" => Ok(LoadedSpec {
+            spec: json::parse(&bytes, path)?,
+            warnings: Vec::new(),
+        }),
         "zmx" => zmx::parse(&bytes, path),
-        _ => Err(OpticsError::UnknownFormat { path: path.to_path_buf() }),
+        _ => Err(OpticsError::UnknownFormat {
+            path: path.to_path_buf(),
+        }),
     }
 }
 
@@ -31,7 +39,11 @@ pub fn write_spec(spec: &LensSpec, path: &Path) -> Result<()> {
     let text = match extension(path).as_str() {
         "json" => json::to_string(spec),
         "zmx" => zmx::to_string(spec),
-        _ => return Err(OpticsError::UnknownFormat { path: path.to_path_buf() }),
+        _ => {
+            return Err(OpticsError::UnknownFormat {
+                path: path.to_path_buf(),
+            })
+        }
     };
     crate::io::write_atomically(path, text.as_bytes())
 }
@@ -40,14 +52,17 @@ pub fn write_spec(spec: &LensSpec, path: &Path) -> Result<()> {
 pub fn load_lens(path: &Path) -> Result<(Lens, Vec<String>)> {
     let loaded = read_spec(path)?;
     let lens = Lens::from_spec(&loaded.spec).map_err(|e| match e {
-        OpticsError::InvalidLens { field, message } => {
-            OpticsError::InvalidLens { field: format!("{}: {field}", path.display()), message }
-        }
+        OpticsError::InvalidLens { field, message } => OpticsError::InvalidLens {
+            field: format!("{}: {field}", path.display()),
+            message,
+        },
         other => other,
     })?;
     Ok((lens, loaded.warnings))
 }
 
 fn extension(path: &Path) -> String {
-    path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default()
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
 }

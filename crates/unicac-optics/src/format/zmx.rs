@@ -41,7 +41,13 @@ fn decode(bytes: &[u8]) -> String {
     let utf16 = |le: bool, body: &[u8]| {
         let units: Vec<u16> = body
             .chunks_exact(2)
-            .map(|p| if le { u16::from_le_bytes([p[0], p[1]]) } else { u16::from_be_bytes([p[0], p[1]]) })
+            .map(|p| {
+                if le {
+                    u16::from_le_bytes([p[0], p[1]])
+                } else {
+                    u16::from_be_bytes([p[0], p[1]])
+                }
+            })
             .collect();
         String::from_utf16_lossy(&units)
     };
@@ -101,7 +107,11 @@ impl<'a> Reader<'a> {
     }
 
     fn error(&self, line: usize, message: impl Into<String>) -> OpticsError {
-        OpticsError::Parse { path: self.path.to_path_buf(), location: line.to_string(), message: message.into() }
+        OpticsError::Parse {
+            path: self.path.to_path_buf(),
+            location: line.to_string(),
+            message: message.into(),
+        }
     }
 
     fn number(&self, line: usize, token: Option<&str>, what: &str) -> Result<f64> {
@@ -109,7 +119,9 @@ impl<'a> Reader<'a> {
         if token.eq_ignore_ascii_case("INFINITY") {
             return Ok(f64::INFINITY);
         }
-        token.parse::<f64>().map_err(|_| self.error(line, format!("{what}: '{token}' is not a number")))
+        token
+            .parse::<f64>()
+            .map_err(|_| self.error(line, format!("{what}: '{token}' is not a number")))
     }
 
     fn numbers(&self, line: usize, tokens: &[&str], what: &str) -> Result<Vec<f64>> {
@@ -133,7 +145,8 @@ impl<'a> Reader<'a> {
         match keyword {
             "" => {}
             "MODE" if !rest.eq_ignore_ascii_case("SEQ") => {
-                self.unsupported.insert(format!("MODE {rest} (only sequential mode)"));
+                self.unsupported
+                    .insert(format!("MODE {rest} (only sequential mode)"));
             }
             "MODE" => {}
             "NAME" => self.name = rest.to_string(),
@@ -143,11 +156,24 @@ impl<'a> Reader<'a> {
                 }
             }
             "UNIT" if tokens.first().is_some_and(|u| !u.eq_ignore_ascii_case("MM")) => {
-                self.unsupported.insert(format!("UNIT {} (only MM lens units)", tokens[0]));
+                self.unsupported
+                    .insert(format!("UNIT {} (only MM lens units)", tokens[0]));
             }
             "UNIT" => {}
-            "ENPD" => self.aperture = Some(ApertureSpec::EntrancePupilDiameterMm(self.number(n, tokens.first().copied(), "ENPD")?)),
-            "FNUM" => self.aperture = Some(ApertureSpec::FNumber(self.number(n, tokens.first().copied(), "FNUM")?)),
+            "ENPD" => {
+                self.aperture = Some(ApertureSpec::EntrancePupilDiameterMm(self.number(
+                    n,
+                    tokens.first().copied(),
+                    "ENPD",
+                )?))
+            }
+            "FNUM" => {
+                self.aperture = Some(ApertureSpec::FNumber(self.number(
+                    n,
+                    tokens.first().copied(),
+                    "FNUM",
+                )?))
+            }
             "FLOA" => self.aperture = Some(ApertureSpec::FloatByStopSize),
             "OBNA" | "OBSC" if keyword == "OBNA" => {
                 self.unsupported.insert("OBNA (object-space NA aperture)".into());
@@ -169,14 +195,20 @@ impl<'a> Reader<'a> {
             "FWGN" | "FWGT" => self.field_weights = self.numbers(n, &tokens, keyword)?,
             "VDXN" | "VDYN" | "VCXN" | "VCYN" | "VANN" => {
                 if self.numbers(n, &tokens, keyword)?.iter().any(|v| *v != 0.0) {
-                    self.warnings.insert(format!("{keyword} (vignetting factors ignored)"));
+                    self.warnings
+                        .insert(format!("{keyword} (vignetting factors ignored)"));
                 }
             }
             "WAVM" => {
                 let values = self.numbers(n, &tokens, "WAVM")?;
                 if let [index, wavelength, weight, ..] = values[..] {
-                    self.wavelengths
-                        .push((index as usize, WavelengthSpec { wavelength_um: wavelength, weight }));
+                    self.wavelengths.push((
+                        index as usize,
+                        WavelengthSpec {
+                            wavelength_um: wavelength,
+                            weight,
+                        },
+                    ));
                 }
             }
             "WAVL" => self.old_wavelengths = self.numbers(n, &tokens, "WAVL")?,
@@ -218,7 +250,10 @@ impl<'a> Reader<'a> {
                 let values = self.numbers(n, &tokens, "PARM")?;
                 if let [index, value, ..] = values[..] {
                     self.current(n, keyword)?;
-                    self.parms.last_mut().expect("a surface").push((index as usize, value));
+                    self.parms
+                        .last_mut()
+                        .expect("a surface")
+                        .push((index as usize, value));
                 }
             }
             "DIAM" => {
@@ -237,9 +272,11 @@ impl<'a> Reader<'a> {
             "DECX" | "DECY" | "TILT" | "SQAP" | "ELAP" | "OBSC" | "CLAP" | "FLAP_" => {
                 let values = self.numbers(n, &tokens, keyword).unwrap_or_default();
                 if keyword == "CLAP" {
-                    self.unsupported.insert("CLAP (circular aperture; use DIAM)".into());
+                    self.unsupported
+                        .insert("CLAP (circular aperture; use DIAM)".into());
                 } else if values.iter().any(|v| *v != 0.0) {
-                    self.unsupported.insert(format!("{keyword} (decentres, tilts and special apertures)"));
+                    self.unsupported
+                        .insert(format!("{keyword} (decentres, tilts and special apertures)"));
                 }
             }
             k if IGNORED.contains(&k) => {}
@@ -254,7 +291,8 @@ impl<'a> Reader<'a> {
         match tokens.first().copied() {
             None => Ok(None),
             Some("MIRROR") => {
-                self.unsupported.insert("GLAS MIRROR (reflective surfaces)".into());
+                self.unsupported
+                    .insert("GLAS MIRROR (reflective surfaces)".into());
                 Ok(None)
             }
             Some("___BLANK") => {
@@ -268,11 +306,17 @@ impl<'a> Reader<'a> {
 
     fn finish(mut self) -> Result<LoadedSpec> {
         if self.surfaces.len() < 3 {
-            return Err(self.error(0, "need an object surface, at least one surface and the image surface"));
+            return Err(self.error(
+                0,
+                "need an object surface, at least one surface and the image surface",
+            ));
         }
         if !self.unsupported.is_empty() {
             let features: Vec<String> = self.unsupported.into_iter().collect();
-            return Err(OpticsError::UnsupportedZemax { path: self.path.to_path_buf(), features: features.join("; ") });
+            return Err(OpticsError::UnsupportedZemax {
+                path: self.path.to_path_buf(),
+                features: features.join("; "),
+            });
         }
         for (surface, parms) in self.surfaces.iter_mut().zip(&self.parms) {
             if surface.surface_type == SurfaceType::EvenAsphere {
@@ -342,7 +386,15 @@ impl<'a> Reader<'a> {
                 .iter()
                 .enumerate()
                 .filter(|(_, w)| **w > 0.0)
-                .map(|(i, w)| (i + 1, WavelengthSpec { wavelength_um: *w, weight: self.old_weights.get(i).copied().unwrap_or(1.0) }))
+                .map(|(i, w)| {
+                    (
+                        i + 1,
+                        WavelengthSpec {
+                            wavelength_um: *w,
+                            weight: self.old_weights.get(i).copied().unwrap_or(1.0),
+                        },
+                    )
+                })
                 .collect();
         }
         list.sort_by_key(|(i, _)| *i);
@@ -363,7 +415,10 @@ pub fn to_string(spec: &LensSpec) -> String {
     line("MODE SEQ".into());
     line(format!("NAME {}", spec.name));
     if !spec.provenance.is_empty() {
-        line(format!("NOTE 0 unicac:provenance {}", serde_json::to_string(&spec.provenance).expect("string")));
+        line(format!(
+            "NOTE 0 unicac:provenance {}",
+            serde_json::to_string(&spec.provenance).expect("string")
+        ));
     }
     line("UNIT MM X W X CM MR CPMM".into());
     match spec.aperture {
@@ -375,7 +430,11 @@ pub fn to_string(spec: &LensSpec) -> String {
         FieldSpec::AnglesDeg(v) => (0, v),
         FieldSpec::ImageHeightsMm(v) => (2, v),
     };
-    line(format!("FTYP {field_type} 0 {} {} 0 0 0", values.len(), spec.wavelengths.len()));
+    line(format!(
+        "FTYP {field_type} 0 {} {} 0 0 0",
+        values.len(),
+        spec.wavelengths.len()
+    ));
     line(format!("XFLN {}", join(&vec![0.0; values.len()])));
     line(format!("YFLN {}", join(values)));
     if let Some(weights) = &spec.field_weights {
@@ -426,7 +485,9 @@ fn write_surface(s: &SurfaceSpec, line: &mut impl FnMut(String)) {
             let bare = name.split_once(':').map_or(name.as_str(), |(_, g)| g);
             line(format!("  GLAS {bare} 0 0 0 0 0 0 0 0 0 0"));
         }
-        Some(MaterialSpec::Model { nd, vd }) => line(format!("  GLAS ___BLANK 1 0 {nd:?} {vd:?} 0 0 0 0 0 0")),
+        Some(MaterialSpec::Model { nd, vd }) => {
+            line(format!("  GLAS ___BLANK 1 0 {nd:?} {vd:?} 0 0 0 0 0 0"))
+        }
     }
     if let Some(sd) = s.semi_diameter_mm {
         line(format!("  DIAM {sd:?} 1 0 0 1 \"\""));

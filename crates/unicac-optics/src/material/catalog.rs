@@ -52,7 +52,12 @@ const SHIPPED: [&str; 3] = [
 /// All shipped catalogues in search order: SCHOTT, CDGM, OHARA.
 pub fn shipped_catalogs() -> &'static [Catalog] {
     static CATALOGS: OnceLock<Vec<Catalog>> = OnceLock::new();
-    CATALOGS.get_or_init(|| SHIPPED.iter().map(|text| parse_catalog(text).expect("shipped catalogue")).collect())
+    CATALOGS.get_or_init(|| {
+        SHIPPED
+            .iter()
+            .map(|text| parse_catalog(text).expect("shipped catalogue"))
+            .collect()
+    })
 }
 
 fn parse_catalog(text: &str) -> serde_json::Result<Catalog> {
@@ -65,7 +70,10 @@ fn parse_catalog(text: &str) -> serde_json::Result<Catalog> {
             Arc::new(g)
         })
         .collect();
-    Ok(Catalog { name: file.catalog, glasses })
+    Ok(Catalog {
+        name: file.catalog,
+        glasses,
+    })
 }
 
 /// Finds a glass by name, case-insensitively. `name` may be qualified as `CATALOG:NAME`. `search_order`
@@ -87,14 +95,17 @@ pub fn find_glass(name: &str, search_order: &[String]) -> Result<Arc<Glass>> {
         })
 }
 
-fn ordered_catalogs<'a>(only: Option<&str>, search_order: &[String]) -> Vec<&'static Catalog> {
+fn ordered_catalogs(only: Option<&str>, search_order: &[String]) -> Vec<&'static Catalog> {
     let all = shipped_catalogs();
     let wanted: Vec<&str> = match only {
         Some(one) => vec![one],
         None if search_order.is_empty() => all.iter().map(|c| c.name.as_str()).collect(),
         None => search_order.iter().map(String::as_str).collect(),
     };
-    wanted.iter().filter_map(|w| all.iter().find(|c| c.name.eq_ignore_ascii_case(w))).collect()
+    wanted
+        .iter()
+        .filter_map(|w| all.iter().find(|c| c.name.eq_ignore_ascii_case(w)))
+        .collect()
 }
 
 fn nearest_names(name: &str, catalogs: &[&Catalog], count: usize) -> Vec<String> {
@@ -102,7 +113,12 @@ fn nearest_names(name: &str, catalogs: &[&Catalog], count: usize) -> Vec<String>
     let mut scored: Vec<(f64, String)> = catalogs
         .iter()
         .flat_map(|c| c.glasses.iter())
-        .map(|g| (strsim::jaro_winkler(&upper, &g.name.to_ascii_uppercase()), g.qualified_name()))
+        .map(|g| {
+            (
+                strsim::jaro_winkler(&upper, &g.name.to_ascii_uppercase()),
+                g.qualified_name(),
+            )
+        })
         .collect();
     scored.sort_by(|a, b| b.0.total_cmp(&a.0).then_with(|| a.1.cmp(&b.1)));
     scored.into_iter().take(count).map(|(_, n)| n).collect()
@@ -132,12 +148,24 @@ mod tests {
     fn every_shipped_glass_has_a_supported_formula_and_finite_visible_index() {
         let mut count = 0;
         for glass in shipped_catalogs().iter().flat_map(|c| c.glasses.iter()) {
-            assert!(Formula::SUPPORTED.contains(&glass.formula.formula), "{}", glass.name);
+            assert!(
+                Formula::SUPPORTED.contains(&glass.formula.formula),
+                "{}",
+                glass.name
+            );
             let [lo, hi] = glass.wavelength_range_um;
             // Visible mid-band, or the middle of the data range for infrared-only glasses.
-            let probe = if lo <= 0.55 && hi >= 0.55 { 0.55 } else { 0.5 * (lo + hi) };
+            let probe = if lo <= 0.55 && hi >= 0.55 {
+                0.55
+            } else {
+                0.5 * (lo + hi)
+            };
             let n = glass.index(probe);
-            assert!(n.is_finite() && n > 1.0 && n < 4.5, "{} n = {n}", glass.qualified_name());
+            assert!(
+                n.is_finite() && n > 1.0 && n < 4.5,
+                "{} n = {n}",
+                glass.qualified_name()
+            );
             count += 1;
         }
         assert!(count > 300, "only {count} glasses shipped");

@@ -25,7 +25,9 @@ impl Formula {
         let l2 = l * l;
         // Pairs (C_{2i}, C_{2i+1}) for i = 1.. starting at coefficient index `first` (1-based).
         let pairs = |first: usize| {
-            (first..=self.coefficients.len()).step_by(2).map(move |i| (c(i), c(i + 1)))
+            (first..=self.coefficients.len())
+                .step_by(2)
+                .map(move |i| (c(i), c(i + 1)))
         };
         match self.formula {
             1 => (1.0 + c(1) + pairs(2).map(|(b, k)| b * l2 / (l2 - k * k)).sum::<f64>()).sqrt(),
@@ -79,7 +81,15 @@ mod tests {
         // SCHOTT datasheet N-BK7: B1..B3, C1..C3; nd = 1.51680, nF = 1.52238, nC = 1.51432.
         let bk7 = Formula {
             formula: 2,
-            coefficients: vec![0.0, 1.03961212, 0.00600069867, 0.231792344, 0.0200179144, 1.01046945, 103.560653],
+            coefficients: vec![
+                0.0,
+                1.03961212,
+                0.00600069867,
+                0.231792344,
+                0.0200179144,
+                1.01046945,
+                103.560653,
+            ],
         };
         assert!((bk7.index(LINE_D_UM) - 1.51680).abs() < 5e-6);
         assert!((bk7.index(LINE_F_UM) - 1.52238).abs() < 5e-6);
@@ -88,8 +98,14 @@ mod tests {
 
     #[test]
     fn formula_1_and_2_agree_when_poles_are_squared() {
-        let f1 = Formula { formula: 1, coefficients: vec![0.0, 1.0, 0.1, 0.5, 3.0] };
-        let f2 = Formula { formula: 2, coefficients: vec![0.0, 1.0, 0.01, 0.5, 9.0] };
+        let f1 = Formula {
+            formula: 1,
+            coefficients: vec![0.0, 1.0, 0.1, 0.5, 3.0],
+        };
+        let f2 = Formula {
+            formula: 2,
+            coefficients: vec![0.0, 1.0, 0.01, 0.5, 9.0],
+        };
         assert!((f1.index(0.55) - f2.index(0.55)).abs() < 1e-15);
     }
 

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs what unicac needs on a fresh Debian 12 machine and checks the Rust toolchain.
+# Idempotent: apt runs only when a package is missing. Sourced by demo.sh and test.sh.
+set -euo pipefail
+
+APT_PACKAGES=(pkg-config libfontconfig1-dev libfreetype-dev fonts-dejavu-core)
+MIN_RUST_MINOR=87   # workspace rust-version 1.87
+
+missing=()
+for package in "${APT_PACKAGES[@]}"; do
+  dpkg -s "$package" >/dev/null 2>&1 || missing+=("$package")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]} (apt)"
+  if [ "$(id -u)" -ne 0 ]; then SUDO=sudo; else SUDO=; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+if ! command -v cargo >/dev/null 2>&1; then
+  [ -x "$HOME/.cargo/bin/cargo" ] && export PATH="$HOME/.cargo/bin:$PATH"
+fi
+if ! command -v cargo >/dev/null 2>&1; then
+  echo "setup: cargo not found; install Rust 1.$MIN_RUST_MINOR or newer (https://rustup.rs) and retry" >&2
+  exit 1
+fi
+minor=$(rustc --version | sed -E 's/rustc 1\.([0-9]+).*/\1/')
+if [ "$minor" -lt "$MIN_RUST_MINOR" ]; then
+  echo "setup: rustc 1.$minor is too old; unicac needs 1.$MIN_RUST_MINOR or newer" >&2
+  exit 1
+fi

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Sets up and runs every check: formatting, clippy (warnings are errors) and all tests.
+# Test binaries are built with optimisation (profile.test in Cargo.toml).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+source scripts/setup.sh
+cargo fmt --all -- --check
+cargo clippy --workspace --all-targets --quiet -- -D warnings
+cargo test --workspace --quiet 2>&1 | tee /tmp/unicac-test.log
+# One closing line with the totals over every test binary.
+awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i; if ($(i+1) ~ /^ignored/) s += $i } }
+     END { printf "unicac: %d passed, %d failed, %d skipped\n", p, f, s; exit (f > 0) }' /tmp/unicac-test.log
