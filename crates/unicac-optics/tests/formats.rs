@@ -189,11 +189,17 @@ fn the_json_schema_names_every_key_the_writer_emits() {
     for name in examples::names() {
         let value = serde_json::to_value(examples::spec(name).unwrap()).unwrap();
         for key in value.as_object().unwrap().keys() {
-            assert!(top.contains_key(key), "{name}: top-level key {key} missing from the schema");
+            assert!(
+                top.contains_key(key),
+                "{name}: top-level key {key} missing from the schema"
+            );
         }
         for s in value["surfaces"].as_array().unwrap() {
             for key in s.as_object().unwrap().keys() {
-                assert!(surface.contains_key(key), "{name}: surface key {key} missing from the schema");
+                assert!(
+                    surface.contains_key(key),
+                    "{name}: surface key {key} missing from the schema"
+                );
             }
         }
     }
