@@ -79,7 +79,7 @@ pub struct TraceArgs {
     #[arg(long, default_value = "paraxial", value_parser = parse_aiming)]
     pub aim: Aiming,
     /// Wavelength (um); default: the lens's primary wavelength.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub wavelength_um: Option<f64>,
     /// Also report the point on every surface.
     #[arg(long)]
@@ -96,7 +96,7 @@ pub struct SpotArgs {
     #[arg(long = "field-deg", allow_hyphen_values = true)]
     pub fields_deg: Vec<f64>,
     /// Wavelengths (um); default: the lens's wavelengths.
-    #[arg(long = "wavelength-um")]
+    #[arg(long = "wavelength-um", allow_hyphen_values = true)]
     pub wavelengths_um: Vec<f64>,
     #[arg(long, default_value = "paraxial", value_parser = parse_aiming)]
     pub aim: Aiming,
@@ -116,7 +116,7 @@ pub struct FanArgs {
     pub lens: LensArg,
     #[arg(long = "field-deg", allow_hyphen_values = true)]
     pub fields_deg: Vec<f64>,
-    #[arg(long = "wavelength-um")]
+    #[arg(long = "wavelength-um", allow_hyphen_values = true)]
     pub wavelengths_um: Vec<f64>,
     #[arg(long, default_value = "paraxial", value_parser = parse_aiming)]
     pub aim: Aiming,

@@ -96,11 +96,13 @@ impl Profile {
         self.conic_sag(rho) + self.polynomial(rho).0
     }
 
-    /// Sag and ds/drho together.
+    /// Sag and ds/drho together (one square root for both).
     #[inline]
     pub fn sag_and_slope(&self, rho: f64) -> (f64, f64) {
         let (poly, poly_slope) = self.polynomial(rho);
-        (self.conic_sag(rho) + poly, self.conic_slope_rho(rho) + poly_slope)
+        let c = self.curvature_per_mm;
+        let root = (1.0 - (1.0 + self.conic) * c * c * rho).sqrt();
+        (c * rho / (1.0 + root) + poly, c / (2.0 * root) + poly_slope)
     }
 }
 

@@ -3,7 +3,7 @@
 //! half on axis and half at the largest field, uniform over the paraxial entrance pupil, primary
 //! wavelength, paraxial aiming), timed on 1 and on 2 threads (median of 5 runs after one warm-up).
 //!
-//! Run: cargo run --release -p unicac-trace --example throughput
+//! Run: cargo run --release -p unicac-trace --example throughput [LENS...]
 
 use std::time::Instant;
 use unicac_optics::examples;
@@ -53,7 +53,11 @@ fn median_seconds(system: &TraceSystem, rays: &[Ray], threads: usize) -> (f64, u
 }
 
 fn main() {
-    for name in ["cooke_triplet", "phone_asphere"] {
+    let only: Vec<String> = std::env::args().skip(1).collect();
+    for name in ["cooke_triplet", "phone_asphere"]
+        .into_iter()
+        .filter(|n| only.is_empty() || only.iter().any(|o| o == n))
+    {
         let lens = examples::lens(name).unwrap();
         let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
         let rays = rays_for(&lens);

@@ -1,0 +1,245 @@
+//! The CLI contracts of issue 2, exercised through the real binary: the JSON keys outside checks read,
+//! agreement with the reference tools, and clear errors for bad input.
+
+use serde_json::Value;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn unicac(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_unicac"))
+        .args(args)
+        .output()
+        .expect("run unicac")
+}
+
+fn json(args: &[&str]) -> Value {
+    let out = unicac(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{args:?}: {e}"))
+}
+
+fn repo(path: &str) -> String {
+    format!("{}/../../{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("unicac-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn reference_first_order(lens: &str) -> Value {
+    let text = std::fs::read_to_string(repo(&format!("tests/reference/optiland/{lens}.json"))).unwrap();
+    serde_json::from_str::<Value>(&text).unwrap()["first_order"].clone()
+}
+
+#[test]
+fn lens_info_json_has_the_contract_keys_and_matches_optiland() {
+    let info = json(&["lens", "info", &repo("lenses/double_gauss.json"), "--json"]);
+    let reference = reference_first_order("double_gauss");
+    for key in [
+        "efl_mm",
+        "bfl_mm",
+        "epd_mm",
+        "f_number",
+        "total_track_mm",
+        "entrance_pupil_z_mm",
+    ] {
+        let ours = info[key].as_f64().unwrap_or_else(|| panic!("missing {key}"));
+        let theirs = reference[key].as_f64().unwrap();
+        assert!(
+            (ours - theirs).abs() <= 1e-9 * theirs.abs().max(1.0),
+            "{key}: {ours} vs {theirs}"
+        );
+    }
+}
+
+#[test]
+fn explicit_ray_json_reports_the_image_intercept() {
+    let out = json(&[
+        "trace",
+        &repo("lenses/cooke_triplet.json"),
+        "--ray=0,2,-5,0,0,1",
+        "--wavelength-um",
+        "0.5875618",
+        "--json",
+    ]);
+    assert_eq!(out["status"], "ok");
+    assert!(out["x_mm"].as_f64().unwrap().abs() < 1e-12);
+    let y = out["y_mm"].as_f64().unwrap();
+    assert!(y.is_finite() && y.abs() < 1.0, "{y}");
+    let negative = json(&[
+        "trace",
+        "builtin:cooke_triplet",
+        "--ray=0,-2,-5,0,0,1",
+        "--wavelength-um",
+        "0.5875618",
+        "--json",
+    ]);
+    assert!(
+        (negative["y_mm"].as_f64().unwrap() + y).abs() < 1e-12,
+        "rotational symmetry"
+    );
+}
+
+#[test]
+fn aimed_rays_follow_the_reference_definition() {
+    // The chief ray of 14 deg, paraxially aimed, against optiland's recorded intercept.
+    let text = std::fs::read_to_string(repo("tests/reference/optiland/cooke_triplet.json")).unwrap();
+    let reference: Value = serde_json::from_str(&text).unwrap();
+    let ray = reference["rays"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| {
+            r["field_deg"] == 14.0
+                && r["pupil"] == serde_json::json!([0.7, 0.7])
+                && r["wavelength_um"] == 0.5875618
+        })
+        .expect("reference ray");
+    let out = json(&[
+        "trace",
+        "builtin:cooke_triplet",
+        "--field-deg",
+        "14",
+        "--pupil",
+        "0.7,0.7",
+        "--aim",
+        "paraxial",
+        "--wavelength-um",
+        "0.5875618",
+        "--json",
+    ]);
+    assert!((out["y_mm"].as_f64().unwrap() - ray["y_mm"].as_f64().unwrap()).abs() < 1e-9);
+    assert!((out["x_mm"].as_f64().unwrap() - ray["x_mm"].as_f64().unwrap()).abs() < 1e-9);
+    let real = json(&[
+        "trace",
+        "builtin:cooke_triplet",
+        "--field-deg",
+        "-14",
+        "--pupil",
+        "-0.5,0.2",
+        "--aim",
+        "real",
+        "--json",
+    ]);
+    assert_eq!(real["status"], "ok");
+}
+
+#[test]
+fn spot_json_lists_one_entry_per_field_and_wavelength() {
+    let out = json(&[
+        "spot",
+        "builtin:cooke_triplet",
+        "--field-deg",
+        "0",
+        "--field-deg",
+        "20",
+        "--wavelength-um",
+        "0.5875618",
+        "--wavelength-um",
+        "0.6562725",
+        "--pupil-sampling",
+        "hexapolar:6",
+        "--json",
+    ]);
+    let spots = out["spots"].as_array().unwrap();
+    assert_eq!(spots.len(), 4);
+    for key in [
+        "field_deg",
+        "wavelength_um",
+        "rms_radius_um",
+        "centroid_x_mm",
+        "centroid_y_mm",
+        "rays_traced",
+        "rays_ok",
+    ] {
+        assert!(spots.iter().all(|s| !s[key].is_null()), "{key}");
+    }
+    assert_eq!(spots[0]["rays_traced"], 127);
+    for sampling in ["grid:20", "fibonacci:300", "random:500"] {
+        let out = json(&[
+            "spot",
+            "builtin:phone_asphere",
+            "--field-deg",
+            "28",
+            "--pupil-sampling",
+            sampling,
+            "--aim",
+            "real",
+            "--json",
+        ]);
+        assert!(
+            out["spots"][0]["rms_radius_um"].as_f64().unwrap() > 0.0,
+            "{sampling}"
+        );
+    }
+}
+
+#[test]
+fn zmx_files_work_wherever_a_lens_is_expected() {
+    let zmx = scratch("petzval.zmx");
+    let out = unicac(&[
+        "lens",
+        "convert",
+        &repo("lenses/petzval.json"),
+        zmx.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    let from_zmx = json(&["lens", "info", zmx.to_str().unwrap(), "--json"]);
+    let from_json = json(&["lens", "info", "builtin:petzval", "--json"]);
+    assert_eq!(from_zmx["efl_mm"], from_json["efl_mm"]);
+}
+
+#[test]
+fn plots_are_written() {
+    for (command, file) in [("layout", "l.svg"), ("spot", "s.png"), ("fan", "f.png")] {
+        let path = scratch(file);
+        let out = unicac(&[command, "builtin:singlet", "--plot", path.to_str().unwrap()]);
+        assert!(
+            out.status.success(),
+            "{command}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(std::fs::metadata(&path).unwrap().len() > 1000, "{command}");
+    }
+}
+
+#[test]
+fn bad_input_gives_one_clear_error_line() {
+    let cases: [(&[&str], &str); 5] = [
+        (&["lens", "info", "/no/such/lens.json"], "/no/such/lens.json"),
+        (&["lens", "info", "builtin:nope"], "no bundled lens 'nope'"),
+        (
+            &["spot", "builtin:singlet", "--pupil-sampling", "spiral:3"],
+            "spiral:3",
+        ),
+        (
+            &["trace", "builtin:singlet", "--ray=0,0,0,0,0,0"],
+            "must not be zero",
+        ),
+        (
+            &["spot", "builtin:singlet", "--wavelength-um", "-1"],
+            "--wavelength-um -1",
+        ),
+    ];
+    for (args, expected) in cases {
+        let out = unicac(args);
+        assert!(!out.status.success(), "{args:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+    let bad = scratch("bad.json");
+    std::fs::write(&bad, "{\"format_version\": 1, \"aperture\": {\"f_number\": 4}, \"fields\": {\"angles_deg\": [0]}, \"wavelengths\": [{\"wavelength_um\": 0.55}], \"surfaces\": [{\"thickness_mm\": 2, \"material\": \"N-BK8\"}, {}]}").unwrap();
+    let out = unicac(&["lens", "info", bad.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("unknown glass 'N-BK8'") && stderr.contains("N-BK7"),
+        "{stderr}"
+    );
+}
