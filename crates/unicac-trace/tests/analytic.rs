@@ -266,3 +266,91 @@ fn to_spec(lens: &Lens) -> LensSpec {
         .collect();
     spec
 }
+
+#[test]
+fn finite_object_images_by_the_gaussian_lens_formula() {
+    // Near-thin lens f = 100 mm, object 150 mm in front: image 300 mm behind, magnification -2.
+    let (n, f) = (1.5, 100.0);
+    let r = 2.0 * f * (n - 1.0);
+    let lens = lens(&format!(
+        r#"{{"format_version": 1, "object_distance_mm": 150.0, "aperture": {{"entrance_pupil_diameter_mm": 2.0}},
+        "fields": {{"angles_deg": [0.0]}}, "wavelengths": [{{"wavelength_um": {D_LINE}}}],
+        "surfaces": [
+          {{"radius_mm": {r}, "thickness_mm": 1e-9, "material": {{"nd": {n}, "vd": 60.0}}, "stop": true}},
+          {{"radius_mm": {}, "thickness_mm": 300.0}},
+          {{"thickness_mm": 0.0}}]}}"#,
+        -r
+    ));
+    let first = lens.first_order().unwrap();
+    assert!(
+        (first.paraxial_image_z_mm - 300.0).abs() < 1e-6,
+        "{}",
+        first.paraxial_image_z_mm
+    );
+    assert!(
+        (first.magnification + 2.0).abs() < 1e-8,
+        "{}",
+        first.magnification
+    );
+    // A paraxially small real ray from the axial object point lands on the axis at the image.
+    let aimer = Aimer::new(&lens, D_LINE, Aiming::Paraxial).unwrap();
+    let system = TraceSystem::new(&lens, D_LINE, Clipping::None).unwrap();
+    let mut ray = aimer.ray(0.0, 0.0, 0.01).unwrap();
+    assert_eq!(ray.position_mm[2], -150.0);
+    assert_eq!(system.trace(&mut ray), RayStatus::Ok);
+    assert!(ray.position_mm[1].abs() < 1e-6, "{}", ray.position_mm[1]);
+}
+
+#[test]
+fn f_number_and_floating_stop_apertures_give_the_same_pupil() {
+    use unicac_optics::spec::ApertureSpec;
+    let base = unicac_optics::examples::spec("cooke_triplet").unwrap();
+    let reference = Lens::from_spec(&base).unwrap().first_order().unwrap();
+    let mut by_f_number = base.clone();
+    by_f_number.aperture = ApertureSpec::FNumber(reference.f_number);
+    let first = Lens::from_spec(&by_f_number).unwrap().first_order().unwrap();
+    assert!(relative(first.epd_mm, reference.epd_mm) < 1e-12);
+    let mut floating = base.clone();
+    floating.aperture = ApertureSpec::FloatByStopSize;
+    let stop = Lens::from_spec(&base).unwrap().stop_index;
+    floating.surfaces[stop].semi_diameter_mm = Some(reference.stop_radius_mm);
+    let first = Lens::from_spec(&floating).unwrap().first_order().unwrap();
+    assert!(
+        relative(first.epd_mm, reference.epd_mm) < 1e-12,
+        "{}",
+        first.epd_mm
+    );
+}
+
+#[test]
+fn real_aiming_reaches_wide_fields_where_paraxial_aiming_fails() {
+    // Beyond the wide-angle lens's 30 deg design field, paraxially aimed rays miss the stop badly;
+    // real aiming still puts them exactly on the requested stop points.
+    let lens = unicac_optics::examples::lens("wide_angle").unwrap();
+    let stop = lens.stop_index;
+    let paraxial = Aimer::new(&lens, D_LINE, Aiming::Paraxial).unwrap();
+    let real = Aimer::new(&lens, D_LINE, Aiming::Real).unwrap();
+    let system = TraceSystem::new(&lens, D_LINE, Clipping::None).unwrap();
+    let r_stop = real.first_order.stop_radius_mm;
+    for field in [30.0, 40.0, 45.0] {
+        for (px, py) in [(0.0, 0.0), (0.0, 1.0), (0.0, -1.0), (1.0, 0.0)] {
+            let mut ray = paraxial.ray(field, px, py).unwrap();
+            let status = system.trace_through(&mut ray, stop, false);
+            let paraxial_error = if status.is_ok() {
+                (ray.position_mm[0] - px * r_stop).hypot(ray.position_mm[1] - py * r_stop)
+            } else {
+                f64::INFINITY
+            };
+            let mut ray = real.ray(field, px, py).unwrap();
+            assert!(system.trace_through(&mut ray, stop, false).is_ok());
+            let real_error = (ray.position_mm[0] - px * r_stop).hypot(ray.position_mm[1] - py * r_stop);
+            assert!(real_error < 1e-10, "field {field} ({px},{py}): {real_error}");
+            if field >= 40.0 && (px, py) == (0.0, 0.0) {
+                assert!(
+                    paraxial_error > 0.1 * r_stop,
+                    "paraxial chief ray error {paraxial_error}"
+                );
+            }
+        }
+    }
+}
