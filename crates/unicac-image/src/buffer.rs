@@ -15,11 +15,21 @@ pub struct Planar {
 impl Planar {
     /// A zero image.
     pub fn new(width: usize, height: usize, channels: usize) -> Planar {
-        Planar { width, height, channels, data: vec![0.0; width * height * channels] }
+        Planar {
+            width,
+            height,
+            channels,
+            data: vec![0.0; width * height * channels],
+        }
     }
 
     /// An image from per-pixel values given by `f(channel, x, y)`.
-    pub fn from_fn(width: usize, height: usize, channels: usize, f: impl Fn(usize, usize, usize) -> f32) -> Planar {
+    pub fn from_fn(
+        width: usize,
+        height: usize,
+        channels: usize,
+        f: impl Fn(usize, usize, usize) -> f32,
+    ) -> Planar {
         let mut image = Planar::new(width, height, channels);
         for c in 0..channels {
             for y in 0..height {

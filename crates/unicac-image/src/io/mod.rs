@@ -1,0 +1,162 @@
+//! Image files: PNG (8/16-bit grey, grey + alpha, RGB, RGBA), TIFF (8/16-bit, and 32-bit float on read)
+//! and OpenEXR (f16/f32/u32 on read, f32 with named channels on write), to and from [`Planar`].
+//!
+//! The codecs are the `image` crate (PNG, TIFF) and the `exr` crate (OpenEXR, which also gives named
+//! multi-channel layers); this module only picks the codec from the file's first bytes, converts samples,
+//! reports what the file was ([`LoadedImage`]) and makes every write atomic (`atomic`). Every error names
+//! the file.
+//!
+//! Sample convention: integer files come back divided by their maximum code (so in [0, 1]) and are reported
+//! as [`Encoding::Srgb`], since PNG/TIFF in this pipeline hold display-referred images; float files come
+//! back unchanged and are reported as [`Encoding::Linear`]. Writers store exactly what they are given:
+//! encode to sRGB first ([`crate::color::linear_to_srgb`]) if the file is meant for display.
+
+mod atomic;
+mod openexr;
+mod raster;
+
+use crate::error::{ImageError, Result};
+use crate::Planar;
+use raster::Raster;
+use std::path::Path;
+
+/// Container formats this module reads and writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FileFormat {
+    Png,
+    Tiff,
+    OpenExr,
+}
+
+impl FileFormat {
+    /// Human-readable name used in error messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            FileFormat::Png => "PNG",
+            FileFormat::Tiff => "TIFF",
+            FileFormat::OpenExr => "OpenEXR",
+        }
+    }
+
+    /// The format whose signature starts `bytes`: PNG (ISO/IEC 15948, 8-byte signature), TIFF (TIFF 6.0
+    /// header `II*\0` or `MM\0*`), OpenEXR (magic number 20000630 as little-endian `76 2f 31 01`).
+    pub fn sniff(bytes: &[u8]) -> Option<FileFormat> {
+        const PNG: &[u8] = b"\x89PNG\r\n\x1a\n";
+        const EXR: &[u8] = &[0x76, 0x2f, 0x31, 0x01];
+        if bytes.starts_with(PNG) {
+            Some(FileFormat::Png)
+        } else if bytes.starts_with(b"II*\0") || bytes.starts_with(b"MM\0*") {
+            Some(FileFormat::Tiff)
+        } else if bytes.starts_with(EXR) {
+            Some(FileFormat::OpenExr)
+        } else {
+            None
+        }
+    }
+}
+
+/// How the stored values relate to light.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Encoding {
+    /// sRGB transfer curve applied (IEC 61966-2-1); decode with [`crate::color::srgb_to_linear`].
+    Srgb,
+    /// Linear light (proportional to radiance).
+    Linear,
+}
+
+/// Integer sample depth for PNG and TIFF output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SampleDepth {
+    /// 8 bits per sample, codes 0..=255.
+    Eight,
+    /// 16 bits per sample, codes 0..=65535.
+    Sixteen,
+}
+
+/// A decoded file and what it was.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadedImage {
+    /// Samples in [0, 1] for integer files, as stored for float files; one plane per channel.
+    pub image: Planar,
+    pub format: FileFormat,
+    /// Bits per stored sample: 8 or 16 (integer), 16 (half float) or 32 (float / u32).
+    pub bit_depth: u8,
+    pub encoding: Encoding,
+    /// One name per plane: "Y", "R", "G", "B", "A", or the OpenEXR channel names.
+    pub channel_names: Vec<String>,
+}
+
+impl LoadedImage {
+    /// The image in linear light: colour planes of an sRGB file are decoded, an alpha plane ("A") is left
+    /// as is; a linear file is returned unchanged.
+    pub fn to_linear(&self) -> Planar {
+        let mut image = self.image.clone();
+        if self.encoding == Encoding::Srgb {
+            for (index, name) in self.channel_names.iter().enumerate() {
+                if name != "A" {
+                    crate::color::apply_srgb(image.plane_mut(index), crate::color::Transfer::Decode);
+                }
+            }
+        }
+        image
+    }
+}
+
+/// Reads a PNG, TIFF or OpenEXR file, choosing the decoder from the file's signature (not its extension).
+pub fn read_image(path: impl AsRef<Path>) -> Result<LoadedImage> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| ImageError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if bytes.is_empty() {
+        return Err(ImageError::EmptyFile {
+            path: path.to_path_buf(),
+        });
+    }
+    match FileFormat::sniff(&bytes) {
+        Some(FileFormat::Png) => raster::decode(path, &bytes, Raster::Png),
+        Some(FileFormat::Tiff) => raster::decode(path, &bytes, Raster::Tiff),
+        Some(FileFormat::OpenExr) => openexr::decode(path, &bytes),
+        None => Err(ImageError::UnknownFormat {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
+/// Writes a PNG with integer samples of `depth`; `image` has 1 (grey), 2 (grey + alpha), 3 (RGB) or 4 (RGBA)
+/// channels with values in [0, 1] (clipped; NaN is an error). Atomic: on error no file is left behind.
+pub fn write_png(path: impl AsRef<Path>, image: &Planar, depth: SampleDepth) -> Result<()> {
+    raster::encode(path.as_ref(), image, depth, Raster::Png)
+}
+
+/// Writes an uncompressed TIFF with integer samples of `depth` (16-bit for lossless intermediate images);
+/// same channel and value rules as [`write_png`]. Atomic.
+pub fn write_tiff(path: impl AsRef<Path>, image: &Planar, depth: SampleDepth) -> Result<()> {
+    raster::encode(path.as_ref(), image, depth, Raster::Tiff)
+}
+
+/// Writes a 32-bit float OpenEXR, channels named Y / Y,A / R,G,B / R,G,B,A by channel count; other channel
+/// counts need [`write_exr_channels`]. Values are stored bit-exactly (lossless ZIP). Atomic.
+pub fn write_exr(path: impl AsRef<Path>, image: &Planar) -> Result<()> {
+    let path = path.as_ref();
+    let names = openexr::default_channel_names(image.channels).ok_or_else(|| ImageError::Encode {
+        path: path.to_path_buf(),
+        format: "OpenEXR",
+        message: format!(
+            "{} channels have no default names; use write_exr_channels",
+            image.channels
+        ),
+    })?;
+    openexr::encode(path, image, names)
+}
+
+/// Writes a 32-bit float OpenEXR with one named channel per plane (e.g. a PSF stack with channels "R", "G",
+/// "B", or one per wavelength such as "psf_0450nm"). Readers list channels in name order, with Y/R/G/B/A
+/// first. Atomic.
+pub fn write_exr_channels(path: impl AsRef<Path>, image: &Planar, channel_names: &[&str]) -> Result<()> {
+    openexr::encode(path.as_ref(), image, channel_names)
+}
+
+#[cfg(test)]
+mod tests;

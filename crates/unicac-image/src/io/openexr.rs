@@ -1,0 +1,140 @@
+//! OpenEXR through the `exr` crate: the first valid layer of a file as `Planar` (any number of named
+//! channels, f16/f32/u32 samples widened to f32), and 32-bit float output with named channels, so that
+//! PSF stacks (one channel per colour or wavelength) and linear images share one format. Compression is
+//! ZIP (lossless), so f32 samples round-trip bit for bit.
+
+use super::atomic::write_atomically;
+use super::{Encoding, FileFormat, LoadedImage};
+use crate::error::{check_layout, ImageError, Result};
+use crate::Planar;
+use exr::prelude::{
+    AnyChannel, AnyChannels, FlatSamples, Image, Layer, LayerAttributes, ReadChannels, ReadLayers, SmallVec,
+    Text, WritableImage,
+};
+use std::path::Path;
+
+const FORMAT: &str = "OpenEXR";
+
+/// Conventional order of well-known channel names; other channels follow in name order.
+const CANONICAL_ORDER: [&str; 5] = ["Y", "R", "G", "B", "A"];
+
+/// Decodes the first valid layer of an OpenEXR file. Channels come back as R, G, B, A (or Y, A) first, then
+/// the others in name order; samples are reported as linear light with the widest stored sample depth.
+pub(super) fn decode(path: &Path, bytes: &[u8]) -> Result<LoadedImage> {
+    let decode_error = |message: String| ImageError::Decode {
+        path: path.to_path_buf(),
+        format: FORMAT,
+        message,
+    };
+    let file = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .non_parallel()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| decode_error(e.to_string()))?;
+    let layer = file.layer_data;
+    let (width, height) = (layer.size.0, layer.size.1);
+    let mut channels: Vec<&AnyChannel<FlatSamples>> = layer.channel_data.list.iter().collect();
+    channels.sort_by_key(|c| {
+        let name = c.name.to_string();
+        (
+            CANONICAL_ORDER
+                .iter()
+                .position(|&n| n == name)
+                .unwrap_or(CANONICAL_ORDER.len()),
+            name,
+        )
+    });
+    let mut image = Planar::new(width, height, channels.len());
+    let mut bit_depth = 16;
+    for (index, channel) in channels.iter().enumerate() {
+        let samples = &channel.sample_data;
+        if samples.len() != width * height {
+            return Err(decode_error(format!(
+                "channel {} is subsampled ({} samples for {width}x{height})",
+                channel.name,
+                samples.len()
+            )));
+        }
+        if !matches!(samples, FlatSamples::F16(_)) {
+            bit_depth = 32;
+        }
+        for (out, value) in image.plane_mut(index).iter_mut().zip(samples.values_as_f32()) {
+            *out = value;
+        }
+    }
+    let channel_names = channels.iter().map(|c| c.name.to_string()).collect();
+    Ok(LoadedImage {
+        image,
+        format: FileFormat::OpenExr,
+        bit_depth,
+        encoding: Encoding::Linear,
+        channel_names,
+    })
+}
+
+/// Default channel names by channel count: Y, (Y, A), (R, G, B), (R, G, B, A).
+pub(super) fn default_channel_names(channels: usize) -> Option<&'static [&'static str]> {
+    match channels {
+        1 => Some(&["Y"]),
+        2 => Some(&["Y", "A"]),
+        3 => Some(&["R", "G", "B"]),
+        4 => Some(&["R", "G", "B", "A"]),
+        _ => None,
+    }
+}
+
+/// Writes every plane of `image` as a 32-bit float channel named by `channel_names` (same count as
+/// channels; non-empty, unique, ASCII-compatible names as the OpenEXR header requires).
+pub(super) fn encode(path: &Path, image: &Planar, channel_names: &[&str]) -> Result<()> {
+    let encode_error = |message: String| ImageError::Encode {
+        path: path.to_path_buf(),
+        format: FORMAT,
+        message,
+    };
+    check_layout(image, "image", &[]).map_err(|e| encode_error(e.to_string()))?;
+    if image.pixels() == 0 || image.channels == 0 {
+        return Err(encode_error(format!(
+            "{}x{}x{} image has no samples",
+            image.width, image.height, image.channels
+        )));
+    }
+    if channel_names.len() != image.channels {
+        return Err(encode_error(format!(
+            "{} channel names for {} channels",
+            channel_names.len(),
+            image.channels
+        )));
+    }
+    let mut list = SmallVec::new();
+    for (index, name) in channel_names.iter().enumerate() {
+        if name.is_empty() || channel_names[..index].contains(name) {
+            return Err(encode_error(format!(
+                "channel name {name:?} is empty or repeated"
+            )));
+        }
+        let text = Text::new_or_none(name).ok_or_else(|| {
+            encode_error(format!("channel name {name:?} is not valid in an OpenEXR header"))
+        })?;
+        list.push(AnyChannel::new(
+            text,
+            FlatSamples::F32(image.plane(index).to_vec()),
+        ));
+    }
+    let layer = Layer::new(
+        (image.width, image.height),
+        LayerAttributes::default(),
+        exr::prelude::Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    let file = Image::from_layer(layer);
+    write_atomically(path, FORMAT, |sink| {
+        file.write()
+            .non_parallel()
+            .to_buffered(sink)
+            .map_err(|e| e.to_string())
+    })
+}

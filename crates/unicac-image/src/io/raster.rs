@@ -1,0 +1,158 @@
+//! PNG and TIFF through the `image` crate (codecs `png` and `tiff` only): decoding to `Planar` and encoding
+//! 8/16-bit integer samples. The codecs are theirs; this module only maps between their interleaved pixel
+//! buffers and planar unit-range f32.
+
+use super::atomic::write_atomically;
+use super::{Encoding, FileFormat, LoadedImage, SampleDepth};
+use crate::error::{check_layout, ImageError, Result};
+use crate::quantise::{from_code, max_code, to_code};
+use crate::Planar;
+use image::{ExtendedColorType, ImageEncoder};
+use std::path::Path;
+
+/// The two integer-raster formats this module handles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Raster {
+    Png,
+    Tiff,
+}
+
+impl Raster {
+    fn format(self) -> FileFormat {
+        match self {
+            Raster::Png => FileFormat::Png,
+            Raster::Tiff => FileFormat::Tiff,
+        }
+    }
+}
+
+/// Decodes PNG or TIFF bytes. Integer samples are divided by their maximum code (255 or 65535) and reported
+/// as sRGB-encoded; 32-bit float TIFF samples are kept as stored and reported as linear.
+pub(super) fn decode(path: &Path, bytes: &[u8], raster: Raster) -> Result<LoadedImage> {
+    let format = raster.format();
+    let decode_error = |message: String| ImageError::Decode {
+        path: path.to_path_buf(),
+        format: format.name(),
+        message,
+    };
+    let codec = match raster {
+        Raster::Png => image::ImageFormat::Png,
+        Raster::Tiff => image::ImageFormat::Tiff,
+    };
+    let decoded =
+        image::load_from_memory_with_format(bytes, codec).map_err(|e| decode_error(e.to_string()))?;
+    let (width, height) = (decoded.width() as usize, decoded.height() as usize);
+    let colour = decoded.color();
+    let channels = usize::from(colour.channel_count());
+    let names: &[&str] = match channels {
+        1 => &["Y"],
+        2 => &["Y", "A"],
+        3 => &["R", "G", "B"],
+        4 => &["R", "G", "B", "A"],
+        _ => return Err(decode_error(format!("unsupported sample layout {colour:?}"))),
+    };
+    // `as_bytes` is the decoded buffer in native endianness, whatever the sample type.
+    let raw = decoded.as_bytes();
+    let (samples, bit_depth, encoding): (Vec<f32>, u8, Encoding) =
+        match usize::from(colour.bytes_per_pixel()) / channels {
+            1 => (
+                raw.iter().map(|&v| from_code(v.into(), 255)).collect(),
+                8,
+                Encoding::Srgb,
+            ),
+            2 => (
+                raw.chunks_exact(2)
+                    .map(|b| from_code(u16::from_ne_bytes([b[0], b[1]]).into(), 65535))
+                    .collect(),
+                16,
+                Encoding::Srgb,
+            ),
+            4 => (
+                raw.chunks_exact(4)
+                    .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
+                    .collect(),
+                32,
+                Encoding::Linear,
+            ),
+            _ => return Err(decode_error(format!("unsupported sample layout {colour:?}"))),
+        };
+    let image = Planar::from_fn(width, height, channels, |c, x, y| {
+        samples[(y * width + x) * channels + c]
+    });
+    let channel_names = names.iter().map(|n| n.to_string()).collect();
+    Ok(LoadedImage {
+        image,
+        format,
+        bit_depth,
+        encoding,
+        channel_names,
+    })
+}
+
+/// Writes `image` (1 = grey, 2 = grey + alpha, 3 = RGB, 4 = RGBA channels; values in [0, 1], clipped) as
+/// integer samples of `depth` in PNG or TIFF (uncompressed TIFF, as the `image` encoder writes it).
+pub(super) fn encode(path: &Path, image: &Planar, depth: SampleDepth, raster: Raster) -> Result<()> {
+    let format = raster.format();
+    let encode_error = |message: String| ImageError::Encode {
+        path: path.to_path_buf(),
+        format: format.name(),
+        message,
+    };
+    check_layout(image, "image", &[1, 2, 3, 4]).map_err(|e| encode_error(e.to_string()))?;
+    let too_large = || {
+        encode_error(format!(
+            "{}x{} exceeds the 32-bit size limit",
+            image.width, image.height
+        ))
+    };
+    let width = u32::try_from(image.width).map_err(|_| too_large())?;
+    let height = u32::try_from(image.height).map_err(|_| too_large())?;
+    if width == 0 || height == 0 {
+        return Err(encode_error(format!("{width}x{height} image has no pixels")));
+    }
+    let bits = match depth {
+        SampleDepth::Eight => 8,
+        SampleDepth::Sixteen => 16,
+    };
+    let max = max_code(bits)?;
+    let codes = interleave(image)
+        .map(|v| to_code(v, max))
+        .collect::<Option<Vec<u32>>>()
+        .ok_or_else(|| encode_error("NaN or infinite sample cannot be stored as an integer".into()))?;
+    let bytes: Vec<u8> = match depth {
+        SampleDepth::Eight => codes.iter().map(|&c| c as u8).collect(),
+        // The image encoders take 16-bit samples as native-endian bytes.
+        SampleDepth::Sixteen => codes.iter().flat_map(|&c| (c as u16).to_ne_bytes()).collect(),
+    };
+    let colour = colour_type(image.channels, depth);
+    write_atomically(path, format.name(), |sink| {
+        let result = match raster {
+            Raster::Png => {
+                image::codecs::png::PngEncoder::new(sink).write_image(&bytes, width, height, colour)
+            }
+            Raster::Tiff => {
+                image::codecs::tiff::TiffEncoder::new(sink).write_image(&bytes, width, height, colour)
+            }
+        };
+        result.map_err(|e| e.to_string())
+    })
+}
+
+fn colour_type(channels: usize, depth: SampleDepth) -> ExtendedColorType {
+    match (channels, depth) {
+        (1, SampleDepth::Eight) => ExtendedColorType::L8,
+        (2, SampleDepth::Eight) => ExtendedColorType::La8,
+        (3, SampleDepth::Eight) => ExtendedColorType::Rgb8,
+        (_, SampleDepth::Eight) => ExtendedColorType::Rgba8,
+        (1, SampleDepth::Sixteen) => ExtendedColorType::L16,
+        (2, SampleDepth::Sixteen) => ExtendedColorType::La16,
+        (3, SampleDepth::Sixteen) => ExtendedColorType::Rgb16,
+        (_, SampleDepth::Sixteen) => ExtendedColorType::Rgba16,
+    }
+}
+
+/// Samples of `image` in pixel-interleaved order.
+fn interleave(image: &Planar) -> impl Iterator<Item = f32> + '_ {
+    let n = image.pixels();
+    (0..n * image.channels).map(move |i| image.data[(i % image.channels) * n + i / image.channels])
+}

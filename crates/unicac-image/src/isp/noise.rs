@@ -1,0 +1,270 @@
+//! Sensor read-out in digital numbers (DN): the Poisson-Gaussian model (Foi et al., "Practical
+//! Poissonian-Gaussian noise modeling and fitting for single-image raw-data", IEEE TIP 2008; EMVA 1288
+//! release 4.0 linear camera model), with black level, bit depth, rounding and clipping.
+//!
+//! For a relative exposure s in [0, 1] (1 = white level) the mean signal above black is
+//! S = s (W - B) DN, with W = 2^bits - 1 the white level and B the black level. With analogue gain
+//! g = ISO / ISO_base, conversion gain K = K_base g (DN per photo-electron) and read noise
+//! σ_r = σ_base g (DN):
+//!
+//! n ~ Poisson(S / K) photo-electrons,  DN = clip(round(B + K n + σ_r z), 0, W),  z ~ N(0, 1),
+//!
+//! so E[DN] = B + S and Var[DN] = K S + σ_r² (+ 1/12 from rounding) away from clipping: DeepLens' variance
+//! "shot² · gain + read² · gain²" (`deeplens/sensor/rgb_sensor.py`) with K_base = shot².
+//! Random numbers come from `rand_distr` (Poisson, standard normal) driven by ChaCha8, one draw sequence per
+//! seed in raster order, so a seed reproduces the same noise everywhere.
+
+use crate::error::{check_layout, ImageError, Result};
+use crate::quantise::max_code;
+use crate::Planar;
+use rand::rngs::ChaCha8Rng;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Poisson, StandardNormal};
+
+/// Sensor read-out parameters. `Default` gives DeepLens' default sensor (prior-art.md section 1.4).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorNoise {
+    /// Bits per raw sample (1..=16): white level 2^bits - 1 DN. Default 10.
+    pub bit_depth: u8,
+    /// Black level (dark offset), DN, below the white level. Default 64.
+    pub black_level_dn: f32,
+    /// Exposure index; the analogue gain is `iso / iso_base`. Default 100.
+    pub iso: f32,
+    /// ISO at unit analogue gain. Default 100.
+    pub iso_base: f32,
+    /// Conversion gain at base ISO, DN per photo-electron. Default 0.16 (= 0.4²: DeepLens' shot-noise std
+    /// 0.4 sqrt(signal) DN), i.e. 6.25 e-/DN and about 6,000 e- between black and white at 10 bits.
+    pub dn_per_electron_at_base_iso: f32,
+    /// Read-noise standard deviation at base ISO, DN (scales with the analogue gain). Default 0.5.
+    pub read_noise_dn_at_base_iso: f32,
+}
+
+impl Default for SensorNoise {
+    fn default() -> Self {
+        SensorNoise {
+            bit_depth: 10,
+            black_level_dn: 64.0,
+            iso: 100.0,
+            iso_base: 100.0,
+            dn_per_electron_at_base_iso: 0.16,
+            read_noise_dn_at_base_iso: 0.5,
+        }
+    }
+}
+
+impl SensorNoise {
+    /// White level W = 2^bits - 1, DN.
+    pub fn white_level_dn(&self) -> Result<f32> {
+        Ok(max_code(self.bit_depth)? as f32)
+    }
+
+    /// Analogue gain g = ISO / ISO_base.
+    pub fn analogue_gain(&self) -> f32 {
+        self.iso / self.iso_base
+    }
+
+    /// Conversion gain K at the current ISO, DN per photo-electron.
+    pub fn dn_per_electron(&self) -> f32 {
+        self.dn_per_electron_at_base_iso * self.analogue_gain()
+    }
+
+    /// Read-noise standard deviation at the current ISO, DN.
+    pub fn read_noise_dn(&self) -> f32 {
+        self.read_noise_dn_at_base_iso * self.analogue_gain()
+    }
+
+    /// Model mean and variance (DN, DN²) of an unclipped sample at relative exposure `signal`, before
+    /// rounding: (B + S, K S + σ_r²) with S = signal (W - B).
+    pub fn expected_mean_and_variance_dn(&self, signal: f32) -> Result<(f64, f64)> {
+        self.validate()?;
+        let above_black =
+            f64::from(signal.max(0.0)) * f64::from(self.white_level_dn()? - self.black_level_dn);
+        let read = f64::from(self.read_noise_dn());
+        Ok((
+            f64::from(self.black_level_dn) + above_black,
+            f64::from(self.dn_per_electron()) * above_black + read * read,
+        ))
+    }
+
+    fn validate(&self) -> Result<()> {
+        let white = self.white_level_dn()?;
+        let positive = |field: &'static str, v: f32| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(ImageError::invalid(
+                    field,
+                    format!("{v}, expected a finite value > 0"),
+                ))
+            }
+        };
+        positive("iso", self.iso)?;
+        positive("iso_base", self.iso_base)?;
+        positive("dn_per_electron_at_base_iso", self.dn_per_electron_at_base_iso)?;
+        if !(self.read_noise_dn_at_base_iso.is_finite() && self.read_noise_dn_at_base_iso >= 0.0) {
+            return Err(ImageError::invalid(
+                "read_noise_dn_at_base_iso",
+                "expected a finite value >= 0",
+            ));
+        }
+        if !(self.black_level_dn >= 0.0 && self.black_level_dn < white) {
+            return Err(ImageError::invalid(
+                "black_level_dn",
+                format!(
+                    "{}, expected 0 <= black < white level {white}",
+                    self.black_level_dn
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Raw read-out in DN (integer-valued f32 in [0, W]) of `exposure` (relative to white, any channel count):
+/// black level + signal, with Poisson shot noise and Gaussian read noise drawn from `noise_seed`, or
+/// noiseless when `noise_seed` is `None`; then rounded and clipped to the bit depth.
+pub fn read_out(exposure: &Planar, sensor: &SensorNoise, noise_seed: Option<u64>) -> Result<Planar> {
+    sensor.validate()?;
+    check_layout(exposure, "exposure", &[])?;
+    let white = f64::from(sensor.white_level_dn()?);
+    let black = f64::from(sensor.black_level_dn);
+    let k = f64::from(sensor.dn_per_electron());
+    let read = f64::from(sensor.read_noise_dn());
+    let mut rng = noise_seed.map(ChaCha8Rng::seed_from_u64);
+    let mut out = exposure.clone();
+    for v in &mut out.data {
+        if v.is_nan() {
+            return Err(ImageError::invalid("exposure", "NaN sample"));
+        }
+        let above_black = f64::from(v.max(0.0)) * (white - black);
+        let signal = match rng.as_mut() {
+            None => above_black,
+            Some(rng) => {
+                let electrons = above_black / k;
+                let shot = if electrons > 0.0 {
+                    // Poisson::new only fails for non-positive or non-finite means, excluded here.
+                    Poisson::new(electrons)
+                        .map(|p| rng.sample(p))
+                        .unwrap_or(electrons)
+                } else {
+                    0.0
+                };
+                k * shot + read * rng.sample::<f64, _>(StandardNormal)
+            }
+        };
+        *v = (black + signal).round().clamp(0.0, white) as f32;
+    }
+    Ok(out)
+}
+
+/// Relative exposure from DN: black level subtracted and divided by (W - B). Not clipped: read noise below
+/// black stays negative so that averages remain unbiased.
+pub fn subtract_black_level(dn: &Planar, sensor: &SensorNoise) -> Result<Planar> {
+    sensor.validate()?;
+    check_layout(dn, "dn", &[])?;
+    let black = sensor.black_level_dn;
+    let range = sensor.white_level_dn()? - black;
+    let mut out = dn.clone();
+    out.data.iter_mut().for_each(|v| *v = (*v - black) / range);
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn noisy_mean_and_variance_match_the_model_within_four_standard_errors() {
+        let n = 256 * 256;
+        for (i, iso) in [100.0, 800.0].into_iter().enumerate() {
+            let sensor = SensorNoise {
+                iso,
+                ..SensorNoise::default()
+            };
+            for (k, level) in [0.02f32, 0.1, 0.35, 0.8].into_iter().enumerate() {
+                let flat = Planar::from_fn(256, 256, 1, |_, _, _| level);
+                let dn = read_out(&flat, &sensor, Some(1000 + 10 * i as u64 + k as u64)).unwrap();
+                let mean = dn.data.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64;
+                let variance = dn
+                    .data
+                    .iter()
+                    .map(|&v| (f64::from(v) - mean).powi(2))
+                    .sum::<f64>()
+                    / (n - 1) as f64;
+                let (model_mean, model_variance) = sensor.expected_mean_and_variance_dn(level).unwrap();
+                let model_variance = model_variance + 1.0 / 12.0; // rounding to integer DN (Sheppard)
+                let mean_error = model_variance.sqrt() / (n as f64).sqrt();
+                let variance_error = model_variance * (2.0 / (n - 1) as f64).sqrt();
+                eprintln!(
+                    "ISO {iso} level {level}: mean {mean:.3} (model {model_mean:.3}, {:+.2} se), variance {variance:.3} (model {model_variance:.3}, {:+.2} se)",
+                    (mean - model_mean) / mean_error,
+                    (variance - model_variance) / variance_error
+                );
+                assert!(
+                    (mean - model_mean).abs() < 4.0 * mean_error,
+                    "ISO {iso}, level {level}: mean {mean} vs {model_mean} (se {mean_error})"
+                );
+                assert!(
+                    (variance - model_variance).abs() < 4.0 * variance_error,
+                    "ISO {iso}, level {level}: variance {variance} vs {model_variance} (se {variance_error})"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn noiseless_read_out_is_exact_digitisation() {
+        let sensor = SensorNoise::default();
+        let exposure = Planar::from_fn(5, 1, 1, |_, x, _| [-0.1, 0.0, 0.5, 1.0, 1.5][x]);
+        let dn = read_out(&exposure, &sensor, None).unwrap();
+        assert_eq!(
+            dn.data,
+            [64.0, 64.0, (64.0f32 + 0.5 * 959.0).round(), 1023.0, 1023.0]
+        );
+        let back = subtract_black_level(&dn, &sensor).unwrap();
+        assert!((back.data[2] - 0.5).abs() <= 0.5 / 959.0);
+        assert_eq!(back.data[3], 1.0);
+    }
+
+    #[test]
+    fn noise_is_reproducible_per_seed() {
+        let sensor = SensorNoise {
+            iso: 400.0,
+            ..SensorNoise::default()
+        };
+        let flat = Planar::from_fn(32, 32, 3, |_, _, _| 0.3);
+        let a = read_out(&flat, &sensor, Some(9)).unwrap();
+        assert_eq!(a, read_out(&flat, &sensor, Some(9)).unwrap());
+        let b = read_out(&flat, &sensor, Some(10)).unwrap();
+        assert!(a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count() > a.data.len() / 2);
+    }
+
+    #[test]
+    fn invalid_sensors_and_samples_are_typed_errors() {
+        let flat = Planar::new(2, 2, 1);
+        let bad_black = SensorNoise {
+            black_level_dn: 2000.0,
+            ..SensorNoise::default()
+        };
+        assert!(matches!(
+            read_out(&flat, &bad_black, None),
+            Err(ImageError::InvalidParameter {
+                field: "black_level_dn",
+                ..
+            })
+        ));
+        let bad_bits = SensorNoise {
+            bit_depth: 20,
+            ..SensorNoise::default()
+        };
+        assert!(matches!(
+            read_out(&flat, &bad_bits, None),
+            Err(ImageError::InvalidParameter {
+                field: "bit_depth",
+                ..
+            })
+        ));
+        let nan = Planar::from_fn(1, 1, 1, |_, _, _| f32::NAN);
+        assert!(read_out(&nan, &SensorNoise::default(), Some(1)).is_err());
+    }
+}

@@ -1,0 +1,266 @@
+//! The UniCAC / DeepLens image-simulation chain composed from the steps of this module, seeded and
+//! reproducible (prior-art.md section 3, after DeepLens `Renderer.render` and Brooks et al. 2019):
+//!
+//! 1. draw this sample's random ISP parameters ([`Pipeline::draw`]): perturbed white-balance gains and a
+//!    noise seed;
+//! 2. ground truth (linear RGB) -> inverse white balance -> camera raw ([`Pipeline::unprocess`]);
+//! 3. optics (PSF convolution; another crate) on camera raw;
+//! 4. sensor + ISP ([`Pipeline::process`]): RGGB mosaic -> read-out with noise in DN -> black level ->
+//!    white balance -> demosaic -> clip -> output encoding (sRGB gamma or linear) -> optional quantisation;
+//! 5. the training target is the ground truth in the same output encoding ([`Pipeline::finish_reference`]).
+//!
+//! The same gains invert (step 2) and re-apply (step 4) the white balance, so target and degraded image
+//! agree in colour while the per-channel raw levels, hence the noise, vary from sample to sample.
+
+use super::bayer::{demosaic, mosaic_rggb, Demosaic};
+use super::noise::{read_out, subtract_black_level, SensorNoise};
+use super::white_balance::{
+    apply_white_balance, apply_white_balance_mosaic, invert_white_balance, perturb_white_balance,
+    WhiteBalanceGains,
+};
+use crate::color::{apply_srgb, Transfer};
+use crate::error::{check_layout, ImageError, Result};
+use crate::io::Encoding;
+use crate::quantise::quantise;
+use crate::Planar;
+
+/// Sensor/ISP configuration. `Default` is DeepLens' sensor with its augmentation spread.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pipeline {
+    /// Nominal camera white-balance gains. Default [`WhiteBalanceGains::DEEPLENS`] (2.0, 1.0, 1.8).
+    pub white_balance: WhiteBalanceGains,
+    /// Standard deviation of the Gaussian perturbation added to each gain per sample (ISP domain
+    /// randomisation); 0 disables it. Default 0.1 (DeepLens `sample_augmentation`).
+    pub white_balance_jitter: f32,
+    pub sensor: SensorNoise,
+    /// Default Malvar-He-Cutler.
+    pub demosaic: Demosaic,
+    /// Transfer curve of the output images. Default sRGB (the paper's gamma step).
+    pub output_encoding: Encoding,
+    /// Quantise outputs to this many bits (e.g. 8 or 16) while keeping f32 storage; `None` keeps full
+    /// precision. Default `None`.
+    pub output_bits: Option<u8>,
+    /// Noiseless sensor: no shot or read noise; black level, bit depth, rounding and clipping still apply.
+    pub no_noise: bool,
+    /// No colour filter array and no ISP randomisation: the sensor records R, G and B at every pixel (noise,
+    /// if on, in each), gains stay nominal, nothing is demosaiced.
+    pub no_isp: bool,
+}
+
+impl Default for Pipeline {
+    fn default() -> Self {
+        Pipeline {
+            white_balance: WhiteBalanceGains::DEEPLENS,
+            white_balance_jitter: 0.1,
+            sensor: SensorNoise::default(),
+            demosaic: Demosaic::MalvarHeCutler,
+            output_encoding: Encoding::Srgb,
+            output_bits: None,
+            no_noise: false,
+            no_isp: false,
+        }
+    }
+}
+
+/// The random parameters of one simulated sample, drawn from one seed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IspDraw {
+    /// White-balance gains used to invert (before the optics) and re-apply (in the ISP) the white balance.
+    pub gains: WhiteBalanceGains,
+    /// Seed of the sensor noise, `None` when the pipeline is noiseless.
+    pub noise_seed: Option<u64>,
+}
+
+/// A degraded image and its target, in the same output encoding.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderedPair {
+    pub degraded: Planar,
+    pub target: Planar,
+    pub draw: IspDraw,
+}
+
+impl Pipeline {
+    /// The random parameters for `seed`: the gains perturbed by [`perturb_white_balance`] (nominal when
+    /// `no_isp`) and the noise seed (absent when `no_noise`), each from its own stream derived from `seed`.
+    pub fn draw(&self, seed: u64) -> Result<IspDraw> {
+        let jitter = if self.no_isp {
+            0.0
+        } else {
+            self.white_balance_jitter
+        };
+        let gains = perturb_white_balance(self.white_balance, jitter, derive_seed(seed, 1))?;
+        let noise_seed = (!self.no_noise).then(|| derive_seed(seed, 2));
+        Ok(IspDraw { gains, noise_seed })
+    }
+
+    /// Camera-raw RGB of a linear-light ground truth: inverse white balance with the drawn gains.
+    pub fn unprocess(&self, ground_truth: &Planar, draw: &IspDraw) -> Result<Planar> {
+        invert_white_balance(ground_truth, draw.gains)
+    }
+
+    /// Sensor and ISP on camera-raw RGB (after the optics), returning the degraded image in the output
+    /// encoding. See the module docs for the order of the steps.
+    pub fn process(&self, raw_rgb: &Planar, draw: &IspDraw) -> Result<Planar> {
+        check_layout(raw_rgb, "raw_rgb", &[3])?;
+        let rgb = if self.no_isp {
+            let dn = read_out(raw_rgb, &self.sensor, draw.noise_seed)?;
+            apply_white_balance(&subtract_black_level(&dn, &self.sensor)?, draw.gains)?
+        } else {
+            let dn = read_out(&mosaic_rggb(raw_rgb)?, &self.sensor, draw.noise_seed)?;
+            let balanced = apply_white_balance_mosaic(&subtract_black_level(&dn, &self.sensor)?, draw.gains)?;
+            demosaic(&balanced, self.demosaic)?
+        };
+        self.finish(rgb)
+    }
+
+    /// The training target: the linear ground truth clipped to [0, 1], encoded and quantised like the
+    /// degraded output.
+    pub fn finish_reference(&self, ground_truth: &Planar) -> Result<Planar> {
+        check_layout(ground_truth, "ground_truth", &[3])?;
+        self.finish(ground_truth.clone())
+    }
+
+    /// The whole chain for one sample: draw, unprocess, `optics` (camera raw in, camera raw out, e.g. a PSF
+    /// convolution), process, and the matching target.
+    pub fn render_pair(
+        &self,
+        ground_truth: &Planar,
+        seed: u64,
+        optics: impl FnOnce(&Planar) -> Result<Planar>,
+    ) -> Result<RenderedPair> {
+        let draw = self.draw(seed)?;
+        let raw = self.unprocess(ground_truth, &draw)?;
+        let degraded = self.process(&optics(&raw)?, &draw)?;
+        Ok(RenderedPair {
+            degraded,
+            target: self.finish_reference(ground_truth)?,
+            draw,
+        })
+    }
+
+    fn finish(&self, mut rgb: Planar) -> Result<Planar> {
+        if rgb.data.iter().any(|v| v.is_nan()) {
+            return Err(ImageError::invalid("image", "NaN sample reached the ISP output"));
+        }
+        rgb.data.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
+        if self.output_encoding == Encoding::Srgb {
+            apply_srgb(&mut rgb.data, Transfer::Encode);
+        }
+        match self.output_bits {
+            Some(bits) => quantise(&rgb, bits),
+            None => Ok(rgb),
+        }
+    }
+}
+
+/// Independent seed for sub-stream `stream` of `seed`: the SplitMix64 finaliser (Steele, Lea & Flood,
+/// "Fast splittable pseudorandom number generators", OOPSLA 2014) applied to `seed + stream * golden gamma`.
+fn derive_seed(seed: u64, stream: u64) -> u64 {
+    let mut z = seed.wrapping_add(stream.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_support::psnr;
+
+    fn smooth_gradient() -> Planar {
+        Planar::from_fn(96, 64, 3, |c, x, y| {
+            let (u, v) = (x as f32 / 96.0, y as f32 / 64.0);
+            0.15 + 0.6 * (0.3 * u + 0.5 * v + 0.2 * c as f32 * u * v).min(1.0)
+        })
+    }
+
+    #[test]
+    fn noiseless_isp_round_trip_is_close_to_identity_above_55_db() {
+        let truth = smooth_gradient();
+        let pipeline = Pipeline {
+            no_noise: true,
+            output_encoding: Encoding::Linear,
+            ..Pipeline::default()
+        };
+        let pair = pipeline.render_pair(&truth, 3, |raw| Ok(raw.clone())).unwrap();
+        assert_ne!(
+            pair.draw.gains,
+            WhiteBalanceGains::DEEPLENS,
+            "gains were perturbed"
+        );
+        let db = psnr(&pair.degraded, &pair.target);
+        eprintln!("noiseless ISP round trip: {db:.1} dB");
+        assert!(db > 55.0, "mosaic -> 10-bit read-out -> WB -> Malvar: {db:.1} dB");
+    }
+
+    #[test]
+    fn no_isp_and_no_noise_leaves_only_10_bit_digitisation() {
+        let truth = smooth_gradient();
+        let pipeline = Pipeline {
+            no_noise: true,
+            no_isp: true,
+            output_encoding: Encoding::Linear,
+            ..Pipeline::default()
+        };
+        let pair = pipeline.render_pair(&truth, 3, |raw| Ok(raw.clone())).unwrap();
+        assert_eq!(pair.draw.gains, WhiteBalanceGains::DEEPLENS);
+        // Half a DN of the 959-DN range, times the largest gain (2.0).
+        let bound = 0.5 / 959.0 * 2.0 + 1e-6;
+        let worst = pair
+            .degraded
+            .data
+            .iter()
+            .zip(&pair.target.data)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        assert!(worst <= bound, "worst {worst} > {bound}");
+    }
+
+    #[test]
+    fn same_seed_gives_identical_pairs_and_different_seeds_differ() {
+        let truth = smooth_gradient();
+        let pipeline = Pipeline {
+            output_bits: Some(8),
+            ..Pipeline::default()
+        };
+        let a = pipeline.render_pair(&truth, 42, |raw| Ok(raw.clone())).unwrap();
+        let b = pipeline.render_pair(&truth, 42, |raw| Ok(raw.clone())).unwrap();
+        let c = pipeline.render_pair(&truth, 43, |raw| Ok(raw.clone())).unwrap();
+        assert_eq!(a, b);
+        assert_ne!(a.draw, c.draw);
+        let differing = a
+            .degraded
+            .data
+            .iter()
+            .zip(&c.degraded.data)
+            .filter(|(x, y)| x != y)
+            .count();
+        assert!(differing > a.degraded.data.len() / 2);
+        assert_eq!(a.target, c.target, "the target does not depend on the seed");
+        // 8-bit output levels.
+        assert!(a
+            .degraded
+            .data
+            .iter()
+            .all(|v| ((v * 255.0).round() - v * 255.0).abs() < 1e-3));
+        // Noise costs fidelity but the image stays recognisable (DeepLens' ISO 100 defaults).
+        let db = psnr(&a.degraded, &a.target);
+        eprintln!("default pipeline (ISO 100, 8-bit sRGB out): {db:.1} dB");
+        assert!((25.0..50.0).contains(&db), "{db:.1} dB");
+    }
+
+    #[test]
+    fn bad_inputs_are_typed_errors() {
+        let pipeline = Pipeline::default();
+        let draw = pipeline.draw(0).unwrap();
+        assert!(pipeline.process(&Planar::new(4, 4, 1), &draw).is_err());
+        let nan = Planar::from_fn(4, 4, 3, |_, _, _| f32::NAN);
+        assert!(pipeline.process(&nan, &draw).is_err());
+        let bad = Pipeline {
+            output_bits: Some(0),
+            ..Pipeline::default()
+        };
+        assert!(bad.finish_reference(&smooth_gradient()).is_err());
+        assert_ne!(derive_seed(1, 1), derive_seed(1, 2));
+    }
+}
