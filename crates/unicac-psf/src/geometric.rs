@@ -1,0 +1,192 @@
+//! Geometric PSFs: rays through the entrance pupil land on the image surface and are rasterised at
+//! the sensor pitch.
+//!
+//! Reference point: every wavelength's PSF of a field is placed relative to the **primary-wavelength
+//! real chief ray** (aimed at the stop centre). Lateral colour therefore stays in the R, G, B kernels
+//! (it is a blur the restoration network must undo), while distortion (the chief ray's displacement
+//! from the ideal image point) is left out of the kernels and applied by the simulator as a geometric
+//! warp, where it costs one resampling instead of huge, mostly empty kernels.
+//!
+//! Orientation: kernel columns follow sensor +x; kernel rows follow image rows, which run towards
+//! sensor -y (the sensor's +y is up, image rows go down).
+
+use crate::error::{PsfError, PsfResult};
+use crate::kernel::{rasterise, size_for_fraction, Kernel};
+use crate::spectrum::SpectralWeights;
+use serde::Serialize;
+use unicac_optics::Lens;
+use unicac_trace::{trace_rays, Aimer, Aiming, Clipping, PupilSampling, StatusCounts, TraceSystem};
+
+/// Fidelity knobs of a geometric PSF (defaults from the sweep in docs/performance.md).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PsfSettings {
+    pub pupil_sampling: PupilSampling,
+    pub aiming: Aiming,
+    /// Sub-cells per pixel and axis for the splat.
+    pub oversample: usize,
+    /// Sensor pixel pitch.
+    pub pixel_um: f64,
+    /// Energy a kernel must contain when its size is chosen from the spot.
+    pub energy_fraction: f64,
+    /// Largest kernel size (odd); bigger spots are cut, with a warning naming the lost energy.
+    pub max_kernel_px: usize,
+}
+
+impl PsfSettings {
+    pub fn new(pixel_um: f64) -> PsfSettings {
+        PsfSettings {
+            pupil_sampling: PupilSampling::Fibonacci { n: 2048 },
+            aiming: Aiming::Paraxial,
+            oversample: 4,
+            pixel_um,
+            energy_fraction: 0.995,
+            max_kernel_px: 127,
+        }
+    }
+}
+
+/// The ray hits of one field at one wavelength, as offsets (um) from the reference point in kernel
+/// orientation (x right, y down the rows).
+#[derive(Debug, Clone)]
+pub struct FieldHits {
+    pub wavelength_um: f64,
+    pub offsets_um: Vec<[f64; 2]>,
+    pub counts: StatusCounts,
+}
+
+/// R, G, B (or one monochromatic) kernels of one field.
+#[derive(Debug, Clone, Serialize)]
+pub struct FieldPsf {
+    pub field_deg: f64,
+    /// Primary-wavelength real chief ray on the image surface (the kernels' centre).
+    pub reference_mm: [f64; 2],
+    pub kernels: Vec<Kernel>,
+    /// Fraction of traced rays that reached the image, weighted over the spectrum (vignetting).
+    pub transmission: f64,
+    /// Energy outside the kernel, per channel, before normalisation (non-zero when the size was capped).
+    pub energy_cut: Vec<f64>,
+    pub rays_traced: usize,
+}
+
+/// Traces PSFs of one lens: one trace system and aimer per wavelength, built once.
+pub struct PsfTracer {
+    settings: PsfSettings,
+    pupil: Vec<[f64; 2]>,
+    weights: SpectralWeights,
+    systems: Vec<(TraceSystem, Aimer)>,
+    reference: (TraceSystem, Aimer),
+}
+
+impl PsfTracer {
+    pub fn new(lens: &Lens, weights: SpectralWeights, settings: PsfSettings) -> PsfResult<PsfTracer> {
+        if !(settings.pixel_um > 0.0 && settings.oversample >= 1 && settings.max_kernel_px % 2 == 1) {
+            return Err(PsfError::InvalidRequest(
+                "pixel pitch must be positive, oversample >= 1, maximum kernel size odd".into(),
+            ));
+        }
+        let systems = weights
+            .wavelengths_um
+            .iter()
+            .map(|&w| {
+                Ok((TraceSystem::new(lens, w, Clipping::Apertures)?, Aimer::new(lens, w, settings.aiming)?))
+            })
+            .collect::<PsfResult<Vec<_>>>()?;
+        let primary = lens.primary_wavelength_um();
+        let reference = (TraceSystem::new(lens, primary, Clipping::None)?, Aimer::new(lens, primary, Aiming::Real)?);
+        Ok(PsfTracer { pupil: settings.pupil_sampling.points(), settings, weights, systems, reference })
+    }
+
+    pub fn settings(&self) -> &PsfSettings {
+        &self.settings
+    }
+
+    pub fn weights(&self) -> &SpectralWeights {
+        &self.weights
+    }
+
+    /// The primary-wavelength real chief ray's intercept, if it arrives.
+    pub fn reference_point_mm(&self, field_deg: f64) -> PsfResult<[f64; 2]> {
+        let (system, aimer) = &self.reference;
+        let mut ray = aimer.ray(field_deg, 0.0, 0.0)?;
+        let status = system.trace(&mut ray);
+        if !status.is_ok() {
+            return Err(PsfError::FieldVignetted { field_deg, rays_traced: 1 });
+        }
+        Ok([ray.position_mm[0], ray.position_mm[1]])
+    }
+
+    /// Hits of every wavelength for one field, relative to `reference_mm`.
+    pub fn hits(&self, field_deg: f64, reference_mm: [f64; 2]) -> Vec<FieldHits> {
+        self.systems
+            .iter()
+            .map(|(system, aimer)| {
+                let mut rays: Vec<_> =
+                    self.pupil.iter().filter_map(|[px, py]| aimer.ray(field_deg, *px, *py).ok()).collect();
+                let statuses = trace_rays(system, &mut rays);
+                let mut counts = StatusCounts::from_statuses(&statuses);
+                counts.missed += self.pupil.len() - rays.len();
+                let offsets_um = rays
+                    .iter()
+                    .zip(&statuses)
+                    .filter(|(_, s)| s.is_ok())
+                    .map(|(r, _)| {
+                        [(r.position_mm[0] - reference_mm[0]) * 1e3, -(r.position_mm[1] - reference_mm[1]) * 1e3]
+                    })
+                    .collect();
+                FieldHits { wavelength_um: system.wavelength_um, offsets_um, counts }
+            })
+            .collect()
+    }
+
+    /// Kernel size (odd, pixels) holding `energy_fraction` of this field's hits, before the cap.
+    pub fn kernel_size_for(&self, hits: &[FieldHits]) -> usize {
+        hits.iter()
+            .map(|h| size_for_fraction(&h.offsets_um, &vec![1.0; h.offsets_um.len()], self.settings.pixel_um, self.settings.energy_fraction))
+            .max()
+            .unwrap_or(1)
+    }
+
+    /// R, G, B kernels of `size` pixels (or a single kernel when `monochromatic`).
+    pub fn field_psf(&self, field_deg: f64, size: usize, monochromatic: bool) -> PsfResult<FieldPsf> {
+        let reference_mm = self.reference_point_mm(field_deg)?;
+        let hits = self.hits(field_deg, reference_mm);
+        Ok(self.kernels_from_hits(field_deg, reference_mm, &hits, size, monochromatic))
+    }
+
+    pub fn kernels_from_hits(
+        &self,
+        field_deg: f64,
+        reference_mm: [f64; 2],
+        hits: &[FieldHits],
+        size: usize,
+        monochromatic: bool,
+    ) -> FieldPsf {
+        let size = size.min(self.settings.max_kernel_px) | 1;
+        let channels = if monochromatic { 1 } else { 3 };
+        let traced = self.pupil.len();
+        let per_wavelength: Vec<Kernel> = hits
+            .iter()
+            .map(|h| {
+                let weight = 1.0 / traced as f32;
+                rasterise(&h.offsets_um, &vec![weight; h.offsets_um.len()], size, self.settings.pixel_um, self.settings.oversample)
+            })
+            .collect();
+        let mut kernels = Vec::with_capacity(channels);
+        let mut energy_cut = Vec::with_capacity(channels);
+        let mut transmission = 0.0;
+        for c in 0..channels {
+            let mut kernel = Kernel::zeros(size, self.settings.pixel_um);
+            let mut arrived = 0.0;
+            for ((k, h), w) in per_wavelength.iter().zip(hits).zip(&self.weights.weights) {
+                kernel.add_scaled(k, w[c] as f32);
+                arrived += w[c] * h.offsets_um.len() as f64 / traced as f64;
+            }
+            let inside = kernel.sum();
+            energy_cut.push(if arrived > 0.0 { (1.0 - inside / arrived).max(0.0) } else { 0.0 });
+            transmission += arrived / channels as f64;
+            kernel.normalise();
+            kernels.push(kernel);
+        }
+        FieldPsf { field_deg, reference_mm, kernels, transmission, energy_cut, rays_traced: traced * hits.len() }
+    }
+}

@@ -1,0 +1,17 @@
+//! # unicac-psf
+//!
+//! Point spread functions of a lens at the sensor: geometric PSFs from traced rays (`geometric`),
+//! rasterised into kernels at the pixel pitch (`kernel`), weighted over the spectrum by a camera's
+//! sensitivities into R, G, B (`spectrum`).
+//!
+//! Hand-written: the rasteriser and the spectral weighting are the product's own optics.
+
+pub mod error;
+pub mod geometric;
+pub mod kernel;
+pub mod spectrum;
+
+pub use error::{PsfError, PsfResult};
+pub use geometric::{FieldHits, FieldPsf, PsfSettings, PsfTracer};
+pub use kernel::Kernel;
+pub use spectrum::{visible_wavelengths_um, SpectralResponse, SpectralWeights};
