@@ -17,7 +17,11 @@ pub enum PsfError {
         source: std::io::Error,
     },
     #[error("{path}:{line}: {message}")]
-    Parse { path: PathBuf, line: usize, message: String },
+    Parse {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
     /// No ray of the field reaches the image (a field vignetted away).
     #[error("no ray of field {field_deg} deg reaches the image surface ({rays_traced} traced)")]
     FieldVignetted { field_deg: f64, rays_traced: usize },

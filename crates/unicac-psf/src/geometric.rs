@@ -88,12 +88,24 @@ impl PsfTracer {
             .wavelengths_um
             .iter()
             .map(|&w| {
-                Ok((TraceSystem::new(lens, w, Clipping::Apertures)?, Aimer::new(lens, w, settings.aiming)?))
+                Ok((
+                    TraceSystem::new(lens, w, Clipping::Apertures)?,
+                    Aimer::new(lens, w, settings.aiming)?,
+                ))
             })
             .collect::<PsfResult<Vec<_>>>()?;
         let primary = lens.primary_wavelength_um();
-        let reference = (TraceSystem::new(lens, primary, Clipping::None)?, Aimer::new(lens, primary, Aiming::Real)?);
-        Ok(PsfTracer { pupil: settings.pupil_sampling.points(), settings, weights, systems, reference })
+        let reference = (
+            TraceSystem::new(lens, primary, Clipping::None)?,
+            Aimer::new(lens, primary, Aiming::Real)?,
+        );
+        Ok(PsfTracer {
+            pupil: settings.pupil_sampling.points(),
+            settings,
+            weights,
+            systems,
+            reference,
+        })
     }
 
     pub fn settings(&self) -> &PsfSettings {
@@ -110,7 +122,10 @@ impl PsfTracer {
         let mut ray = aimer.ray(field_deg, 0.0, 0.0)?;
         let status = system.trace(&mut ray);
         if !status.is_ok() {
-            return Err(PsfError::FieldVignetted { field_deg, rays_traced: 1 });
+            return Err(PsfError::FieldVignetted {
+                field_deg,
+                rays_traced: 1,
+            });
         }
         Ok([ray.position_mm[0], ray.position_mm[1]])
     }
@@ -120,8 +135,11 @@ impl PsfTracer {
         self.systems
             .iter()
             .map(|(system, aimer)| {
-                let mut rays: Vec<_> =
-                    self.pupil.iter().filter_map(|[px, py]| aimer.ray(field_deg, *px, *py).ok()).collect();
+                let mut rays: Vec<_> = self
+                    .pupil
+                    .iter()
+                    .filter_map(|[px, py]| aimer.ray(field_deg, *px, *py).ok())
+                    .collect();
                 let statuses = trace_rays(system, &mut rays);
                 let mut counts = StatusCounts::from_statuses(&statuses);
                 counts.missed += self.pupil.len() - rays.len();
@@ -130,10 +148,17 @@ impl PsfTracer {
                     .zip(&statuses)
                     .filter(|(_, s)| s.is_ok())
                     .map(|(r, _)| {
-                        [(r.position_mm[0] - reference_mm[0]) * 1e3, -(r.position_mm[1] - reference_mm[1]) * 1e3]
+                        [
+                            (r.position_mm[0] - reference_mm[0]) * 1e3,
+                            -(r.position_mm[1] - reference_mm[1]) * 1e3,
+                        ]
                     })
                     .collect();
-                FieldHits { wavelength_um: system.wavelength_um, offsets_um, counts }
+                FieldHits {
+                    wavelength_um: system.wavelength_um,
+                    offsets_um,
+                    counts,
+                }
             })
             .collect()
     }
@@ -141,7 +166,14 @@ impl PsfTracer {
     /// Kernel size (odd, pixels) holding `energy_fraction` of this field's hits, before the cap.
     pub fn kernel_size_for(&self, hits: &[FieldHits]) -> usize {
         hits.iter()
-            .map(|h| size_for_fraction(&h.offsets_um, &vec![1.0; h.offsets_um.len()], self.settings.pixel_um, self.settings.energy_fraction))
+            .map(|h| {
+                size_for_fraction(
+                    &h.offsets_um,
+                    &vec![1.0; h.offsets_um.len()],
+                    self.settings.pixel_um,
+                    self.settings.energy_fraction,
+                )
+            })
             .max()
             .unwrap_or(1)
     }
@@ -168,7 +200,13 @@ impl PsfTracer {
             .iter()
             .map(|h| {
                 let weight = 1.0 / traced as f32;
-                rasterise(&h.offsets_um, &vec![weight; h.offsets_um.len()], size, self.settings.pixel_um, self.settings.oversample)
+                rasterise(
+                    &h.offsets_um,
+                    &vec![weight; h.offsets_um.len()],
+                    size,
+                    self.settings.pixel_um,
+                    self.settings.oversample,
+                )
             })
             .collect();
         let mut kernels = Vec::with_capacity(channels);
@@ -182,11 +220,22 @@ impl PsfTracer {
                 arrived += w[c] * h.offsets_um.len() as f64 / traced as f64;
             }
             let inside = kernel.sum();
-            energy_cut.push(if arrived > 0.0 { (1.0 - inside / arrived).max(0.0) } else { 0.0 });
+            energy_cut.push(if arrived > 0.0 {
+                (1.0 - inside / arrived).max(0.0)
+            } else {
+                0.0
+            });
             transmission += arrived / channels as f64;
             kernel.normalise();
             kernels.push(kernel);
         }
-        FieldPsf { field_deg, reference_mm, kernels, transmission, energy_cut, rays_traced: traced * hits.len() }
+        FieldPsf {
+            field_deg,
+            reference_mm,
+            kernels,
+            transmission,
+            energy_cut,
+            rays_traced: traced * hits.len(),
+        }
     }
 }

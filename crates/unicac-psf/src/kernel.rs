@@ -20,7 +20,11 @@ pub struct Kernel {
 impl Kernel {
     pub fn zeros(size: usize, pitch_um: f64) -> Kernel {
         assert!(size % 2 == 1, "kernels have odd sizes");
-        Kernel { size, pitch_um, data: vec![0.0; size * size] }
+        Kernel {
+            size,
+            pitch_um,
+            data: vec![0.0; size * size],
+        }
     }
 
     pub fn half(&self) -> usize {
@@ -48,7 +52,10 @@ impl Kernel {
     /// Adds `weight * other` (same size and pitch).
     pub fn add_scaled(&mut self, other: &Kernel, weight: f32) {
         debug_assert_eq!(self.size, other.size);
-        self.data.iter_mut().zip(&other.data).for_each(|(a, b)| *a += weight * b);
+        self.data
+            .iter_mut()
+            .zip(&other.data)
+            .for_each(|(a, b)| *a += weight * b);
     }
 
     /// First moments (centroid) in micrometres relative to the kernel centre, rows as +y.
@@ -74,7 +81,13 @@ impl Kernel {
 /// Splats weighted hits (offsets from the reference point, um; x right, y along kernel rows) into a
 /// kernel of `size` pixels at `pitch_um`, supersampled `oversample` times per axis. Hits outside the
 /// kernel are dropped; the returned kernel is not normalised.
-pub fn rasterise(offsets_um: &[[f64; 2]], weights: &[f32], size: usize, pitch_um: f64, oversample: usize) -> Kernel {
+pub fn rasterise(
+    offsets_um: &[[f64; 2]],
+    weights: &[f32],
+    size: usize,
+    pitch_um: f64,
+    oversample: usize,
+) -> Kernel {
     let mut kernel = Kernel::zeros(size, pitch_um);
     let fine = size * oversample;
     let mut grid = vec![0.0f32; fine * fine];
@@ -116,8 +129,11 @@ pub fn size_for_fraction(offsets_um: &[[f64; 2]], weights: &[f32], pitch_um: f64
         return 1;
     }
     // Chebyshev radius (half-width of the square) of each hit, in pixels, sorted.
-    let mut radii: Vec<(f64, f64)> =
-        offsets_um.iter().zip(weights).map(|(o, &w)| (o[0].abs().max(o[1].abs()) / pitch_um, w as f64)).collect();
+    let mut radii: Vec<(f64, f64)> = offsets_um
+        .iter()
+        .zip(weights)
+        .map(|(o, &w)| (o[0].abs().max(o[1].abs()) / pitch_um, w as f64))
+        .collect();
     radii.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut accumulated = 0.0;
     let mut radius_px = 0.0;
@@ -148,11 +164,21 @@ mod tests {
         // its mean position (exactly, for a square spanning whole pixels' worth of width).
         for offset in [0.3, -0.77, 1.25] {
             let hits: Vec<[f64; 2]> = (0..200)
-                .flat_map(|i| (0..200).map(move |j| [offset - 2.0 + (i as f64 + 0.5) * 0.02, -0.5 * offset - 2.0 + (j as f64 + 0.5) * 0.02]))
+                .flat_map(|i| {
+                    (0..200).map(move |j| {
+                        [
+                            offset - 2.0 + (i as f64 + 0.5) * 0.02,
+                            -0.5 * offset - 2.0 + (j as f64 + 0.5) * 0.02,
+                        ]
+                    })
+                })
                 .collect();
             let k = rasterise(&hits, &vec![1.0; hits.len()], 11, 1.0, 4);
             let c = k.centroid_um();
-            assert!((c[0] - offset).abs() < 1e-3 && (c[1] + 0.5 * offset).abs() < 1e-3, "{offset}: {c:?}");
+            assert!(
+                (c[0] - offset).abs() < 1e-3 && (c[1] + 0.5 * offset).abs() < 1e-3,
+                "{offset}: {c:?}"
+            );
         }
     }
 

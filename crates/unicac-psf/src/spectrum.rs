@@ -22,28 +22,46 @@ pub struct SpectralResponse {
 impl SpectralResponse {
     /// The shipped default camera.
     pub fn default_camera() -> SpectralResponse {
-        SpectralResponse::from_csv(DEFAULT_RGB_CSV, Path::new("data/camera/default_rgb.csv")).expect("shipped curves")
+        SpectralResponse::from_csv(DEFAULT_RGB_CSV, Path::new("data/camera/default_rgb.csv"))
+            .expect("shipped curves")
     }
 
     /// Reads `wavelength_nm,r,g,b` rows (a header line is skipped; wavelengths strictly increasing).
     pub fn from_csv(text: &str, path: &Path) -> PsfResult<SpectralResponse> {
-        let error = |line: usize, message: String| PsfError::Parse { path: path.to_path_buf(), line, message };
+        let error = |line: usize, message: String| PsfError::Parse {
+            path: path.to_path_buf(),
+            line,
+            message,
+        };
         let mut wavelengths_nm = Vec::new();
         let mut rgb = Vec::new();
         for (index, raw) in text.lines().enumerate() {
             let line = raw.trim();
-            if line.is_empty() || line.starts_with('#') || (index == 0 && line.chars().any(|c| c.is_ascii_alphabetic())) {
+            if line.is_empty()
+                || line.starts_with('#')
+                || (index == 0 && line.chars().any(|c| c.is_ascii_alphabetic()))
+            {
                 continue;
             }
             let values: Vec<f64> = line
                 .split(',')
-                .map(|v| v.trim().parse::<f64>().map_err(|_| error(index + 1, format!("'{v}' is not a number"))))
+                .map(|v| {
+                    v.trim()
+                        .parse::<f64>()
+                        .map_err(|_| error(index + 1, format!("'{v}' is not a number")))
+                })
                 .collect::<PsfResult<_>>()?;
             let [w, r, g, b] = values[..] else {
-                return Err(error(index + 1, format!("expected 4 columns (wavelength_nm,r,g,b), found {}", values.len())));
+                return Err(error(
+                    index + 1,
+                    format!("expected 4 columns (wavelength_nm,r,g,b), found {}", values.len()),
+                ));
             };
             if [w, r, g, b].iter().any(|v| !v.is_finite()) || r < 0.0 || g < 0.0 || b < 0.0 {
-                return Err(error(index + 1, "values must be finite and responses non-negative".into()));
+                return Err(error(
+                    index + 1,
+                    "values must be finite and responses non-negative".into(),
+                ));
             }
             if wavelengths_nm.last().is_some_and(|&last| w <= last) {
                 return Err(error(index + 1, "wavelengths must increase".into()));
@@ -58,7 +76,10 @@ impl SpectralResponse {
     }
 
     pub fn load(path: &Path) -> PsfResult<SpectralResponse> {
-        let text = std::fs::read_to_string(path).map_err(|source| PsfError::Io { path: path.to_path_buf(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| PsfError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
         SpectralResponse::from_csv(&text, path)
     }
 
@@ -98,7 +119,11 @@ impl SpectralWeights {
     pub fn new(response: &SpectralResponse, wavelengths_um: &[f64]) -> SpectralWeights {
         let raw: Vec<[f64; 3]> = wavelengths_um.iter().map(|w| response.at(w * 1e3)).collect();
         let peak: [f64; 3] = std::array::from_fn(|c| raw.iter().map(|r| r[c]).fold(0.0, f64::max));
-        let mut kept = SpectralWeights { wavelengths_um: Vec::new(), weights: Vec::new(), skipped_um: Vec::new() };
+        let mut kept = SpectralWeights {
+            wavelengths_um: Vec::new(),
+            weights: Vec::new(),
+            skipped_um: Vec::new(),
+        };
         for (w, r) in wavelengths_um.iter().zip(&raw) {
             if (0..3).any(|c| peak[c] > 0.0 && r[c] > NEGLIGIBLE_RESPONSE * peak[c]) {
                 kept.wavelengths_um.push(*w);
@@ -118,7 +143,11 @@ impl SpectralWeights {
 
     /// A single wavelength with weight 1 in every channel (monochromatic PSFs).
     pub fn monochromatic(wavelength_um: f64) -> SpectralWeights {
-        SpectralWeights { wavelengths_um: vec![wavelength_um], weights: vec![[1.0; 3]], skipped_um: Vec::new() }
+        SpectralWeights {
+            wavelengths_um: vec![wavelength_um],
+            weights: vec![[1.0; 3]],
+            skipped_um: Vec::new(),
+        }
     }
 }
 
@@ -130,9 +159,19 @@ mod tests {
     fn default_curves_peak_in_the_right_order() {
         let response = SpectralResponse::default_camera();
         let peak = |c: usize| {
-            (400..=700).step_by(5).map(|nm| (nm, response.at(nm as f64)[c])).fold((0, 0.0), |m, v| if v.1 > m.1 { v } else { m }).0
+            (400..=700)
+                .step_by(5)
+                .map(|nm| (nm, response.at(nm as f64)[c]))
+                .fold((0, 0.0), |m, v| if v.1 > m.1 { v } else { m })
+                .0
         };
-        assert!(peak(2) < peak(1) && peak(1) < peak(0), "B {} G {} R {}", peak(2), peak(1), peak(0));
+        assert!(
+            peak(2) < peak(1) && peak(1) < peak(0),
+            "B {} G {} R {}",
+            peak(2),
+            peak(1),
+            peak(0)
+        );
     }
 
     #[test]
@@ -152,7 +191,9 @@ mod tests {
 
     #[test]
     fn bad_csv_names_the_line() {
-        let err = SpectralResponse::from_csv("wavelength_nm,r,g,b\n400,0,0,1\n500,0,x,1\n", Path::new("c.csv")).unwrap_err();
+        let err =
+            SpectralResponse::from_csv("wavelength_nm,r,g,b\n400,0,0,1\n500,0,x,1\n", Path::new("c.csv"))
+                .unwrap_err();
         assert!(err.to_string().starts_with("c.csv:3:"), "{err}");
     }
 }

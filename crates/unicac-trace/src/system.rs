@@ -135,6 +135,35 @@ impl TraceSystem {
         self.trace_through(ray, self.image_index(), false)
     }
 
+    /// Traces to the image surface and returns the optical path length (sum of index x signed
+    /// distance, mm) from the ray's start point to its image-surface intercept. Used by wave-optics PSFs;
+    /// the hot paths do not pay for it.
+    pub fn trace_with_opl(&self, ray: &mut Ray) -> (RayStatus, f64) {
+        if !ray.is_finite() {
+            return (RayStatus::InvalidInput, 0.0);
+        }
+        let mut opl = 0.0;
+        let mut n_before = self.object_index;
+        let last = self.image_index();
+        for (i, surface) in self.surfaces.iter().enumerate() {
+            let before = ray.position_mm;
+            let direction = ray.direction;
+            let status = step(surface, i as u32, ray, n_before, i < last);
+            if !status.is_ok() {
+                return (status, opl);
+            }
+            let delta = [0, 1, 2].map(|k| ray.position_mm[k] - before[k]);
+            let along = delta[0] * direction[0] + delta[1] * direction[1] + delta[2] * direction[2];
+            // |delta| with the sign of travel along the ray (virtual segments count negative).
+            opl += n_before
+                * (delta[0] * delta[0] + delta[1] * delta[1] + delta[2] * delta[2])
+                    .sqrt()
+                    .copysign(along);
+            n_before = surface.index_after;
+        }
+        (RayStatus::Ok, opl)
+    }
+
     /// Traces to the image surface and records the point on every surface it reaches (for layouts and
     /// aperture sizing). The first entry is the starting point.
     pub fn trace_path(&self, ray: Ray) -> (Vec<[f64; 3]>, RayStatus) {

@@ -354,3 +354,30 @@ fn real_aiming_reaches_wide_fields_where_paraxial_aiming_fails() {
         }
     }
 }
+
+#[test]
+fn optical_path_lengths_of_a_perfect_focus_are_equal() {
+    // Fermat: every ray of the ellipsoidal refractor (k = -1/n^2) reaches its focus with the same OPL.
+    let (n, radius) = (1.5, 10.0);
+    let focus = n * radius / (n - 1.0);
+    let lens = lens(&format!(
+        r#"{{"format_version": 1, "aperture": {{"entrance_pupil_diameter_mm": 12.0}},
+        "fields": {{"angles_deg": [0.0]}}, "wavelengths": [{{"wavelength_um": {D_LINE}}}],
+        "surfaces": [
+          {{"radius_mm": {radius}, "conic": {k}, "thickness_mm": {focus}, "material": {{"nd": {n}, "vd": 50.0}}}},
+          {{"thickness_mm": 0.0, "material": {{"nd": {n}, "vd": 50.0}}}}]}}"#,
+        k = -1.0 / (n * n)
+    ));
+    let system = TraceSystem::new(&lens, D_LINE, Clipping::None).unwrap();
+    let opl = |h: f64| {
+        let mut ray = Ray::new([0.0, h, -5.0], [0.0, 0.0, 1.0]);
+        let (status, opl) = system.trace_with_opl(&mut ray);
+        assert_eq!(status, RayStatus::Ok);
+        opl
+    };
+    let axial = opl(0.0);
+    assert!((axial - (5.0 + n * focus)).abs() < 1e-12);
+    for h in [1.0, 3.0, 5.5] {
+        assert!((opl(h) - axial).abs() < 1e-11, "h {h}: {}", opl(h) - axial);
+    }
+}
