@@ -1,0 +1,21 @@
+//! # unicac-sim
+//!
+//! Image simulation through a lens: where pixels sit on the sensor (`geometry`), the real chief ray
+//! over the field with distortion and relative illumination (`chief`), PSFs over the sensor from one
+//! radius (`psf_map`), seamless spatially varying convolution (`convolve`), and the simulator that
+//! puts them together (`simulate`).
+//!
+//! Hand-written because these are the product's own optics; parallel with rayon.
+
+pub mod chief;
+pub mod convolve;
+pub mod error;
+pub mod geometry;
+pub mod psf_map;
+pub mod simulate;
+
+pub use chief::ChiefRayMap;
+pub use error::{SimError, SimResult};
+pub use geometry::SensorGrid;
+pub use psf_map::RadialPsfs;
+pub use simulate::{LensSimulator, SimulationSettings};

@@ -1,0 +1,122 @@
+//! Image simulation: constancy, seamlessness, rotation, chief-ray mapping, clear errors.
+
+use unicac_image::Planar;
+use unicac_optics::examples;
+use unicac_psf::Kernel;
+use unicac_sim::psf_map::rotate;
+use unicac_sim::{ChiefRayMap, LensSimulator, SimulationSettings};
+use unicac_trace::PupilSampling;
+
+fn quick_settings() -> SimulationSettings {
+    let mut settings = SimulationSettings {
+        wavelengths: 7,
+        radial_samples: 6,
+        node_spacing_px: 24,
+        ..Default::default()
+    };
+    settings.psf.pupil_sampling = PupilSampling::Fibonacci { n: 512 };
+    settings
+}
+
+#[test]
+fn a_constant_image_stays_constant() {
+    let lens = examples::lens("cooke_triplet").unwrap();
+    let mut settings = quick_settings();
+    settings.distortion = false;
+    settings.illumination = false;
+    let sim = LensSimulator::new(&lens, 96, 64, None, settings).unwrap();
+    let out = sim
+        .apply(&Planar::from_fn(96, 64, 3, |c, _, _| 0.2 + 0.1 * c as f32))
+        .unwrap();
+    for c in 0..3 {
+        assert!(
+            out.plane(c)
+                .iter()
+                .all(|v| (v - (0.2 + 0.1 * c as f32)).abs() < 2e-5),
+            "channel {c}"
+        );
+    }
+}
+
+#[test]
+fn a_smooth_ramp_shows_no_seam_at_tile_borders() {
+    let lens = examples::lens("cooke_triplet").unwrap();
+    let mut settings = quick_settings();
+    settings.illumination = false;
+    settings.distortion = false;
+    let (w, h) = (120, 72);
+    let sim = LensSimulator::new(&lens, w, h, None, settings).unwrap();
+    let out = sim
+        .apply(&Planar::from_fn(w, h, 3, |_, x, _| x as f32 / w as f32))
+        .unwrap();
+    // Second differences along rows, away from the image border (replicated edges bend the ramp).
+    let margin = sim.radial.kernel_size;
+    let row = h / 2;
+    let plane = out.plane(1);
+    let second: Vec<f32> = (margin..w - margin)
+        .map(|x| plane[row * w + x + 1] - 2.0 * plane[row * w + x] + plane[row * w + x - 1])
+        .collect();
+    let worst = second.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    // A seam would show as a jump of the order of the ramp step (1/w = 8e-3).
+    assert!(worst < 2e-4, "largest second difference {worst}");
+}
+
+#[test]
+fn rotating_a_kernel_moves_plus_y_to_plus_x() {
+    let mut k = Kernel::zeros(5, 1.0);
+    k.data[5 + 2] = 1.0; // row 1 = one pixel towards +y
+    let r = rotate(&k, std::f64::consts::FRAC_PI_2);
+    assert!((r.at(3, 2) - 1.0).abs() < 1e-6, "{:?}", r.data);
+}
+
+#[test]
+fn off_axis_psfs_on_the_y_axis_are_mirror_symmetric() {
+    let lens = examples::lens("cooke_triplet").unwrap();
+    let sim = LensSimulator::new(&lens, 96, 64, None, quick_settings()).unwrap();
+    let k = sim.radial.kernel_at(0.0, 10.0, 1);
+    for row in 0..k.size {
+        for column in 0..k.half() {
+            let (a, b) = (k.at(column, row), k.at(k.size - 1 - column, row));
+            assert!((a - b).abs() < 1e-6, "({column},{row}): {a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn the_chief_ray_map_interpolates_accurately() {
+    let lens = examples::lens("wide_angle").unwrap();
+    let map = ChiefRayMap::new(&lens).unwrap();
+    // Against directly traced chief rays between the samples.
+    let aimer =
+        unicac_trace::Aimer::new(&lens, lens.primary_wavelength_um(), unicac_trace::Aiming::Real).unwrap();
+    let system =
+        unicac_trace::TraceSystem::new(&lens, lens.primary_wavelength_um(), unicac_trace::Clipping::None)
+            .unwrap();
+    for angle in [3.3, 11.7, 22.1, 29.5] {
+        let mut ray = aimer.ray(angle, 0.0, 0.0).unwrap();
+        assert!(system.trace(&mut ray).is_ok());
+        let relative = (map.height_for_angle(angle) - ray.position_mm[1]).abs() / ray.position_mm[1];
+        assert!(relative < 1e-4, "{angle}: {relative}");
+    }
+    // Illumination falls off with field and is 1 on axis.
+    assert!((map.illumination_factor(0.0) - 1.0).abs() < 1e-9);
+    assert!(map.illumination_factor(map.max_height_mm()) < 1.0);
+}
+
+#[test]
+fn bad_requests_give_clear_errors() {
+    let lens = examples::lens("cooke_triplet").unwrap();
+    let too_small = LensSimulator::new(&lens, 1, 10, None, quick_settings())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(too_small.contains("too small"), "{too_small}");
+    let huge_psf = LensSimulator::new(&lens, 12, 12, Some(0.2), quick_settings())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(huge_psf.contains("larger than the image"), "{huge_psf}");
+    let sim = LensSimulator::new(&lens, 64, 48, None, quick_settings()).unwrap();
+    let wrong = sim.apply(&Planar::new(10, 10, 3)).err().unwrap().to_string();
+    assert!(wrong.contains("expected a 64 x 48 RGB image"), "{wrong}");
+}
