@@ -11,6 +11,10 @@
 //!   and all at one common scale so sizes compare; titles give field, wavelength and RMS radius.
 //! - [`ray_fan_plot`]: per field, the tangential (ey against py) and sagittal (ex against px) transverse
 //!   aberration fans about the chief ray, wavelengths overlaid, in µm on a common vertical scale.
+//! - [`mtf_curves`]: MTF curves against cycles/pixel with Nyquist (dashed) and MTF50 (dotted) marked.
+//! - [`ode_bars`]: one row per lens, bars of optical design efficiency and RMS spot radius side by side.
+//! - [`psf_panels`]: PSF kernels as images (each normalised to its peak, viridis colour map, scale bar in
+//!   µm) above a chart of their central rows.
 //!
 //! Conventions: lengths in the layout are mm, aberrations and spot coordinates µm; field angles are in
 //! degrees; wavelength colours run from blue (shortest) to red (longest) whatever the actual
@@ -22,12 +26,18 @@
 
 mod fan;
 mod layout;
+mod mtf;
+mod ode;
+mod psf;
 mod render;
 mod spot;
 mod style;
 
 pub use fan::ray_fan_plot;
 pub use layout::{layout, layout_bundles, RayBundle};
+pub use mtf::{mtf_curves, Curve};
+pub use ode::ode_bars;
+pub use psf::{psf_panels, PsfPanel};
 pub use spot::spot_diagram;
 
 use std::path::PathBuf;

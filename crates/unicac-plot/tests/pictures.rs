@@ -2,7 +2,9 @@
 //! (SVG closed, with the expected titles; PNG with a valid header of the SVG's size), no temporary file is
 //! left behind, and bad requests fail with typed errors and no file.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{check_both_formats, TempDir};
 use unicac_optics::{Lens, LensSpec};
 use unicac_plot::{layout, layout_bundles, ray_fan_plot, spot_diagram, PlotError};
 use unicac_trace::apertures::clear_semi_diameters;
@@ -38,80 +40,6 @@ fn lens_spots(lens: &Lens) -> Vec<Spot> {
         &PupilSampling::Hexapolar { rings: 5 },
     )
     .unwrap()
-}
-
-/// A fresh directory, removed when dropped.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> TempDir {
-        let dir = std::env::temp_dir().join(format!("unicac-plot-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-
-    fn files(&self) -> Vec<String> {
-        let mut names: Vec<String> = std::fs::read_dir(&self.0)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        names.sort();
-        names
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-/// The number in `attribute="..."` of the SVG's opening tag.
-fn svg_attribute(svg: &str, attribute: &str) -> u32 {
-    let tag = &svg[..svg.find('>').unwrap()];
-    let start = tag.find(&format!(" {attribute}=\"")).unwrap() + attribute.len() + 3;
-    tag[start..].split('"').next().unwrap().parse().unwrap()
-}
-
-/// Renders `name`.png and `name`.svg with `draw` and checks both files; `texts` must appear in the SVG.
-fn check_both_formats(name: &str, texts: &[&str], draw: impl Fn(&Path) -> Result<(), PlotError>) {
-    let dir = TempDir::new(name);
-    let (png_path, svg_path) = (
-        dir.0.join(format!("{name}.png")),
-        dir.0.join(format!("{name}.SVG")),
-    );
-    draw(&png_path).unwrap();
-    draw(&svg_path).unwrap();
-    assert_eq!(
-        dir.files(),
-        [format!("{name}.SVG"), format!("{name}.png")],
-        "only the two pictures"
-    );
-
-    let svg = std::fs::read_to_string(&svg_path).unwrap();
-    assert!(svg.len() > 10_000, "SVG of {} bytes", svg.len());
-    assert!(
-        svg.starts_with("<svg ") && svg.trim_end().ends_with("</svg>"),
-        "SVG is complete"
-    );
-    assert_eq!(svg.matches("<text").count(), svg.matches("</text>").count());
-    for text in texts {
-        assert!(svg.contains(text), "SVG lacks '{text}'");
-    }
-    let (width, height) = (svg_attribute(&svg, "width"), svg_attribute(&svg, "height"));
-    assert!(width >= 600 && height >= 300, "{width} x {height}");
-
-    let png = std::fs::read(&png_path).unwrap();
-    assert!(png.len() > 10_000, "PNG of {} bytes", png.len());
-    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-    assert_eq!(&png[12..16], b"IHDR");
-    let be = |at: usize| u32::from_be_bytes(png[at..at + 4].try_into().unwrap());
-    assert_eq!(
-        (be(16), be(20)),
-        (width, height),
-        "PNG and SVG have the picture's size"
-    );
 }
 
 #[test]
