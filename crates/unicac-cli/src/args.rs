@@ -28,6 +28,118 @@ pub enum Command {
     Fan(FanArgs),
     /// Draw the lens in the y-z plane with ray bundles.
     Layout(LayoutArgs),
+    /// Point spread function at one field, monochromatic or as R, G, B spectral kernels (EXR).
+    Psf(PsfArgs),
+    /// Simulate images through a lens: spatially varying blur, distortion, illumination, sensor and ISP.
+    Simulate(SimulateArgs),
+    /// Generate a test chart.
+    Chart(ChartArgs),
+    /// The Optical Degradation Evaluator (ODE, OIQ, OIQE, uniformity) and RMS spot radius of lenses.
+    Ode(OdeArgs),
+    /// Slanted-edge MTF (ISO 12233) of an image holding one slanted edge.
+    Mtf(MtfArgs),
+}
+
+#[derive(Args)]
+pub struct PsfArgs {
+    #[command(flatten)]
+    pub lens: LensArg,
+    #[arg(long, allow_hyphen_values = true)]
+    pub field_deg: f64,
+    /// Wavelengths (um): one gives a monochromatic PSF; none gives R, G, B kernels over 400-700 nm.
+    #[arg(long = "wavelength-um", allow_hyphen_values = true)]
+    pub wavelengths_um: Vec<f64>,
+    #[arg(long, default_value = "geometric", value_parser = ["geometric", "wave"])]
+    pub mode: String,
+    /// Pixel pitch (um); default: the lens's sensor, else 2 um.
+    #[arg(long)]
+    pub pixel_um: Option<f64>,
+    /// Object distance (mm) replacing the file's (finite conjugates, depth-dependent PSFs).
+    #[arg(long)]
+    pub object_distance_mm: Option<f64>,
+    /// Accepted for interface stability; PSFs are not cached yet, so every run computes.
+    #[arg(long)]
+    pub no_cache: bool,
+    /// Output EXR (one channel "Y" for a monochromatic PSF, else R, G, B).
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long)]
+    pub json: bool,
+    /// Picture of the kernels (.png or .svg).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub lens: LensArg,
+    /// Sharp input images (PNG, TIFF or EXR).
+    #[arg(required = true)]
+    pub images: Vec<PathBuf>,
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Pixel pitch (um); default: the lens's largest field fills the image's half-diagonal.
+    #[arg(long)]
+    pub pixel_um: Option<f64>,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    #[arg(long)]
+    pub no_isp: bool,
+    #[arg(long)]
+    pub no_noise: bool,
+    #[arg(long)]
+    pub no_illumination: bool,
+    #[arg(long)]
+    pub no_distortion: bool,
+    /// Accepted for interface stability; PSF maps are not cached yet.
+    #[arg(long)]
+    pub no_cache: bool,
+    /// Output format; default: the input's.
+    #[arg(long, value_parser = ["png", "tiff", "exr"])]
+    pub format: Option<String>,
+}
+
+#[derive(Args)]
+pub struct ChartArgs {
+    #[arg(value_parser = ["dead-leaves", "checkerboard", "slanted-edge", "siemens-star"])]
+    pub kind: String,
+    /// WIDTHxHEIGHT in pixels.
+    #[arg(long, value_parser = parse_size)]
+    pub size: [usize; 2],
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output image (.png 16-bit sRGB, .tif/.tiff 16-bit sRGB, .exr linear).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(Args)]
+pub struct OdeArgs {
+    /// Lens files (.json, .zmx or builtin:NAME).
+    #[arg(required = true)]
+    pub lenses: Vec<String>,
+    #[arg(long)]
+    pub json: bool,
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Bar chart of ODE and RMS radius per lens (.png or .svg).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub struct MtfArgs {
+    /// An image holding one slanted edge (PNG, TIFF or EXR), or a lens (.json, .zmx, builtin:NAME).
+    pub input: String,
+    /// Read pixel values as linear light (no sRGB decoding).
+    #[arg(long)]
+    pub linear: bool,
+    #[arg(long)]
+    pub json: bool,
+    /// MTF curves (.png or .svg).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -170,6 +282,17 @@ fn parse_ray(text: &str) -> Result<[f64; 6], String> {
 
 fn parse_pupil(text: &str) -> Result<[f64; 2], String> {
     parse_numbers::<2>(text, "PX,PY")
+}
+
+fn parse_size(text: &str) -> Result<[usize; 2], String> {
+    let (w, h) = text
+        .split_once('x')
+        .ok_or_else(|| format!("'{text}': expected WIDTHxHEIGHT, e.g. 640x480"))?;
+    let parse = |v: &str| v.trim().parse::<usize>().ok().filter(|n| *n > 0);
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok([w, h]),
+        _ => Err(format!("'{text}': width and height must be positive integers")),
+    }
 }
 
 fn parse_aiming(text: &str) -> Result<Aiming, String> {

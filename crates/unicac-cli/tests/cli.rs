@@ -243,3 +243,117 @@ fn bad_input_gives_one_clear_error_line() {
         "{stderr}"
     );
 }
+
+#[test]
+fn ode_json_lists_one_object_per_lens_in_order() {
+    let out = json(&["ode", "builtin:cooke_triplet", "builtin:singlet", "--json"]);
+    let lenses = out["lenses"].as_array().unwrap();
+    assert_eq!(lenses.len(), 2);
+    assert_eq!(lenses[0]["lens"], "builtin:cooke_triplet");
+    for key in [
+        "ode",
+        "oiq",
+        "u_s",
+        "u_c",
+        "oiqe",
+        "psnr_db",
+        "ssim",
+        "rms_radius_um",
+    ] {
+        for lens in lenses {
+            assert!(lens[key].as_f64().is_some(), "{key}");
+        }
+    }
+    assert_eq!(lenses[0]["table"].as_array().unwrap().len(), 15);
+    // The F/1 singlet is far worse than the Cooke triplet.
+    assert!(lenses[0]["ode"].as_f64().unwrap() > lenses[1]["ode"].as_f64().unwrap());
+    let csv = scratch("ode.csv");
+    let out = unicac(&["ode", "builtin:petzval", "--csv", csv.to_str().unwrap()]);
+    assert!(out.status.success());
+    assert_eq!(std::fs::read_to_string(&csv).unwrap().lines().count(), 2);
+}
+
+#[test]
+fn charts_mtf_psf_and_simulate_work_end_to_end() {
+    let edge = scratch("edge.png");
+    assert!(unicac(&[
+        "chart",
+        "slanted-edge",
+        "--size",
+        "96x96",
+        "--out",
+        edge.to_str().unwrap()
+    ])
+    .status
+    .success());
+    let mtf = json(&["mtf", edge.to_str().unwrap(), "--json"]);
+    for channel in ["R", "G", "B"] {
+        let c = &mtf["channels"][channel];
+        for key in ["frequency_cy_per_px", "mtf", "mtf50_cy_per_px", "mtf_area"] {
+            assert!(!c[key].is_null(), "{channel} {key}");
+        }
+        // A sharp rendered edge: MTF50 beyond 0.5 cy/px.
+        assert!(c["mtf50_cy_per_px"].as_f64().unwrap() > 0.5);
+    }
+    let psf = scratch("psf.exr");
+    let report = json(&[
+        "psf",
+        "builtin:cooke_triplet",
+        "--field-deg",
+        "14",
+        "--out",
+        psf.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(report["channels"], serde_json::json!(["R", "G", "B"]));
+    let stack = unicac_image_sum(&psf);
+    for sum in stack {
+        assert!((sum - 1.0).abs() < 1e-4, "{sum}");
+    }
+    let mono = scratch("mono.exr");
+    let report = json(&[
+        "psf",
+        "builtin:cooke_triplet",
+        "--field-deg",
+        "0",
+        "--wavelength-um",
+        "0.55",
+        "--out",
+        mono.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(report["channels"], serde_json::json!(["Y"]));
+    let chart = scratch("leaves.png");
+    assert!(unicac(&[
+        "chart",
+        "dead-leaves",
+        "--size",
+        "160x120",
+        "--seed",
+        "3",
+        "--out",
+        chart.to_str().unwrap()
+    ])
+    .status
+    .success());
+    let out_dir = scratch("sim");
+    let out = unicac(&[
+        "simulate",
+        "builtin:cooke_triplet",
+        chart.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--seed",
+        "1",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out_dir.join("leaves.png").exists());
+}
+
+/// Per-channel sums of an EXR PSF stack, read back through the PNG-free EXR path of `unicac mtf`'s reader.
+fn unicac_image_sum(path: &std::path::Path) -> Vec<f64> {
+    let loaded = unicac_image::io::read_image(path).unwrap();
+    (0..loaded.image.channels)
+        .map(|c| loaded.image.plane(c).iter().map(|v| *v as f64).sum())
+        .collect()
+}

@@ -267,25 +267,9 @@ fn single_channel(image: &Planar, channel: usize) -> Planar {
     }
 }
 
-/// Plain 2-D convolution with replicated borders (the patch sees one PSF).
+/// The patch sees one PSF: a spatially invariant convolution (direct or FFT by kernel size).
 fn convolve_patch(plane: &[f32], size: usize, kernel: &Kernel) -> Vec<f32> {
-    let half = kernel.half() as i64;
-    let n = size as i64;
-    (0..size * size)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = ((i % size) as i64, (i / size) as i64);
-            let mut sum = 0.0f32;
-            for kr in 0..kernel.size {
-                let sy = (y - (kr as i64 - half)).clamp(0, n - 1) as usize;
-                for kc in 0..kernel.size {
-                    let sx = (x - (kc as i64 - half)).clamp(0, n - 1) as usize;
-                    sum += kernel.at(kc, kr) * plane[sy * size + sx];
-                }
-            }
-            sum
-        })
-        .collect()
+    unicac_sim::convolve::convolve_invariant(plane, size, size, kernel)
 }
 
 fn rms_by_field(lens: &Lens, angles: &[f64]) -> Result<Vec<f64>, OdeError> {

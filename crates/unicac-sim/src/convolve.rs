@@ -133,6 +133,79 @@ fn convolve_at(
     sum
 }
 
+/// Kernel width from which `convolve_invariant` uses the FFT instead of direct summation (direct costs
+/// K^2 per pixel, the FFT a few hundred operations per pixel whatever K).
+pub const FFT_FROM_KERNEL_PX: usize = 15;
+
+/// One kernel over the whole plane, replicated borders: direct for small kernels, FFT for large ones.
+pub fn convolve_invariant(plane: &[f32], width: usize, height: usize, kernel: &Kernel) -> Vec<f32> {
+    if kernel.size < FFT_FROM_KERNEL_PX {
+        return (0..width * height)
+            .into_par_iter()
+            .map(|i| convolve_at(plane, width, height, kernel, i % width, i / width))
+            .collect();
+    }
+    fft_convolve(plane, width, height, kernel)
+}
+
+/// Linear convolution by FFT (rustfft, f64): the plane is padded by half a kernel of replicated border on
+/// each side, transformed with the zero-padded kernel, multiplied and transformed back; the padding is
+/// cropped away so the result equals the direct sum with replicated borders.
+fn fft_convolve(plane: &[f32], width: usize, height: usize, kernel: &Kernel) -> Vec<f32> {
+    use rustfft::{num_complex::Complex, FftPlanner};
+    let half = kernel.half();
+    let (pw, ph) = (width + 2 * half + kernel.size, height + 2 * half + kernel.size);
+    let mut planner = FftPlanner::<f64>::new();
+    let (row_fft, row_ifft) = (planner.plan_fft_forward(pw), planner.plan_fft_inverse(pw));
+    let (col_fft, col_ifft) = (planner.plan_fft_forward(ph), planner.plan_fft_inverse(ph));
+    let transform = |grid: &mut Vec<Complex<f64>>,
+                     rows: &std::sync::Arc<dyn rustfft::Fft<f64>>,
+                     cols: &std::sync::Arc<dyn rustfft::Fft<f64>>| {
+        grid.par_chunks_mut(pw).for_each(|row| rows.process(row));
+        let mut transposed = vec![Complex::default(); pw * ph];
+        for y in 0..ph {
+            for x in 0..pw {
+                transposed[x * ph + y] = grid[y * pw + x];
+            }
+        }
+        transposed
+            .par_chunks_mut(ph)
+            .for_each(|column| cols.process(column));
+        for y in 0..ph {
+            for x in 0..pw {
+                grid[y * pw + x] = transposed[x * ph + y];
+            }
+        }
+    };
+    // Image padded with replicated borders, placed at the origin.
+    let mut image = vec![Complex::default(); pw * ph];
+    for y in 0..height + 2 * half {
+        let source_y = (y as i64 - half as i64).clamp(0, height as i64 - 1) as usize;
+        for x in 0..width + 2 * half {
+            let source_x = (x as i64 - half as i64).clamp(0, width as i64 - 1) as usize;
+            image[y * pw + x] = Complex::new(plane[source_y * width + source_x] as f64, 0.0);
+        }
+    }
+    let mut filter = vec![Complex::default(); pw * ph];
+    for y in 0..kernel.size {
+        for x in 0..kernel.size {
+            filter[y * pw + x] = Complex::new(kernel.at(x, y) as f64, 0.0);
+        }
+    }
+    transform(&mut image, &row_fft, &col_fft);
+    transform(&mut filter, &row_fft, &col_fft);
+    image.par_iter_mut().zip(&filter).for_each(|(a, b)| *a *= b);
+    transform(&mut image, &row_ifft, &col_ifft);
+    let scale = 1.0 / (pw * ph) as f64;
+    // Full linear convolution index of output (x, y) is (x + 2 half, y + 2 half) in padded coordinates.
+    (0..width * height)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            (image[(y + 2 * half) * pw + x + 2 * half].re * scale) as f32
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -148,6 +221,27 @@ mod tests {
         k.data.iter_mut().for_each(|v| *v = 1.0);
         k.normalise();
         k
+    }
+
+    #[test]
+    fn fft_and_direct_convolution_agree() {
+        let (w, h) = (53, 41);
+        let plane: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 101) as f32 / 101.0).collect();
+        let mut k = Kernel::zeros(17, 1.0);
+        k.data
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v = 1.0 + ((i * 31) % 7) as f32);
+        k.normalise();
+        let fft = fft_convolve(&plane, w, h, &k);
+        let direct: Vec<f32> = (0..w * h)
+            .map(|i| convolve_at(&plane, w, h, &k, i % w, i / w))
+            .collect();
+        let worst = fft
+            .iter()
+            .zip(&direct)
+            .fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+        assert!(worst < 1e-5, "{worst}");
     }
 
     #[test]

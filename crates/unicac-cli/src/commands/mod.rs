@@ -1,8 +1,13 @@
 //! One module per command.
 
+mod chart;
 mod fan;
 mod layout;
 mod lens;
+mod mtf;
+mod ode;
+mod psf;
+mod simulate;
 mod spot;
 mod trace;
 
@@ -19,6 +24,11 @@ pub fn run(command: Command) -> Result<()> {
         Command::Spot(args) => spot::run(&args),
         Command::Fan(args) => fan::run(&args),
         Command::Layout(args) => layout::run(&args),
+        Command::Psf(args) => psf::run(&args),
+        Command::Simulate(args) => simulate::run(&args),
+        Command::Chart(args) => chart::run(&args),
+        Command::Ode(args) => ode::run(&args),
+        Command::Mtf(args) => mtf::run(&args),
     }
 }
 
@@ -55,4 +65,16 @@ pub(crate) fn fields_and_wavelengths(
         anyhow::bail!("--field-deg {bad}: must lie strictly between -90 and 90");
     }
     Ok((fields, wavelengths))
+}
+
+/// A progress bar on stderr for `count` items (hidden when stderr is not a terminal).
+pub(crate) fn progress(count: usize, what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(count as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed_precise} eta {eta}")
+            .expect("template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(what.to_string());
+    bar
 }

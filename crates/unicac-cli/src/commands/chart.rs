@@ -1,0 +1,18 @@
+//! `unicac chart`: generated test charts (no downloaded data needed).
+
+use crate::args::ChartArgs;
+use anyhow::Result;
+use unicac_image::charts;
+
+pub fn run(args: &ChartArgs) -> Result<()> {
+    let [w, h] = args.size;
+    let chart = match args.kind.as_str() {
+        "dead-leaves" => charts::dead_leaves(w, h, args.seed)?,
+        "checkerboard" => charts::checkerboard(w, h, (w.min(h) as f64 / 8.0).max(8.0), 1.0, 5.0)?,
+        "slanted-edge" => charts::slanted_edge(w, h, 5.0, 0.2, 0.8)?,
+        _ => charts::siemens_star(w, h, 36)?,
+    };
+    super::simulate::write_linear(&chart, &args.out, None)?;
+    eprintln!("wrote {}", args.out.display());
+    Ok(())
+}
