@@ -49,9 +49,16 @@ impl Default for OdeWeights {
     }
 }
 
-/// OIQ = alpha PSNR/50 + beta (SSIM - 0.5)/0.5 + gamma OIQE (PSNR in dB).
+/// PSNR at which the PSNR term of OIQ saturates: the paper normalises by 50 dB, and an ideal lens
+/// (identical 8-bit images, infinite PSNR) must not score above a lens that is merely perfect to the eye.
+pub const OIQ_PSNR_CEILING_DB: f64 = 50.0;
+
+/// OIQ = alpha min(PSNR, 50)/50 + beta (SSIM - 0.5)/0.5 + gamma OIQE (PSNR in dB; see
+/// `OIQ_PSNR_CEILING_DB` and docs/ode.md for the clamp).
 pub fn oiq(psnr_db: f64, ssim: f64, oiqe: f64, weights: &OdeWeights) -> f64 {
-    weights.alpha * psnr_db / 50.0 + weights.beta * (ssim - 0.5) / 0.5 + weights.gamma * oiqe
+    weights.alpha * psnr_db.min(OIQ_PSNR_CEILING_DB) / 50.0
+        + weights.beta * (ssim - 0.5) / 0.5
+        + weights.gamma * oiqe
 }
 
 /// Coefficient of variation: population standard deviation / mean.

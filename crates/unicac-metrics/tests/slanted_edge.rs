@@ -1,130 +1,33 @@
-//! Slanted-edge MTF against analytic results.
-//!
-//! The test edges are rendered analytically: a straight edge slanted by `angle` from the pixel columns
-//! (or rows), blurred by a Gaussian PSF of standard deviation sigma (the edge profile is the normal CDF,
-//! i.e. an erf), integrated exactly over each pixel's width and by a 64-point midpoint rule over its height
-//! (100% fill-factor square pixels). The expected MTF along the edge normal is then
-//! exp(-2 pi^2 sigma^2 f^2) * sinc(f cos angle) * sinc(f sin angle) (Gaussian times the projected pixel
-//! aperture; for 5 deg the second sinc differs from 1 by at most 0.3% up to Nyquist).
+//! Slanted-edge MTF against analytic results (the renderer and the analytic MTF are in `common`).
 
-use std::f64::consts::PI;
+mod common;
 
-use unicac_image::Planar;
+use common::{full_roi, max_error_to_nyquist, measure_with, mtf50_error, render, Edge};
 use unicac_metrics::mtf::slanted_edge::{EdgeOrientation, EdgePolarity};
 use unicac_metrics::mtf::{pixel_aperture_mtf, Mtf50Kind};
-use unicac_metrics::{
-    oiqe, psf_mtf, slanted_edge_mtf, EdgeMtf, OiqeWeights, PsfSamples, Roi, SlantedEdgeOptions,
-};
-
-const LOW: f64 = 0.1;
-const HIGH: f64 = 0.9;
-
-#[derive(Clone, Copy)]
-struct Edge {
-    sigma_px: f64,
-    angle_deg: f64,
-    orientation: EdgeOrientation,
-    polarity: EdgePolarity,
-}
-
-fn normal_cdf(u: f64) -> f64 {
-    0.5 * libm::erfc(-u / std::f64::consts::SQRT_2)
-}
-
-/// Antiderivative of the normal CDF: u Phi(u) + phi(u).
-fn cdf_integral(u: f64) -> f64 {
-    u * normal_cdf(u) + (-0.5 * u * u).exp() / (2.0 * PI).sqrt()
-}
-
-/// Fraction of bright side in the pixel row segment [x0, x0 + 1] for an edge crossing the row at `e`.
-fn bright_fraction(x0: f64, e: f64, cos: f64, sigma: f64) -> f64 {
-    if sigma == 0.0 {
-        (x0 + 1.0 - e).clamp(0.0, 1.0)
-    } else {
-        let s = sigma / cos;
-        s * (cdf_integral((x0 + 1.0 - e) / s) - cdf_integral((x0 - e) / s))
-    }
-}
-
-/// A `size` x `size` single-channel image of `edge` through the image centre (plus a sub-pixel offset).
-fn render(edge: Edge, size: usize) -> Planar {
-    const SUB_ROWS: usize = 64;
-    let (tan, cos) = (
-        edge.angle_deg.to_radians().tan(),
-        edge.angle_deg.to_radians().cos(),
-    );
-    let centre = size as f64 / 2.0 + 0.3;
-    // Render a near-vertical edge as (across, along); transpose for near-horizontal edges.
-    let value = |across: usize, along: usize| -> f32 {
-        let fraction: f64 = (0..SUB_ROWS)
-            .map(|k| {
-                let y = along as f64 + (k as f64 + 0.5) / SUB_ROWS as f64;
-                bright_fraction(across as f64, centre + tan * (y - centre), cos, edge.sigma_px)
-            })
-            .sum::<f64>()
-            / SUB_ROWS as f64;
-        let (from, to) = match edge.polarity {
-            EdgePolarity::Rising => (LOW, HIGH),
-            EdgePolarity::Falling => (HIGH, LOW),
-        };
-        (from + (to - from) * fraction) as f32
-    };
-    Planar::from_fn(size, size, 1, |_, x, y| match edge.orientation {
-        EdgeOrientation::NearVertical => value(x, y),
-        EdgeOrientation::NearHorizontal => value(y, x),
-    })
-}
-
-fn analytic_mtf(sigma: f64, angle_deg: f64, f: f64) -> f64 {
-    (-2.0 * PI * PI * sigma * sigma * f * f).exp() * pixel_aperture_mtf(f, angle_deg.to_radians())
-}
-
-/// First 0.5 crossing of the analytic MTF, by bisection on [0, 1] cy/px.
-fn analytic_mtf50(sigma: f64, angle_deg: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0, 1.0);
-    for _ in 0..100 {
-        let mid = 0.5 * (lo + hi);
-        if analytic_mtf(sigma, angle_deg, mid) > 0.5 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    lo
-}
+use unicac_metrics::{oiqe, psf_mtf, slanted_edge_mtf, EdgeMtf, OiqeWeights, PsfSamples, SlantedEdgeOptions};
 
 fn measure(edge: Edge, size: usize) -> EdgeMtf {
-    let image = render(edge, size);
-    let roi = Roi {
-        x: 0,
-        y: 0,
-        width: size,
-        height: size,
-    };
-    slanted_edge_mtf(&image, 0, roi, &SlantedEdgeOptions::default()).unwrap()
+    measure_with(edge, size, &SlantedEdgeOptions::default())
 }
 
-/// Largest |measured - analytic| up to Nyquist.
-fn max_error_to_nyquist(measured: &EdgeMtf, sigma: f64, angle_deg: f64) -> f64 {
-    measured
-        .frequency_cy_per_px
-        .iter()
-        .zip(&measured.mtf)
-        .filter(|(f, _)| **f <= 0.5)
-        .map(|(&f, &m)| (m - analytic_mtf(sigma, angle_deg, f)).abs())
-        .fold(0.0, f64::max)
-}
+/// The edges pass through (size / 2 + 0.3, size / 2 + 0.3): off every pixel boundary.
+const CENTRE_OFFSET_PX: f64 = 0.3;
 
 fn all_edges(sigma_px: f64) -> Vec<Edge> {
     let mut edges = Vec::new();
     for orientation in [EdgeOrientation::NearVertical, EdgeOrientation::NearHorizontal] {
         for polarity in [EdgePolarity::Rising, EdgePolarity::Falling] {
-            edges.push(Edge {
-                sigma_px,
-                angle_deg: 5.0,
-                orientation,
-                polarity,
-            });
+            edges.push(
+                Edge {
+                    sigma_px,
+                    angle_deg: 5.0,
+                    orientation,
+                    polarity,
+                    offset_px: 0.0,
+                }
+                .through_diagonal_point(CENTRE_OFFSET_PX),
+            );
         }
     }
     edges
@@ -139,14 +42,7 @@ const SIZE: usize = 128;
 
 /// Checks one edge against the analytic MTF; returns (max MTF error, relative MTF50 error).
 fn check(edge: Edge, options: &SlantedEdgeOptions) -> (f64, f64) {
-    let image = render(edge, SIZE);
-    let roi = Roi {
-        x: 0,
-        y: 0,
-        width: SIZE,
-        height: SIZE,
-    };
-    let m = slanted_edge_mtf(&image, 0, roi, options).unwrap();
+    let m = slanted_edge_mtf(&render(edge, SIZE), 0, full_roi(SIZE), options).unwrap();
     assert_eq!(m.edge.orientation, edge.orientation);
     assert_eq!(m.edge.polarity, edge.polarity);
     // Transposing mirrors the slant, so compare magnitudes.
@@ -157,7 +53,7 @@ fn check(edge: Edge, options: &SlantedEdgeOptions) -> (f64, f64) {
     );
     assert!((m.frequency_cy_per_px.last().unwrap() - 1.0).abs() < 0.01);
     let error = max_error_to_nyquist(&m, edge.sigma_px, edge.angle_deg);
-    let mtf50 = m.mtf50_cy_per_px / analytic_mtf50(edge.sigma_px, edge.angle_deg) - 1.0;
+    let mtf50 = mtf50_error(&m, edge.sigma_px, edge.angle_deg);
     (error, mtf50)
 }
 
@@ -213,6 +109,7 @@ fn other_slant_angles_work() {
             angle_deg: -3.0,
             ..all_edges(0.8)[0]
         }])
+        .map(|edge| edge.through_diagonal_point(CENTRE_OFFSET_PX))
         .collect();
     check_all(
         &edges,

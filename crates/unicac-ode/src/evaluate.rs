@@ -24,6 +24,16 @@ pub enum OdeError {
     Metrics(#[from] unicac_metrics::MetricsError),
     #[error(transparent)]
     Image(#[from] unicac_image::ImageError),
+    #[error("field {field_fraction} ({field_deg:.3} deg) is fully vignetted: no ray reaches the image")]
+    Vignetted { field_fraction: f64, field_deg: f64 },
+    #[error("slanted edge at field {field_fraction}, channel {channel}, {direction} (kernel {kernel_px} px): {message}")]
+    Edge {
+        field_fraction: f64,
+        channel: &'static str,
+        direction: String,
+        kernel_px: usize,
+        message: String,
+    },
 }
 
 /// What ODE is computed on; defaults as in docs/ode.md.
@@ -35,8 +45,10 @@ pub struct OdeSettings {
     pub default_frame_px: [usize; 2],
     pub wavelengths: usize,
     pub rays_per_psf: usize,
-    /// Checkerboard square side (px) at least this, and at least 3 kernel widths.
-    pub min_square_px: usize,
+    /// Checkerboard square side (px); fixed so PSNR and SSIM compare across lenses.
+    pub square_px: usize,
+    /// Slanted-edge patch side (px): at least this and at least 4 kernel widths.
+    pub min_edge_px: usize,
     pub slant_deg: f64,
     pub contrast: f64,
     pub weights: OdeWeights,
@@ -50,7 +62,8 @@ impl Default for OdeSettings {
             default_frame_px: [1920, 1080],
             wavelengths: 31,
             rays_per_psf: 2048,
-            min_square_px: 48,
+            square_px: 32,
+            min_edge_px: 64,
             slant_deg: 5.0,
             contrast: 1.0,
             weights: OdeWeights::default(),
@@ -91,12 +104,32 @@ pub struct OdeReport {
     pub table: Vec<FieldChannelScore>,
     /// RMS spot radius per field (um), same order as the fields.
     pub rms_radius_by_field_um: Vec<f64>,
+    /// Where the time went (not part of the result; varies run to run).
+    pub times: StageTimes,
 }
 
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
+/// Wall-clock seconds spent per stage of one evaluation.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct StageTimes {
+    pub chief_ray_map_s: f64,
+    pub psf_tracing_s: f64,
+    pub imaging_and_scoring_s: f64,
+    pub rms_spot_s: f64,
+}
+
 pub fn evaluate(lens: &Lens, settings: &OdeSettings) -> Result<OdeReport, OdeError> {
+    let mut times = StageTimes::default();
+    let clock = std::time::Instant::now();
+    let lap = |since: &mut std::time::Instant| {
+        let seconds = since.elapsed().as_secs_f64();
+        *since = std::time::Instant::now();
+        seconds
+    };
+    let mut since = clock;
     let chief = ChiefRayMap::new(lens)?;
+    times.chief_ray_map_s = lap(&mut since);
     let (half_diagonal_mm, pixel_um) = match lens.sensor {
         Some(sensor) => (
             sensor.half_diagonal_mm().min(chief.max_height_mm()),
@@ -139,26 +172,35 @@ pub fn evaluate(lens: &Lens, settings: &OdeSettings) -> Result<OdeReport, OdeErr
         .max()
         .unwrap_or(1)
         .min(psf_settings.max_kernel_px);
-    let table: Vec<FieldChannelScore> = settings
+    let fields: Vec<FieldKernels> = settings
         .field_fractions
-        .par_iter()
+        .iter()
         .zip(&angles)
         .zip(&traced)
-        .map(|((&fraction, &angle), (reference, hits))| {
-            let psf = tracer.kernels_from_hits(angle, *reference, hits, kernel_px, false);
-            score_field(fraction, angle, &psf.kernels, settings)
+        .map(|((&fraction, &angle), (reference, hits))| FieldKernels {
+            fraction,
+            angle_deg: angle,
+            kernels: tracer
+                .kernels_from_hits(angle, *reference, hits, kernel_px, false)
+                .kernels,
         })
-        .collect::<Result<Vec<Vec<_>>, OdeError>>()?
-        .into_iter()
-        .flatten()
         .collect();
-    let oiq_grid: Vec<Vec<f64>> = table
-        .chunks(3)
-        .map(|field| field.iter().map(|s| s.oiq).collect())
-        .collect();
-    let breakdown = ode_from_oiq_grid(&oiq_grid, &settings.weights)?;
+    times.psf_tracing_s = lap(&mut since);
+    if let Some((dark, _)) = fields
+        .iter()
+        .zip(&traced)
+        .find(|(_, (_, hits))| hits.iter().all(|h| h.offsets_um.is_empty()))
+    {
+        return Err(OdeError::Vignetted {
+            field_fraction: dark.fraction,
+            field_deg: dark.angle_deg,
+        });
+    }
+    let (breakdown, table) = score_fields(&fields, settings)?;
+    times.imaging_and_scoring_s = lap(&mut since);
     let mean = |f: fn(&FieldChannelScore) -> f64| table.iter().map(f).sum::<f64>() / table.len() as f64;
     let rms_radius_by_field_um = rms_by_field(lens, &angles)?;
+    times.rms_spot_s = lap(&mut since);
     Ok(OdeReport {
         ode: breakdown.ode,
         oiq: breakdown.oiq,
@@ -173,10 +215,40 @@ pub fn evaluate(lens: &Lens, settings: &OdeSettings) -> Result<OdeReport, OdeErr
         kernel_px,
         table,
         rms_radius_by_field_um,
+        times,
     })
 }
 
-/// Images a checkerboard patch through one field's R, G, B kernels and scores each channel.
+/// The R, G, B kernels of one evaluated field.
+#[derive(Debug, Clone)]
+pub struct FieldKernels {
+    pub fraction: f64,
+    pub angle_deg: f64,
+    pub kernels: Vec<Kernel>,
+}
+
+/// Scores every field's kernels and combines them into OIQ, U_s, U_c and ODE (the lens-independent
+/// half of `evaluate`, usable with any kernels, e.g. an ideal lens's deltas).
+pub fn score_fields(
+    fields: &[FieldKernels],
+    settings: &OdeSettings,
+) -> Result<(unicac_metrics::OdeBreakdown, Vec<FieldChannelScore>), OdeError> {
+    let table: Vec<FieldChannelScore> = fields
+        .par_iter()
+        .map(|f| score_field(f.fraction, f.angle_deg, &f.kernels, settings))
+        .collect::<Result<Vec<Vec<_>>, OdeError>>()?
+        .into_iter()
+        .flatten()
+        .collect();
+    let oiq_grid: Vec<Vec<f64>> = table
+        .chunks(3)
+        .map(|field| field.iter().map(|s| s.oiq).collect())
+        .collect();
+    Ok((ode_from_oiq_grid(&oiq_grid, &settings.weights)?, table))
+}
+
+/// Images a checkerboard patch (PSNR, SSIM) and two slanted edges (OIQE) through one field's R, G, B
+/// kernels and scores each channel.
 fn score_field(
     fraction: f64,
     angle: f64,
@@ -184,54 +256,66 @@ fn score_field(
     settings: &OdeSettings,
 ) -> Result<Vec<FieldChannelScore>, OdeError> {
     let k = kernels[0].size;
-    let side = settings.min_square_px.max(3 * k);
-    let size = 4 * side;
+    let crop = k / 2 + 1;
+    // Fixed checkerboard period and evaluated area, so PSNR and SSIM compare across lenses.
+    let checker_size = CHECKER_AREA_PX + 2 * crop;
     let chart = charts::checkerboard(
-        size,
-        size,
-        2.0 * side as f64,
+        checker_size,
+        checker_size,
+        2.0 * settings.square_px as f64,
         settings.contrast,
         settings.slant_deg,
     )?;
     let ideal = encode(&chart)?;
-    let crop = k / 2 + 1;
     let options = FullReferenceOptions {
         crop_border: crop,
         ..Default::default()
     };
-    let (cx, cy) = (size / 2, size / 2);
-    let roi_side = 2 * side / 3;
-    // The field lies on sensor +y, so image x is sagittal and y tangential; ROIs hold one edge each.
-    let sagittal_roi = Roi {
-        x: cx - roi_side / 2,
-        y: cy + side / 2 - roi_side / 2,
-        width: roi_side,
-        height: roi_side,
-    };
-    let tangential_roi = Roi {
-        x: cx + side / 2 - roi_side / 2,
-        y: cy - roi_side / 2,
-        width: roi_side,
-        height: roi_side,
+    // Isolated edges, large enough that the whole blurred edge fits: near-vertical (sagittal MTF, since
+    // the field lies on sensor +y) and its transpose, near-horizontal (tangential MTF).
+    let edge_size = settings.min_edge_px.max(4 * k);
+    let vertical = charts::slanted_edge(edge_size, edge_size, settings.slant_deg, 0.2, 0.8)?;
+    let horizontal = transpose(&vertical);
+    let roi = Roi {
+        x: crop,
+        y: crop,
+        width: edge_size - 2 * crop,
+        height: edge_size - 2 * crop,
     };
     let edge_options = SlantedEdgeOptions::default();
     kernels
         .iter()
         .enumerate()
         .map(|(c, kernel)| {
-            let blurred = convolve_patch(chart.plane(c), size, kernel);
-            let blurred_plane = Planar {
-                width: size,
-                height: size,
+            let blurred = Planar {
+                width: checker_size,
+                height: checker_size,
                 channels: 1,
-                data: blurred,
+                data: convolve_patch(chart.plane(c), checker_size, kernel),
             };
+            let encoded = encode(&blurred)?;
             let ideal_plane = single_channel(&ideal, c);
-            let encoded = encode(&blurred_plane)?;
             let p = psnr(&encoded, &ideal_plane, &options)?;
             let s = ssim(&encoded, &ideal_plane, &options)?;
-            let sagittal = slanted_edge_mtf(&blurred_plane, 0, sagittal_roi, &edge_options)?.summary();
-            let tangential = slanted_edge_mtf(&blurred_plane, 0, tangential_roi, &edge_options)?.summary();
+            let edge_mtf = |edge: &Planar, direction: &str| {
+                let blurred = Planar {
+                    width: edge_size,
+                    height: edge_size,
+                    channels: 1,
+                    data: convolve_patch(edge.plane(c), edge_size, kernel),
+                };
+                slanted_edge_mtf(&blurred, 0, roi, &edge_options)
+                    .map(|m| m.summary())
+                    .map_err(|e| OdeError::Edge {
+                        field_fraction: fraction,
+                        channel: CHANNELS[c],
+                        direction: direction.to_string(),
+                        kernel_px: k,
+                        message: e.to_string(),
+                    })
+            };
+            let sagittal = edge_mtf(&vertical, "sagittal")?;
+            let tangential = edge_mtf(&horizontal, "tangential")?;
             let quality = oiqe(&tangential, &sagittal, &settings.oiqe_weights)?;
             Ok(FieldChannelScore {
                 field_fraction: fraction,
@@ -246,6 +330,15 @@ fn score_field(
             })
         })
         .collect()
+}
+
+/// Side of the checkerboard area PSNR and SSIM are computed on (after the border crop).
+const CHECKER_AREA_PX: usize = 256;
+
+fn transpose(image: &Planar) -> Planar {
+    Planar::from_fn(image.height, image.width, image.channels, |c, x, y| {
+        image.get(c, y, x)
+    })
 }
 
 fn mtf50(summary: &MtfSummary) -> f64 {

@@ -11,4 +11,6 @@
 
 pub mod evaluate;
 
-pub use evaluate::{evaluate, FieldChannelScore, OdeError, OdeReport, OdeSettings};
+pub use evaluate::{
+    evaluate, score_fields, FieldChannelScore, FieldKernels, OdeError, OdeReport, OdeSettings,
+};

@@ -63,6 +63,7 @@ pub struct TraceSystem {
 impl TraceSystem {
     pub fn new(lens: &Lens, wavelength_um: f64, clipping: Clipping) -> Result<TraceSystem> {
         let n = lens.media_indices(wavelength_um)?;
+        let image = lens.image_index();
         let surfaces = lens
             .surfaces
             .iter()
@@ -71,8 +72,9 @@ impl TraceSystem {
                 z_mm: s.z_mm,
                 profile: s.profile,
                 conic_rho_limit: s.profile.conic_rho_limit(),
+                // The image surface is the detector: its semi-diameter describes it, it never vignettes.
                 clip_rho: match (clipping, s.semi_diameter_mm) {
-                    (Clipping::Apertures, Some(sd)) => sd * sd,
+                    (Clipping::Apertures, Some(sd)) if i != image => sd * sd,
                     _ => f64::INFINITY,
                 },
                 index_after: n[i + 1],
