@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The main job on an embedded lens, no user data: first-order data, spot diagram, ray fans and layout
-# of the built-in Cooke triplet, pictures written to out/.
+# The main job on an embedded lens, no user data: first-order data, spot diagram, ray fans, layout,
+# a spectral PSF, a generated dead-leaves chart simulated through the lens, and the lens's ODE, for the
+# built-in Cooke triplet (or the lens given as the first argument); everything is written to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/setup.sh
@@ -12,4 +13,8 @@ $unicac lens info "$lens"
 $unicac spot "$lens" --plot out/spot.png
 $unicac fan "$lens" --plot out/fan.png
 $unicac layout "$lens" --plot out/layout.svg
-echo "pictures: out/spot.png out/fan.png out/layout.svg"
+$unicac psf "$lens" --field-deg 14 --out out/psf.exr --plot out/psf.png
+$unicac chart dead-leaves --size 640x480 --seed 1 --out out/chart.png
+$unicac simulate "$lens" out/chart.png --out out/simulated --seed 1
+$unicac ode "$lens" --plot out/ode.png
+echo "written: out/spot.png out/fan.png out/layout.svg out/psf.exr out/psf.png out/chart.png out/simulated/chart.png out/ode.png"
