@@ -4,8 +4,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 use unicac_image::{charts, color, quantise, Planar};
 use unicac_metrics::{
-    ode_from_oiq_grid, oiq, oiqe, psnr, slanted_edge_mtf, ssim, FullReferenceOptions, MtfSummary, OdeWeights,
-    OiqeWeights, Roi, SlantedEdgeOptions,
+    ode_from_oiq_grid, oiq, oiqe, psnr, slanted_edge_mtf, ssim, EdgeMtf, FullReferenceOptions, MtfSummary,
+    OdeWeights, OiqeWeights, Roi, SlantedEdgeOptions,
 };
 use unicac_optics::Lens;
 use unicac_psf::{visible_wavelengths_um, Kernel, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights};
@@ -119,83 +119,106 @@ pub struct StageTimes {
     pub rms_spot_s: f64,
 }
 
+/// The frame, pixel pitch and PSF tracer the ODE fields are measured with (docs/ode.md).
+pub struct EvaluationSetup {
+    pub chief: ChiefRayMap,
+    pub half_diagonal_mm: f64,
+    pub pixel_um: f64,
+    tracer: PsfTracer,
+}
+
+impl EvaluationSetup {
+    pub fn new(lens: &Lens, settings: &OdeSettings) -> Result<EvaluationSetup, OdeError> {
+        let chief = ChiefRayMap::new(lens)?;
+        let (half_diagonal_mm, pixel_um) = match lens.sensor {
+            Some(sensor) => (
+                sensor.half_diagonal_mm().min(chief.max_height_mm()),
+                sensor.pixel_pitch_um,
+            ),
+            None => {
+                let [w, h] = settings.default_frame_px;
+                let half_diagonal_mm = chief.max_height_mm();
+                (
+                    half_diagonal_mm,
+                    half_diagonal_mm * 1e3 / (0.5 * (w as f64).hypot(h as f64)),
+                )
+            }
+        };
+        let mut psf_settings = PsfSettings::new(pixel_um);
+        psf_settings.pupil_sampling = PupilSampling::Fibonacci {
+            n: settings.rays_per_psf,
+        };
+        let weights = SpectralWeights::new(
+            &SpectralResponse::default_camera(),
+            &visible_wavelengths_um(settings.wavelengths),
+        );
+        let tracer = PsfTracer::new(lens, weights, psf_settings)?;
+        Ok(EvaluationSetup {
+            chief,
+            half_diagonal_mm,
+            pixel_um,
+            tracer,
+        })
+    }
+
+    /// R, G, B kernels at the given normalised image heights, one common size from the largest spot.
+    pub fn field_kernels(&self, fractions: &[f64]) -> Result<Vec<FieldKernels>, OdeError> {
+        let angles: Vec<f64> = fractions
+            .iter()
+            .map(|f| self.chief.angle_for_height(f * self.half_diagonal_mm))
+            .collect();
+        let traced: Vec<_> = angles
+            .par_iter()
+            .map(|&angle| {
+                let reference = self.tracer.reference_point_mm(angle)?;
+                Ok((reference, self.tracer.hits(angle, reference)))
+            })
+            .collect::<Result<Vec<_>, OdeError>>()?;
+        for ((&fraction, &angle), (_, hits)) in fractions.iter().zip(&angles).zip(&traced) {
+            if hits.iter().all(|h| h.offsets_um.is_empty()) {
+                return Err(OdeError::Vignetted {
+                    field_fraction: fraction,
+                    field_deg: angle,
+                });
+            }
+        }
+        let kernel_px = traced
+            .iter()
+            .map(|(_, hits)| self.tracer.kernel_size_for(hits))
+            .max()
+            .unwrap_or(1)
+            .min(self.tracer.settings().max_kernel_px);
+        Ok(fractions
+            .iter()
+            .zip(&angles)
+            .zip(&traced)
+            .map(|((&fraction, &angle), (reference, hits))| FieldKernels {
+                fraction,
+                angle_deg: angle,
+                kernels: self
+                    .tracer
+                    .kernels_from_hits(angle, *reference, hits, kernel_px, false)
+                    .kernels,
+            })
+            .collect())
+    }
+}
+
 pub fn evaluate(lens: &Lens, settings: &OdeSettings) -> Result<OdeReport, OdeError> {
     let mut times = StageTimes::default();
-    let clock = std::time::Instant::now();
     let lap = |since: &mut std::time::Instant| {
         let seconds = since.elapsed().as_secs_f64();
         *since = std::time::Instant::now();
         seconds
     };
-    let mut since = clock;
-    let chief = ChiefRayMap::new(lens)?;
+    let mut since = std::time::Instant::now();
+    let setup = EvaluationSetup::new(lens, settings)?;
     times.chief_ray_map_s = lap(&mut since);
-    let (half_diagonal_mm, pixel_um) = match lens.sensor {
-        Some(sensor) => (
-            sensor.half_diagonal_mm().min(chief.max_height_mm()),
-            sensor.pixel_pitch_um,
-        ),
-        None => {
-            let [w, h] = settings.default_frame_px;
-            let half_diagonal_mm = chief.max_height_mm();
-            (
-                half_diagonal_mm,
-                half_diagonal_mm * 1e3 / (0.5 * (w as f64).hypot(h as f64)),
-            )
-        }
-    };
-    let mut psf_settings = PsfSettings::new(pixel_um);
-    psf_settings.pupil_sampling = PupilSampling::Fibonacci {
-        n: settings.rays_per_psf,
-    };
-    let weights = SpectralWeights::new(
-        &SpectralResponse::default_camera(),
-        &visible_wavelengths_um(settings.wavelengths),
-    );
-    let tracer = PsfTracer::new(lens, weights, psf_settings)?;
-    let angles: Vec<f64> = settings
-        .field_fractions
-        .iter()
-        .map(|f| chief.angle_for_height(f * half_diagonal_mm))
-        .collect();
-    // One kernel size for all fields, from the largest spot.
-    let traced: Vec<_> = angles
-        .par_iter()
-        .map(|&angle| {
-            let reference = tracer.reference_point_mm(angle)?;
-            Ok((reference, tracer.hits(angle, reference)))
-        })
-        .collect::<Result<Vec<_>, OdeError>>()?;
-    let kernel_px = traced
-        .iter()
-        .map(|(_, hits)| tracer.kernel_size_for(hits))
-        .max()
-        .unwrap_or(1)
-        .min(psf_settings.max_kernel_px);
-    let fields: Vec<FieldKernels> = settings
-        .field_fractions
-        .iter()
-        .zip(&angles)
-        .zip(&traced)
-        .map(|((&fraction, &angle), (reference, hits))| FieldKernels {
-            fraction,
-            angle_deg: angle,
-            kernels: tracer
-                .kernels_from_hits(angle, *reference, hits, kernel_px, false)
-                .kernels,
-        })
-        .collect();
+    let fields = setup.field_kernels(&settings.field_fractions)?;
+    let kernel_px = fields[0].kernels[0].size;
+    let angles: Vec<f64> = fields.iter().map(|f| f.angle_deg).collect();
+    let (half_diagonal_mm, pixel_um) = (setup.half_diagonal_mm, setup.pixel_um);
     times.psf_tracing_s = lap(&mut since);
-    if let Some((dark, _)) = fields
-        .iter()
-        .zip(&traced)
-        .find(|(_, (_, hits))| hits.iter().all(|h| h.offsets_um.is_empty()))
-    {
-        return Err(OdeError::Vignetted {
-            field_fraction: dark.fraction,
-            field_deg: dark.angle_deg,
-        });
-    }
     let (breakdown, table) = score_fields(&fields, settings)?;
     times.imaging_and_scoring_s = lap(&mut since);
     let mean = |f: fn(&FieldChannelScore) -> f64| table.iter().map(f).sum::<f64>() / table.len() as f64;
@@ -271,18 +294,6 @@ fn score_field(
         crop_border: crop,
         ..Default::default()
     };
-    // Isolated edges, large enough that the whole blurred edge fits: near-vertical (sagittal MTF, since
-    // the field lies on sensor +y) and its transpose, near-horizontal (tangential MTF).
-    let edge_size = settings.min_edge_px.max(4 * k);
-    let vertical = charts::slanted_edge(edge_size, edge_size, settings.slant_deg, 0.2, 0.8)?;
-    let horizontal = transpose(&vertical);
-    let roi = Roi {
-        x: crop,
-        y: crop,
-        width: edge_size - 2 * crop,
-        height: edge_size - 2 * crop,
-    };
-    let edge_options = SlantedEdgeOptions::default();
     kernels
         .iter()
         .enumerate()
@@ -297,25 +308,14 @@ fn score_field(
             let ideal_plane = single_channel(&ideal, c);
             let p = psnr(&encoded, &ideal_plane, &options)?;
             let s = ssim(&encoded, &ideal_plane, &options)?;
-            let edge_mtf = |edge: &Planar, direction: &str| {
-                let blurred = Planar {
-                    width: edge_size,
-                    height: edge_size,
-                    channels: 1,
-                    data: convolve_patch(edge.plane(c), edge_size, kernel),
-                };
-                slanted_edge_mtf(&blurred, 0, roi, &edge_options)
-                    .map(|m| m.summary())
-                    .map_err(|e| OdeError::Edge {
-                        field_fraction: fraction,
-                        channel: CHANNELS[c],
-                        direction: direction.to_string(),
-                        kernel_px: k,
-                        message: e.to_string(),
-                    })
-            };
-            let sagittal = edge_mtf(&vertical, "sagittal")?;
-            let tangential = edge_mtf(&horizontal, "tangential")?;
+            let edges = edge_mtfs(kernel, settings).map_err(|(direction, e)| OdeError::Edge {
+                field_fraction: fraction,
+                channel: CHANNELS[c],
+                direction: direction.to_string(),
+                kernel_px: k,
+                message: e.to_string(),
+            })?;
+            let (sagittal, tangential) = (edges[0].summary(), edges[1].summary());
             let quality = oiqe(&tangential, &sagittal, &settings.oiqe_weights)?;
             Ok(FieldChannelScore {
                 field_fraction: fraction,
@@ -330,6 +330,35 @@ fn score_field(
             })
         })
         .collect()
+}
+
+/// Slanted-edge MTFs of one kernel: [sagittal (near-vertical edge), tangential (its transpose)], each
+/// on an isolated edge patch of max(`min_edge_px`, 4 kernel widths) so the whole blurred edge fits.
+pub fn edge_mtfs(kernel: &Kernel, settings: &OdeSettings) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
+    let k = kernel.size;
+    let crop = k / 2 + 1;
+    let edge_size = settings.min_edge_px.max(4 * k);
+    let vertical = charts::slanted_edge(edge_size, edge_size, settings.slant_deg, 0.2, 0.8)
+        .map_err(|e| ("sagittal", e.into()))?;
+    let roi = Roi {
+        x: crop,
+        y: crop,
+        width: edge_size - 2 * crop,
+        height: edge_size - 2 * crop,
+    };
+    let measure = |edge: &Planar, direction: &'static str| {
+        let blurred = Planar {
+            width: edge_size,
+            height: edge_size,
+            channels: 1,
+            data: convolve_patch(edge.plane(0), edge_size, kernel),
+        };
+        slanted_edge_mtf(&blurred, 0, roi, &SlantedEdgeOptions::default()).map_err(|e| (direction, e.into()))
+    };
+    Ok([
+        measure(&vertical, "sagittal")?,
+        measure(&transpose(&vertical), "tangential")?,
+    ])
 }
 
 /// Side of the checkerboard area PSNR and SSIM are computed on (after the border crop).
@@ -382,4 +411,62 @@ fn rms_by_field(lens: &Lens, angles: &[f64]) -> Result<Vec<f64>, OdeError> {
             values.iter().sum::<f64>() / values.len().max(1) as f64
         })
         .collect())
+}
+
+/// MTF of a lens at one field and channel, in one direction, measured two ways.
+#[derive(Debug, Clone, Serialize)]
+pub struct LensMtf {
+    pub field_fraction: f64,
+    pub field_deg: f64,
+    pub channel: &'static str,
+    /// "sagittal" or "tangential".
+    pub direction: &'static str,
+    pub frequency_cy_per_px: Vec<f64>,
+    /// Slanted-edge MTF of the edge imaged through the kernel (what ODE's OIQE uses).
+    pub edge_mtf: Vec<f64>,
+    /// MTF computed directly from the pixel-integrated kernel (projection-slice theorem), times the
+    /// pixel aperture of the rendered (pixel-integrated) edge chart, so both curves describe the same
+    /// chain: chart pixels, then lens-and-pixel kernel.
+    pub exact_mtf: Vec<f64>,
+}
+
+/// Slanted-edge and exact MTFs at the ODE fields, every channel and both directions.
+pub fn lens_mtf(lens: &Lens, settings: &OdeSettings) -> Result<Vec<LensMtf>, OdeError> {
+    let setup = EvaluationSetup::new(lens, settings)?;
+    let fields = setup.field_kernels(&settings.field_fractions)?;
+    let mut curves = Vec::new();
+    for field in &fields {
+        for (c, kernel) in field.kernels.iter().enumerate() {
+            let edges = edge_mtfs(kernel, settings).map_err(|(_, e)| e)?;
+            let samples: Vec<f64> = kernel.data.iter().map(|&v| v as f64).collect();
+            let psf = unicac_metrics::PsfSamples {
+                data: &samples,
+                width: kernel.size,
+                height: kernel.size,
+                sample_pitch: 1.0,
+            };
+            // Sagittal: along image x; tangential: along image y (the field lies on sensor +y).
+            for (edge, direction, angle) in [
+                (&edges[0], "sagittal", 0.0),
+                (&edges[1], "tangential", std::f64::consts::FRAC_PI_2),
+            ] {
+                curves.push(LensMtf {
+                    field_fraction: field.fraction,
+                    field_deg: field.angle_deg,
+                    channel: CHANNELS[c],
+                    direction,
+                    exact_mtf: unicac_metrics::psf_mtf(psf, angle, &edge.frequency_cy_per_px)?
+                        .iter()
+                        .zip(&edge.frequency_cy_per_px)
+                        .map(|(m, &f)| {
+                            m * unicac_metrics::mtf::pixel_aperture_mtf(f, settings.slant_deg.to_radians())
+                        })
+                        .collect(),
+                    frequency_cy_per_px: edge.frequency_cy_per_px.clone(),
+                    edge_mtf: edge.mtf.clone(),
+                });
+            }
+        }
+    }
+    Ok(curves)
 }

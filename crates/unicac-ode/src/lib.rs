@@ -12,5 +12,6 @@
 pub mod evaluate;
 
 pub use evaluate::{
-    evaluate, score_fields, FieldChannelScore, FieldKernels, OdeError, OdeReport, OdeSettings,
+    evaluate, lens_mtf, score_fields, EvaluationSetup, FieldChannelScore, FieldKernels, LensMtf, OdeError,
+    OdeReport, OdeSettings,
 };

@@ -164,3 +164,20 @@ fn results_do_not_depend_on_the_thread_count() {
     assert_eq!(one.ode.to_bits(), two.ode.to_bits());
     assert_eq!(one.rms_radius_um.to_bits(), two.rms_radius_um.to_bits());
 }
+
+#[test]
+fn slanted_edge_and_exact_lens_mtfs_agree() {
+    let lens = examples::lens("double_gauss").unwrap();
+    let curves = unicac_ode::lens_mtf(&lens, &quick()).unwrap();
+    assert_eq!(curves.len(), 5 * 3 * 2);
+    let mut worst = 0.0f64;
+    for c in &curves {
+        for ((f, edge), exact) in c.frequency_cy_per_px.iter().zip(&c.edge_mtf).zip(&c.exact_mtf) {
+            if *f <= 0.5 {
+                worst = worst.max((edge - exact).abs());
+            }
+        }
+    }
+    println!("worst |edge - exact| up to Nyquist: {worst}");
+    assert!(worst < 0.03, "{worst}");
+}

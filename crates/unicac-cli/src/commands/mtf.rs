@@ -17,6 +17,13 @@ struct ChannelMtf {
 }
 
 pub fn run(args: &MtfArgs) -> Result<()> {
+    let lower = args.input.to_ascii_lowercase();
+    if args.input.starts_with(crate::lens_input::BUILTIN_PREFIX)
+        || lower.ends_with(".json")
+        || lower.ends_with(".zmx")
+    {
+        return lens(args);
+    }
     let path = std::path::Path::new(&args.input);
     let loaded = read_image(path)?;
     let image = if args.linear {
@@ -74,6 +81,48 @@ pub fn run(args: &MtfArgs) -> Result<()> {
         println!(
             "{name}: MTF50 {:.4} cy/px, MTF area {:.4}",
             m.mtf50_cy_per_px, m.mtf_area
+        );
+    }
+    Ok(())
+}
+
+/// `unicac mtf LENS`: slanted-edge and exact MTFs at the ODE fields (green channel plotted).
+fn lens(args: &MtfArgs) -> Result<()> {
+    let lens = crate::lens_input::load_lens(&args.input)?;
+    let curves = unicac_ode::lens_mtf(&lens, &unicac_ode::OdeSettings::default())?;
+    if let Some(plot) = &args.plot {
+        let mut lines = Vec::new();
+        for c in curves
+            .iter()
+            .filter(|c| c.channel == "G" && c.direction == "tangential")
+        {
+            let label = format!("{:.0}% field", 100.0 * c.field_fraction);
+            lines.push(unicac_plot::Curve {
+                label: format!("{label} edge"),
+                x: c.frequency_cy_per_px.clone(),
+                y: c.edge_mtf.clone(),
+            });
+            lines.push(unicac_plot::Curve {
+                label: format!("{label} exact"),
+                x: c.frequency_cy_per_px.clone(),
+                y: c.exact_mtf.clone(),
+            });
+        }
+        unicac_plot::mtf_curves(
+            &format!("Tangential MTF (G) of {}: slanted edge vs exact", args.input),
+            &lines,
+            plot,
+        )?;
+        eprintln!("wrote {}", plot.display());
+    }
+    if args.json {
+        return print_json(&serde_json::json!({ "lens": args.input, "curves": curves }));
+    }
+    for c in &curves {
+        let at_nyquist = c.frequency_cy_per_px.iter().position(|f| *f >= 0.25).unwrap_or(0);
+        println!(
+            "field {:.2} {} {:<10} MTF at 0.25 cy/px: edge {:.3}, exact {:.3}",
+            c.field_fraction, c.channel, c.direction, c.edge_mtf[at_nyquist], c.exact_mtf[at_nyquist]
         );
     }
     Ok(())
