@@ -11,7 +11,8 @@ use unicac_trace::apertures::clear_semi_diameters;
 use unicac_trace::spot::ray_fan;
 use unicac_trace::{spots, Aiming, PupilSampling, Spot, SpotTracer};
 
-/// A 50 mm F/5 Cooke triplet of model glasses; `image_semi_diameter` limits the image surface.
+/// A 50 mm F/5 Cooke triplet of model glasses; `image_semi_diameter` is a field stop 1 mm before the
+/// image (the image surface itself never vignettes).
 fn triplet(image_semi_diameter: f64) -> Lens {
     let json = format!(
         r#"{{"format_version": 1, "name": "test triplet", "aperture": {{"entrance_pupil_diameter_mm": 10.0}},
@@ -23,8 +24,9 @@ fn triplet(image_semi_diameter: f64) -> Lens {
           {{"radius_mm": -22.213, "thickness_mm": 1.0, "material": {{"nd": 1.6200, "vd": 36.4}}, "semi_diameter_mm": 4.1}},
           {{"radius_mm": 20.292, "thickness_mm": 4.750, "stop": true, "semi_diameter_mm": 4.0}},
           {{"radius_mm": 79.684, "thickness_mm": 2.952, "material": {{"nd": 1.6204, "vd": 60.3}}, "semi_diameter_mm": 7.1}},
-          {{"radius_mm": -18.395, "thickness_mm": 42.208, "semi_diameter_mm": 7.5}},
-          {{"thickness_mm": 0.0, "semi_diameter_mm": {image_semi_diameter}}}]}}"#
+          {{"radius_mm": -18.395, "thickness_mm": 41.208, "semi_diameter_mm": 7.5}},
+          {{"thickness_mm": 1.0, "semi_diameter_mm": {image_semi_diameter}, "label": "field stop"}},
+          {{"thickness_mm": 0.0}}]}}"#
     );
     let spec: LensSpec = serde_json::from_str(&json).expect("test lens JSON");
     Lens::from_spec(&spec).expect("valid test lens")
@@ -58,7 +60,7 @@ fn spot_diagram_renders_every_field_and_wavelength() {
 
 #[test]
 fn spot_diagram_notes_a_spot_without_rays() {
-    // A 1 mm image surface clips every off-axis ray: those spots are empty.
+    // A 1 mm field stop just before the image clips every off-axis ray: those spots are empty.
     let spots = lens_spots(&triplet(1.0));
     assert!(spots.iter().any(|s| s.field_deg == 10.0 && s.rays_ok == 0));
     assert!(spots.iter().any(|s| s.field_deg == 0.0 && s.rays_ok > 0));
