@@ -181,7 +181,7 @@ fn bad_inputs_are_typed_errors_and_write_nothing() {
     let dir = TempDir::new("bad-input");
     let wrong_count = layout(&lens, &[], &[1.0, 2.0], &dir.0.join("layout.png"));
     assert!(
-        matches!(wrong_count, Err(PlotError::InvalidInput(m)) if m.contains("2 semi-diameters for 7 surfaces"))
+        matches!(wrong_count, Err(PlotError::InvalidInput(m)) if m.contains("2 semi-diameters for 8 surfaces"))
     );
     assert!(matches!(
         spot_diagram(&[], &dir.0.join("spots.svg")),
