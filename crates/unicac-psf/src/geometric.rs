@@ -68,13 +68,42 @@ pub struct FieldPsf {
     pub rays_traced: usize,
 }
 
+/// The primary-wavelength real chief ray (aimed at the stop centre, unclipped): the point every PSF of
+/// a field is centred on, by both the geometric and the wave-optics tracers.
+pub struct ChiefReference {
+    system: TraceSystem,
+    aimer: Aimer,
+}
+
+impl ChiefReference {
+    pub fn new(lens: &Lens) -> PsfResult<ChiefReference> {
+        let primary = lens.primary_wavelength_um();
+        Ok(ChiefReference {
+            system: TraceSystem::new(lens, primary, Clipping::None)?,
+            aimer: Aimer::new(lens, primary, Aiming::Real)?,
+        })
+    }
+
+    /// The chief ray's image-surface intercept, if it arrives.
+    pub fn point_mm(&self, field_deg: f64) -> PsfResult<[f64; 2]> {
+        let mut ray = self.aimer.ray(field_deg, 0.0, 0.0)?;
+        if !self.system.trace(&mut ray).is_ok() {
+            return Err(PsfError::FieldVignetted {
+                field_deg,
+                rays_traced: 1,
+            });
+        }
+        Ok([ray.position_mm[0], ray.position_mm[1]])
+    }
+}
+
 /// Traces PSFs of one lens: one trace system and aimer per wavelength, built once.
 pub struct PsfTracer {
     settings: PsfSettings,
     pupil: Vec<[f64; 2]>,
     weights: SpectralWeights,
     systems: Vec<(TraceSystem, Aimer)>,
-    reference: (TraceSystem, Aimer),
+    reference: ChiefReference,
 }
 
 impl PsfTracer {
@@ -94,11 +123,7 @@ impl PsfTracer {
                 ))
             })
             .collect::<PsfResult<Vec<_>>>()?;
-        let primary = lens.primary_wavelength_um();
-        let reference = (
-            TraceSystem::new(lens, primary, Clipping::None)?,
-            Aimer::new(lens, primary, Aiming::Real)?,
-        );
+        let reference = ChiefReference::new(lens)?;
         Ok(PsfTracer {
             pupil: settings.pupil_sampling.points(),
             settings,
@@ -118,16 +143,7 @@ impl PsfTracer {
 
     /// The primary-wavelength real chief ray's intercept, if it arrives.
     pub fn reference_point_mm(&self, field_deg: f64) -> PsfResult<[f64; 2]> {
-        let (system, aimer) = &self.reference;
-        let mut ray = aimer.ray(field_deg, 0.0, 0.0)?;
-        let status = system.trace(&mut ray);
-        if !status.is_ok() {
-            return Err(PsfError::FieldVignetted {
-                field_deg,
-                rays_traced: 1,
-            });
-        }
-        Ok([ray.position_mm[0], ray.position_mm[1]])
+        self.reference.point_mm(field_deg)
     }
 
     /// Hits of every wavelength for one field, relative to `reference_mm`.

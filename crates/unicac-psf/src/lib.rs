@@ -13,7 +13,7 @@ pub mod spectrum;
 pub mod wave;
 
 pub use error::{PsfError, PsfResult};
-pub use geometric::{FieldHits, FieldPsf, PsfSettings, PsfTracer};
+pub use geometric::{ChiefReference, FieldHits, FieldPsf, PsfSettings, PsfTracer};
 pub use kernel::Kernel;
 pub use spectrum::{visible_wavelengths_um, SpectralResponse, SpectralWeights};
 pub use wave::{Transform, WaveFieldPsf, WavePsfSettings, WavePsfTracer, WaveSampling, Wavefront};

@@ -66,7 +66,7 @@
 //!    to sum 1.
 
 use crate::error::{PsfError, PsfResult};
-use crate::geometric::FieldPsf;
+use crate::geometric::{ChiefReference, FieldPsf};
 use crate::kernel::Kernel;
 use crate::spectrum::SpectralWeights;
 use rayon::prelude::*;
@@ -255,7 +255,7 @@ pub struct WavePsfTracer {
     settings: WavePsfSettings,
     weights: SpectralWeights,
     channels: Vec<Channel>,
-    reference: (TraceSystem, Aimer),
+    reference: ChiefReference,
     geometry: Geometry,
     lens: Lens,
 }
@@ -298,11 +298,7 @@ impl WavePsfTracer {
             .iter()
             .map(|&w| Channel::new(lens, w))
             .collect::<PsfResult<Vec<_>>>()?;
-        let primary = lens.primary_wavelength_um();
-        let reference = (
-            TraceSystem::new(lens, primary, Clipping::None)?,
-            Aimer::new(lens, primary, Aiming::Real)?,
-        );
+        let reference = ChiefReference::new(lens)?;
         Ok(WavePsfTracer {
             settings,
             weights,
@@ -323,15 +319,7 @@ impl WavePsfTracer {
 
     /// The primary-wavelength real chief ray's intercept (as `PsfTracer::reference_point_mm`).
     pub fn reference_point_mm(&self, field_deg: f64) -> PsfResult<[f64; 2]> {
-        let (system, aimer) = &self.reference;
-        let mut ray = aimer.ray(field_deg, 0.0, 0.0)?;
-        if !system.trace(&mut ray).is_ok() {
-            return Err(PsfError::FieldVignetted {
-                field_deg,
-                rays_traced: 1,
-            });
-        }
-        Ok([ray.position_mm[0], ray.position_mm[1]])
+        self.reference.point_mm(field_deg)
     }
 
     /// The wavefront of field `field_deg` at any wavelength, relative to the sphere on `reference_mm`.
