@@ -110,20 +110,26 @@ fn total_internal_reflection_is_reported_at_its_surface() {
     assert!(ray.is_finite());
 }
 
-#[test]
-fn perfect_conic_refractors_focus_collimated_light_to_a_point() {
-    // Air -> glass: an ellipsoid with k = -1/n^2 focuses a collimated beam at n R / (n - 1) inside the glass.
-    // Glass -> air: a plano-hyperbolic lens (k = -n^2 on the exit face) focuses at the far focus.
-    let (n, radius) = (1.5, 10.0);
+/// Air into glass of index n through an ellipsoid (k = -1/n^2) of vertex radius R: a perfect focus
+/// for collimated light at n R / (n - 1), where the image surface sits (inside the glass).
+fn ellipsoidal_refractor(n: f64, radius: f64) -> Lens {
     let focus = n * radius / (n - 1.0);
-    let ellipsoid = lens(&format!(
+    lens(&format!(
         r#"{{"format_version": 1, "aperture": {{"entrance_pupil_diameter_mm": 12.0}},
         "fields": {{"angles_deg": [0.0]}}, "wavelengths": [{{"wavelength_um": {D_LINE}}}],
         "surfaces": [
           {{"radius_mm": {radius}, "conic": {k}, "thickness_mm": {focus}, "material": {{"nd": {n}, "vd": 50.0}}}},
           {{"thickness_mm": 0.0, "material": {{"nd": {n}, "vd": 50.0}}}}]}}"#,
         k = -1.0 / (n * n)
-    ));
+    ))
+}
+
+#[test]
+fn perfect_conic_refractors_focus_collimated_light_to_a_point() {
+    // Air -> glass: an ellipsoid with k = -1/n^2 focuses a collimated beam at n R / (n - 1) inside the glass.
+    // Glass -> air: a plano-hyperbolic lens (k = -n^2 on the exit face) focuses at the far focus.
+    let (n, radius) = (1.5, 10.0);
+    let ellipsoid = ellipsoidal_refractor(n, radius);
     let hyperbola = lens(&format!(
         r#"{{"format_version": 1, "aperture": {{"entrance_pupil_diameter_mm": 12.0}},
         "fields": {{"angles_deg": [0.0]}}, "wavelengths": [{{"wavelength_um": {D_LINE}}}],
@@ -360,14 +366,7 @@ fn optical_path_lengths_of_a_perfect_focus_are_equal() {
     // Fermat: every ray of the ellipsoidal refractor (k = -1/n^2) reaches its focus with the same OPL.
     let (n, radius) = (1.5, 10.0);
     let focus = n * radius / (n - 1.0);
-    let lens = lens(&format!(
-        r#"{{"format_version": 1, "aperture": {{"entrance_pupil_diameter_mm": 12.0}},
-        "fields": {{"angles_deg": [0.0]}}, "wavelengths": [{{"wavelength_um": {D_LINE}}}],
-        "surfaces": [
-          {{"radius_mm": {radius}, "conic": {k}, "thickness_mm": {focus}, "material": {{"nd": {n}, "vd": 50.0}}}},
-          {{"thickness_mm": 0.0, "material": {{"nd": {n}, "vd": 50.0}}}}]}}"#,
-        k = -1.0 / (n * n)
-    ));
+    let lens = ellipsoidal_refractor(n, radius);
     let system = TraceSystem::new(&lens, D_LINE, Clipping::None).unwrap();
     let opl = |h: f64| {
         let mut ray = Ray::new([0.0, h, -5.0], [0.0, 0.0, 1.0]);
