@@ -12,7 +12,7 @@
 //! - [`ray_fan_plot`]: per field, the tangential (ey against py) and sagittal (ex against px) transverse
 //!   aberration fans about the chief ray, wavelengths overlaid, in µm on a common vertical scale.
 //! - [`mtf_curves`]: MTF curves against cycles/pixel with Nyquist (dashed) and MTF50 (dotted) marked.
-//! - [`ode_bars`]: one row per lens, bars of optical design efficiency and RMS spot radius side by side.
+//! - [`ode_bars`]: one row per lens, bars of Optical Degradation Evaluator (ODE) score and RMS spot radius side by side.
 //! - [`psf_panels`]: PSF kernels as images (each normalised to its peak, viridis colour map, scale bar in
 //!   µm) above a chart of their central rows.
 //!

@@ -1,4 +1,4 @@
-//! Lens comparison bars: optical design efficiency and RMS spot radius, one row per lens.
+//! Lens comparison bars: Optical Degradation Evaluator (ODE) score and RMS spot radius, one row per lens.
 
 use crate::render::{render, Picture};
 use crate::style::{self, Axes};
@@ -92,13 +92,10 @@ impl Picture for OdeBars<'_> {
     where
         DB::ErrorType: 'static,
     {
-        let area = style::figure(
-            &root,
-            "Lens comparison: optical design efficiency and RMS spot radius",
-        )?;
+        let area = style::figure(&root, "Lens comparison: ODE and RMS spot radius")?;
         let (left, right) = area.split_horizontally(self.label_width + PANEL_WIDTH);
         let ode = Bars {
-            caption: "Optical design efficiency (ODE)",
+            caption: "Optical Degradation Evaluator (ODE)",
             x_desc: "ODE",
             values: self.ode,
             max: 1.01,

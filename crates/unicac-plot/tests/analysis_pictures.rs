@@ -115,7 +115,7 @@ fn ode_bars_render_for_one_to_forty_lenses() {
     for count in [1, 7, 40] {
         let (names, ode, rms) = lens_scores(count);
         let texts = [
-            "Optical design efficiency (ODE)",
+            "Optical Degradation Evaluator (ODE)",
             "RMS spot radius (µm)",
             names[0].as_str(),
             names[count - 1].as_str(),
