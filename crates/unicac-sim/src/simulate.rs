@@ -39,7 +39,7 @@ impl Default for SimulationSettings {
             psf: PsfSettings::new(1.0),
             wavelengths: 31,
             radial_samples: 17,
-            node_spacing_px: 64,
+            node_spacing_px: 32,
             distortion: true,
             illumination: true,
             response: SpectralResponse::default_camera(),
