@@ -12,7 +12,7 @@
 
 use crate::error::{PsfError, PsfResult};
 use crate::kernel::{rasterise, size_for_fraction, Kernel};
-use crate::spectrum::SpectralWeights;
+use crate::spectrum::{combine_channels, SpectralWeights};
 use serde::Serialize;
 use unicac_optics::Lens;
 use unicac_trace::{trace_rays, Aimer, Aiming, Clipping, PupilSampling, StatusCounts, TraceSystem};
@@ -225,26 +225,13 @@ impl PsfTracer {
                 )
             })
             .collect();
-        let mut kernels = Vec::with_capacity(channels);
-        let mut energy_cut = Vec::with_capacity(channels);
-        let mut transmission = 0.0;
-        for c in 0..channels {
-            let mut kernel = Kernel::zeros(size, self.settings.pixel_um);
-            let mut arrived = 0.0;
-            for ((k, h), w) in per_wavelength.iter().zip(hits).zip(&self.weights.weights) {
-                kernel.add_scaled(k, w[c] as f32);
-                arrived += w[c] * h.offsets_um.len() as f64 / traced as f64;
-            }
-            let inside = kernel.sum();
-            energy_cut.push(if arrived > 0.0 {
-                (1.0 - inside / arrived).max(0.0)
-            } else {
-                0.0
-            });
-            transmission += arrived / channels as f64;
-            kernel.normalise();
-            kernels.push(kernel);
-        }
+        let arrived: Vec<f64> = hits
+            .iter()
+            .map(|h| h.offsets_um.len() as f64 / traced as f64)
+            .collect();
+        let kernel_refs: Vec<&Kernel> = per_wavelength.iter().collect();
+        let (kernels, energy_cut, transmission) =
+            combine_channels(&kernel_refs, &arrived, &self.weights, channels);
         FieldPsf {
             field_deg,
             reference_mm,

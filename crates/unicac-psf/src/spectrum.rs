@@ -3,6 +3,7 @@
 //! load their own from CSV (`wavelength_nm,r,g,b`).
 
 use crate::error::{PsfError, PsfResult};
+use crate::kernel::Kernel;
 use serde::Serialize;
 use std::path::Path;
 
@@ -149,6 +150,40 @@ impl SpectralWeights {
             skipped_um: Vec::new(),
         }
     }
+}
+
+/// Per-channel kernels from per-wavelength kernels (each scaled to the energy that arrived, i.e. not
+/// normalised) and the fraction of light that arrived at each wavelength. Returns the kernels, each
+/// normalised to unit sum, the energy each channel lost outside the kernel, and the spectrally weighted
+/// transmission averaged over the channels. Shared by the geometric and wave-optics paths.
+pub fn combine_channels(
+    per_wavelength: &[&Kernel],
+    arrived_fraction: &[f64],
+    weights: &SpectralWeights,
+    channels: usize,
+) -> (Vec<Kernel>, Vec<f64>, f64) {
+    let (size, pitch) = (per_wavelength[0].size, per_wavelength[0].pitch_um);
+    let mut kernels = Vec::with_capacity(channels);
+    let mut energy_cut = Vec::with_capacity(channels);
+    let mut transmission = 0.0;
+    for c in 0..channels {
+        let mut kernel = Kernel::zeros(size, pitch);
+        let mut arrived = 0.0;
+        for ((k, fraction), w) in per_wavelength.iter().zip(arrived_fraction).zip(&weights.weights) {
+            kernel.add_scaled(k, w[c] as f32);
+            arrived += w[c] * fraction;
+        }
+        let inside = kernel.sum();
+        energy_cut.push(if arrived > 0.0 {
+            (1.0 - inside / arrived).max(0.0)
+        } else {
+            0.0
+        });
+        transmission += arrived / channels as f64;
+        kernel.normalise();
+        kernels.push(kernel);
+    }
+    (kernels, energy_cut, transmission)
 }
 
 #[cfg(test)]

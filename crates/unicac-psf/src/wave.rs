@@ -68,7 +68,7 @@
 use crate::error::{PsfError, PsfResult};
 use crate::geometric::{ChiefReference, FieldPsf};
 use crate::kernel::Kernel;
-use crate::spectrum::SpectralWeights;
+use crate::spectrum::{combine_channels, SpectralWeights};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
 use rustfft::FftPlanner;
@@ -375,26 +375,10 @@ impl WavePsfTracer {
             });
         }
         let channels = if monochromatic { 1 } else { 3 };
-        let mut kernels = Vec::with_capacity(channels);
-        let mut energy_cut = Vec::with_capacity(channels);
-        let mut transmission = 0.0;
-        for c in 0..channels {
-            let mut kernel = Kernel::zeros(size, self.settings.pixel_um);
-            let mut arrived = 0.0;
-            for ((k, s, _), w) in per_wavelength.iter().zip(&self.weights.weights) {
-                kernel.add_scaled(k, w[c] as f32);
-                arrived += w[c] * s.transmission;
-            }
-            let inside = kernel.sum();
-            energy_cut.push(if arrived > 0.0 {
-                (1.0 - inside / arrived).max(0.0)
-            } else {
-                0.0
-            });
-            transmission += arrived / channels as f64;
-            kernel.normalise();
-            kernels.push(kernel);
-        }
+        let kernel_refs: Vec<&Kernel> = per_wavelength.iter().map(|p| &p.0).collect();
+        let arrived: Vec<f64> = per_wavelength.iter().map(|p| p.1.transmission).collect();
+        let (kernels, energy_cut, transmission) =
+            combine_channels(&kernel_refs, &arrived, &self.weights, channels);
         let sampling: Vec<WaveSampling> = per_wavelength.into_iter().map(|p| p.1).collect();
         Ok(WaveFieldPsf {
             undersampled: sampling.iter().any(|s| s.undersampled),
