@@ -200,10 +200,9 @@ pub struct TraceArgs {
     pub json: bool,
 }
 
+/// Which fields and wavelengths to trace, and how rays are aimed (shared by `spot` and `fan`).
 #[derive(Args)]
-pub struct SpotArgs {
-    #[command(flatten)]
-    pub lens: LensArg,
+pub struct RaySelection {
     /// Field angles (deg); default: the lens's fields.
     #[arg(long = "field-deg", allow_hyphen_values = true)]
     pub fields_deg: Vec<f64>,
@@ -212,6 +211,14 @@ pub struct SpotArgs {
     pub wavelengths_um: Vec<f64>,
     #[arg(long, default_value = "paraxial", value_parser = parse_aiming)]
     pub aim: Aiming,
+}
+
+#[derive(Args)]
+pub struct SpotArgs {
+    #[command(flatten)]
+    pub lens: LensArg,
+    #[command(flatten)]
+    pub rays: RaySelection,
     /// hexapolar:R, grid:N, fibonacci:N or random:N[:SEED].
     #[arg(long, default_value = "hexapolar:10", value_parser = parse_sampling)]
     pub pupil_sampling: PupilSampling,
@@ -226,12 +233,8 @@ pub struct SpotArgs {
 pub struct FanArgs {
     #[command(flatten)]
     pub lens: LensArg,
-    #[arg(long = "field-deg", allow_hyphen_values = true)]
-    pub fields_deg: Vec<f64>,
-    #[arg(long = "wavelength-um", allow_hyphen_values = true)]
-    pub wavelengths_um: Vec<f64>,
-    #[arg(long, default_value = "paraxial", value_parser = parse_aiming)]
-    pub aim: Aiming,
+    #[command(flatten)]
+    pub rays: RaySelection,
     /// Points per fan.
     #[arg(long, default_value_t = 41)]
     pub samples: usize,

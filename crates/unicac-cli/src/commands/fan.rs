@@ -8,10 +8,10 @@ use unicac_trace::{spot::ray_fan, SpotTracer};
 
 pub fn run(args: &FanArgs) -> Result<()> {
     let lens = load_lens(&args.lens.lens)?;
-    let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.fields_deg, &args.wavelengths_um)?;
+    let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.rays)?;
     let mut fans = Vec::new();
     for wavelength in wavelengths {
-        let tracer = SpotTracer::new(&lens, wavelength, args.aim)?;
+        let tracer = SpotTracer::new(&lens, wavelength, args.rays.aim)?;
         fans.extend(
             fields
                 .iter()

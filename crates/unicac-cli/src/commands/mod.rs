@@ -45,9 +45,9 @@ pub(crate) fn or_dash(value: Option<f64>, decimals: usize) -> String {
 /// The fields and wavelengths a command uses: the given ones, else the lens's.
 pub(crate) fn fields_and_wavelengths(
     lens: &unicac_optics::Lens,
-    fields_deg: &[f64],
-    wavelengths_um: &[f64],
+    selection: &crate::args::RaySelection,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
+    let (fields_deg, wavelengths_um) = (&selection.fields_deg, &selection.wavelengths_um);
     let fields = if fields_deg.is_empty() {
         lens.first_order()?.field_angles_deg
     } else {

@@ -17,8 +17,8 @@ struct SpotReport<'a> {
 
 pub fn run(args: &SpotArgs) -> Result<()> {
     let lens = load_lens(&args.lens.lens)?;
-    let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.fields_deg, &args.wavelengths_um)?;
-    let spots = spots(&lens, &fields, &wavelengths, args.aim, &args.pupil_sampling)?;
+    let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.rays)?;
+    let spots = spots(&lens, &fields, &wavelengths, args.rays.aim, &args.pupil_sampling)?;
     if let Some(path) = &args.plot {
         unicac_plot::spot_diagram(&spots, path)?;
         eprintln!("wrote {}", path.display());
@@ -26,7 +26,7 @@ pub fn run(args: &SpotArgs) -> Result<()> {
     if args.json {
         return print_json(&SpotReport {
             lens: &args.lens.lens,
-            aiming: args.aim,
+            aiming: args.rays.aim,
             pupil_sampling: args.pupil_sampling,
             spots: &spots,
         });
