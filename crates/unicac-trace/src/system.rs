@@ -95,15 +95,31 @@ impl TraceSystem {
     /// refracts only if `refract_last`. On failure the ray keeps its last valid state.
     #[inline]
     pub fn trace_through(&self, ray: &mut Ray, last: usize, refract_last: bool) -> RayStatus {
+        self.walk(ray, last, refract_last, |_, _, _| {})
+    }
+
+    /// The one surface-by-surface loop behind the single-ray traces: steps `ray` through surfaces
+    /// 0..=last and calls `visit(ray before the surface, ray after it, index before)` after each
+    /// successful step.
+    #[inline]
+    fn walk(
+        &self,
+        ray: &mut Ray,
+        last: usize,
+        refract_last: bool,
+        mut visit: impl FnMut(&Ray, &Ray, f64),
+    ) -> RayStatus {
         if !ray.is_finite() {
             return RayStatus::InvalidInput;
         }
         let mut n_before = self.object_index;
         for (i, surface) in self.surfaces[..=last].iter().enumerate() {
+            let before = *ray;
             let status = step(surface, i as u32, ray, n_before, i < last || refract_last);
             if !status.is_ok() {
                 return status;
             }
+            visit(&before, ray, n_before);
             n_before = surface.index_after;
         }
         RayStatus::Ok
@@ -141,29 +157,18 @@ impl TraceSystem {
     /// distance, mm) from the ray's start point to its image-surface intercept. Used by wave-optics PSFs;
     /// the hot paths do not pay for it.
     pub fn trace_with_opl(&self, ray: &mut Ray) -> (RayStatus, f64) {
-        if !ray.is_finite() {
-            return (RayStatus::InvalidInput, 0.0);
-        }
         let mut opl = 0.0;
-        let mut n_before = self.object_index;
-        let last = self.image_index();
-        for (i, surface) in self.surfaces.iter().enumerate() {
-            let before = ray.position_mm;
-            let direction = ray.direction;
-            let status = step(surface, i as u32, ray, n_before, i < last);
-            if !status.is_ok() {
-                return (status, opl);
-            }
-            let delta = [0, 1, 2].map(|k| ray.position_mm[k] - before[k]);
-            let along = delta[0] * direction[0] + delta[1] * direction[1] + delta[2] * direction[2];
+        let status = self.walk(ray, self.image_index(), false, |before, after, n_before| {
+            let delta = [0, 1, 2].map(|k| after.position_mm[k] - before.position_mm[k]);
+            let d = before.direction;
+            let along = delta[0] * d[0] + delta[1] * d[1] + delta[2] * d[2];
             // |delta| with the sign of travel along the ray (virtual segments count negative).
             opl += n_before
                 * (delta[0] * delta[0] + delta[1] * delta[1] + delta[2] * delta[2])
                     .sqrt()
                     .copysign(along);
-            n_before = surface.index_after;
-        }
-        (RayStatus::Ok, opl)
+        });
+        (status, opl)
     }
 
     /// Traces to the image surface and records the point on every surface it reaches (for layouts and
@@ -171,20 +176,10 @@ impl TraceSystem {
     pub fn trace_path(&self, ray: Ray) -> (Vec<[f64; 3]>, RayStatus) {
         let mut ray = ray;
         let mut points = vec![ray.position_mm];
-        if !ray.is_finite() {
-            return (points, RayStatus::InvalidInput);
-        }
-        let mut n_before = self.object_index;
-        let last = self.image_index();
-        for (i, surface) in self.surfaces.iter().enumerate() {
-            let status = step(surface, i as u32, &mut ray, n_before, i < last);
-            if !status.is_ok() {
-                return (points, status);
-            }
-            points.push(ray.position_mm);
-            n_before = surface.index_after;
-        }
-        (points, RayStatus::Ok)
+        let status = self.walk(&mut ray, self.image_index(), false, |_, after, _| {
+            points.push(after.position_mm)
+        });
+        (points, status)
     }
 }
 
