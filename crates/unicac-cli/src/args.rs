@@ -57,7 +57,7 @@ pub struct PsfArgs {
     /// Object distance (mm) replacing the file's (finite conjugates, depth-dependent PSFs).
     #[arg(long)]
     pub object_distance_mm: Option<f64>,
-    /// Accepted for interface stability; PSFs are not cached yet, so every run computes.
+    /// Compute the PSF even when the cache holds it (the cache: $UNICAC_CACHE_DIR, else ~/.cache/unicac).
     #[arg(long)]
     pub no_cache: bool,
     /// Output EXR (one channel "Y" for a monochromatic PSF, else R, G, B).
@@ -92,7 +92,7 @@ pub struct SimulateArgs {
     pub no_illumination: bool,
     #[arg(long)]
     pub no_distortion: bool,
-    /// Accepted for interface stability; PSF maps are not cached yet.
+    /// Trace the PSF map even when the cache holds it (the cache: $UNICAC_CACHE_DIR, else ~/.cache/unicac).
     #[arg(long)]
     pub no_cache: bool,
     /// Output format; default: the input's.

@@ -8,6 +8,8 @@ use std::process::{Command, Output};
 fn unicac(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_unicac"))
         .args(args)
+        // PSF caches of tests stay out of the user's cache.
+        .env("UNICAC_CACHE_DIR", scratch("cache"))
         .output()
         .expect("run unicac")
 }
@@ -356,4 +358,37 @@ fn unicac_image_sum(path: &std::path::Path) -> Vec<f64> {
     (0..loaded.image.channels)
         .map(|c| loaded.image.plane(c).iter().map(|v| *v as f64).sum())
         .collect()
+}
+
+#[test]
+fn a_second_psf_run_loads_the_cache_and_no_cache_recomputes() {
+    let out = |name: &str| scratch(name).to_str().unwrap().to_string();
+    let run = |name: &str, extra: &[&str]| {
+        let path = out(name);
+        let mut args = vec![
+            "psf",
+            "builtin:petzval",
+            "--field-deg",
+            "7.5",
+            "--out",
+            &path,
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        (json(&args), std::fs::read(&path).unwrap())
+    };
+    let (first, first_exr) = run("cached-1.exr", &["--no-cache"]);
+    let (second, second_exr) = run("cached-2.exr", &[]);
+    let (third, third_exr) = run("cached-3.exr", &[]);
+    assert_eq!(first["from_cache"], false);
+    assert_eq!(
+        second["from_cache"], false,
+        "--no-cache neither reads nor writes the cache"
+    );
+    assert_eq!(third["from_cache"], true);
+    assert_eq!(first_exr, third_exr);
+    assert_eq!(second_exr, third_exr);
+    let hash = third["lens_sha256"].as_str().unwrap();
+    assert_eq!(hash.len(), 64);
+    assert_eq!(first["lens_sha256"], third["lens_sha256"]);
 }

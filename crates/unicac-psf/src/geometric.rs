@@ -13,7 +13,7 @@
 use crate::error::{PsfError, PsfResult};
 use crate::kernel::{rasterise, size_for_fraction, Kernel};
 use crate::spectrum::{combine_channels, SpectralWeights};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use unicac_optics::Lens;
 use unicac_trace::{trace_rays, Aimer, Aiming, Clipping, PupilSampling, StatusCounts, TraceSystem};
 
@@ -55,7 +55,7 @@ pub struct FieldHits {
 }
 
 /// R, G, B (or one monochromatic) kernels of one field.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FieldPsf {
     pub field_deg: f64,
     /// Primary-wavelength real chief ray on the image surface (the kernels' centre).

@@ -5,14 +5,15 @@
 //! (sub-pixel accurate positions), and each pixel then sums its `oversample^2` sub-cells, which
 //! integrates the PSF over the pixel area (a box pixel aperture).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// A square PSF kernel; sample (x, y) sits at offset ((x - half) * pitch, (y - half) * pitch) from the
 /// reference point, +x right, +y down the rows... see `docs/conventions.md` ("PSF kernels").
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Kernel {
     pub size: usize,
     pub pitch_um: f64,
+    /// Row-major samples; not in JSON (images carry them: EXR stacks, the PSF cache).
     #[serde(skip)]
     pub data: Vec<f32>,
 }

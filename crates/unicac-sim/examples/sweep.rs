@@ -18,7 +18,7 @@ fn settings(rays: usize, wavelengths: usize, radial: usize, nodes: usize) -> Sim
     let mut s = SimulationSettings {
         wavelengths,
         radial_samples: radial,
-        node_spacing_px: nodes,
+        node_intervals: nodes,
         ..Default::default()
     };
     s.psf.pupil_sampling = PupilSampling::Fibonacci { n: rays };

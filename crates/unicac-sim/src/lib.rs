@@ -11,11 +11,13 @@ pub mod chief;
 pub mod convolve;
 pub mod error;
 pub mod geometry;
+pub mod psf_cache;
 pub mod psf_map;
 pub mod simulate;
 
 pub use chief::ChiefRayMap;
 pub use error::{SimError, SimResult};
 pub use geometry::SensorGrid;
+pub use psf_cache::{lens_fingerprint, PsfCache};
 pub use psf_map::RadialPsfs;
 pub use simulate::{LensSimulator, SimulationSettings};

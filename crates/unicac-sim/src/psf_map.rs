@@ -60,6 +60,28 @@ impl RadialPsfs {
         })
     }
 
+    /// Rebuilds the map from PSFs traced by `trace` with the same `max_radius_mm` (the cache stores
+    /// only the PSFs); `None` if they do not form one (empty, or kernels of different sizes).
+    pub fn from_psfs(max_radius_mm: f64, psfs: Vec<FieldPsf>) -> Option<RadialPsfs> {
+        let kernel_size = psfs.first()?.kernels.first()?.size;
+        if psfs.len() < 2
+            || psfs
+                .iter()
+                .flat_map(|p| &p.kernels)
+                .any(|k| k.size != kernel_size)
+        {
+            return None;
+        }
+        let last = (psfs.len() - 1) as f64;
+        Some(RadialPsfs {
+            radii_mm: (0..psfs.len()).map(|i| max_radius_mm * i as f64 / last).collect(),
+            psfs,
+            kernel_size,
+            // The cap's request is not kept; `energy_cut` in each PSF still says what was cut.
+            requested_kernel_size: kernel_size,
+        })
+    }
+
     pub fn channels(&self) -> usize {
         self.psfs[0].kernels.len()
     }

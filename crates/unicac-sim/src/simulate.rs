@@ -7,9 +7,10 @@
 //! (chief-ray mapping and vignetting).
 
 use crate::chief::ChiefRayMap;
-use crate::convolve::{convolve_varying, node_positions, KernelGrid};
+use crate::convolve::{convolve_varying_with, node_positions, Blend, KernelGrid, Method};
 use crate::error::{SimError, SimResult};
 use crate::geometry::SensorGrid;
+use crate::psf_cache::{lens_fingerprint, PsfCache};
 use crate::psf_map::RadialPsfs;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -25,13 +26,24 @@ pub struct SimulationSettings {
     pub wavelengths: usize,
     /// Radial PSF samples from the axis to the corner.
     pub radial_samples: usize,
-    /// Distance between kernel nodes (pixels).
-    pub node_spacing_px: usize,
+    /// Kernel-node intervals along the image's longer side. Field-relative, so the interpolation error
+    /// stays the same at every resolution (the PSF changes over a fraction of the field, not over a
+    /// number of pixels); the spacing never drops below `MIN_NODE_SPACING_PX`.
+    pub node_intervals: usize,
+    /// Direct or FFT corner convolutions (same result; `Auto` takes the cheaper).
+    pub method: Method,
+    pub blend: Blend,
     pub distortion: bool,
     pub illumination: bool,
     #[serde(skip)]
     pub response: SpectralResponse,
+    /// Where traced PSF maps are kept between runs (`None`: always trace).
+    #[serde(skip)]
+    pub cache: Option<PsfCache>,
 }
+
+/// Node spacing floor (pixels): below it nodes cost more than they correct (docs/performance.md).
+pub const MIN_NODE_SPACING_PX: usize = 16;
 
 impl Default for SimulationSettings {
     fn default() -> Self {
@@ -39,10 +51,13 @@ impl Default for SimulationSettings {
             psf: PsfSettings::new(1.0),
             wavelengths: 31,
             radial_samples: 17,
-            node_spacing_px: 32,
+            node_intervals: 20,
+            method: Method::Auto,
+            blend: Blend::Bilinear,
             distortion: true,
             illumination: true,
             response: SpectralResponse::default_camera(),
+            cache: None,
         }
     }
 }
@@ -52,6 +67,10 @@ pub struct LensSimulator {
     pub chief: ChiefRayMap,
     pub radial: RadialPsfs,
     pub settings: SimulationSettings,
+    /// SHA-256 of the lens model (provenance; see `psf_cache`).
+    pub lens_sha256: String,
+    /// Whether the PSF map came from the cache instead of being traced.
+    pub psfs_from_cache: bool,
     kernels: Vec<KernelGrid>,
 }
 
@@ -88,7 +107,38 @@ impl LensSimulator {
         let weights = SpectralWeights::new(&settings.response, &visible_wavelengths_um(settings.wavelengths));
         let tracer = PsfTracer::new(lens, weights, psf_settings)?;
         let corner = grid.half_diagonal_mm().min(chief.max_height_mm());
-        let radial = RadialPsfs::trace(&tracer, &chief, corner, settings.radial_samples, false)?;
+        let lens_sha256 = lens_fingerprint(lens);
+        let key = settings.cache.as_ref().map(|_| {
+            PsfCache::key(&[
+                b"radial",
+                lens_sha256.as_bytes(),
+                format!(
+                    "{:?}",
+                    (psf_settings, tracer.weights(), corner, settings.radial_samples)
+                )
+                .as_bytes(),
+            ])
+        });
+        let cached = settings
+            .cache
+            .as_ref()
+            .zip(key.as_deref())
+            .and_then(|(cache, key)| cache.load(key))
+            .and_then(|psfs| RadialPsfs::from_psfs(corner, psfs));
+        let psfs_from_cache = cached.is_some();
+        let radial = match cached {
+            Some(radial) => radial,
+            None => {
+                let radial = RadialPsfs::trace(&tracer, &chief, corner, settings.radial_samples, false)?;
+                if let (Some(cache), Some(key)) = (&settings.cache, &key) {
+                    // A cache that cannot be written costs the next run time, not this run its result.
+                    if let Err(error) = cache.store(key, &radial.psfs) {
+                        eprintln!("warning: PSF cache {}: {error}", cache.dir.display());
+                    }
+                }
+                radial
+            }
+        };
         if radial.kernel_size > grid.width_px.min(grid.height_px) {
             return Err(SimError::InvalidRequest(format!(
                 "the PSF ({} px) is larger than the image ({width} x {height} px)",
@@ -100,6 +150,8 @@ impl LensSimulator {
             chief,
             radial,
             settings,
+            lens_sha256,
+            psfs_from_cache,
             kernels: Vec::new(),
         };
         simulator.kernels = (0..3).map(|c| simulator.kernel_grid(c)).collect();
@@ -123,7 +175,8 @@ impl LensSimulator {
     }
 
     fn kernel_grid(&self, channel: usize) -> KernelGrid {
-        let nodes = |length: usize| ((length - 1).div_ceil(self.settings.node_spacing_px.max(1)) + 1).max(2);
+        let spacing = self.node_spacing_px();
+        let nodes = |length: usize| ((length - 1).div_ceil(spacing) + 1).max(2);
         let (nodes_x, nodes_y) = (nodes(self.grid.width_px), nodes(self.grid.height_px));
         let xs = node_positions(self.grid.width_px, nodes_x);
         let ys = node_positions(self.grid.height_px, nodes_y);
@@ -142,6 +195,12 @@ impl LensSimulator {
         }
     }
 
+    /// Distance between kernel nodes (pixels) for this image size.
+    pub fn node_spacing_px(&self) -> usize {
+        let longer = self.grid.width_px.max(self.grid.height_px);
+        (longer / self.settings.node_intervals.max(1)).max(MIN_NODE_SPACING_PX)
+    }
+
     /// Simulates the lens on a linear RGB image of the prepared size.
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
         let (w, h) = (self.grid.width_px, self.grid.height_px);
@@ -153,7 +212,14 @@ impl LensSimulator {
         }
         let mut out = Planar::new(w, h, 3);
         for c in 0..3 {
-            let blurred = convolve_varying(image.plane(c), w, h, &self.kernels[c]);
+            let blurred = convolve_varying_with(
+                image.plane(c),
+                w,
+                h,
+                &self.kernels[c],
+                self.settings.method,
+                self.settings.blend,
+            );
             out.plane_mut(c).copy_from_slice(&blurred);
         }
         if self.settings.distortion {

@@ -11,7 +11,7 @@ fn quick_settings() -> SimulationSettings {
     let mut settings = SimulationSettings {
         wavelengths: 7,
         radial_samples: 6,
-        node_spacing_px: 24,
+        node_intervals: 4,
         ..Default::default()
     };
     settings.psf.pupil_sampling = PupilSampling::Fibonacci { n: 512 };

@@ -29,6 +29,9 @@ struct PsfReport<'a> {
     transmission: f64,
     energy_cut: &'a [f64],
     rays_traced: usize,
+    /// SHA-256 of the lens model (the PSF cache's key starts with it).
+    lens_sha256: String,
+    from_cache: bool,
     out: String,
 }
 
@@ -51,15 +54,33 @@ pub fn run(args: &PsfArgs) -> Result<()> {
         [w] => SpectralWeights::monochromatic(*w),
         many => SpectralWeights::new(&SpectralResponse::default_camera(), many),
     };
-    let psf = match args.mode.as_str() {
-        "wave" => wave_psf(&lens, weights.clone(), pixel_um, args.field_deg, monochromatic)?,
-        _ => {
-            let tracer = PsfTracer::new(&lens, weights.clone(), PsfSettings::new(pixel_um))?;
-            let reference = tracer.reference_point_mm(args.field_deg)?;
-            let hits = tracer.hits(args.field_deg, reference);
-            let size = tracer.kernel_size_for(&hits);
-            let psf = tracer.kernels_from_hits(args.field_deg, reference, &hits, size, monochromatic);
-            warn_if_cut(&psf, size, tracer.settings().max_kernel_px);
+    let lens_sha256 = unicac_sim::lens_fingerprint(&lens);
+    let key = unicac_sim::PsfCache::key(&[
+        b"field",
+        lens_sha256.as_bytes(),
+        format!(
+            "{:?}",
+            (&args.mode, args.field_deg, pixel_um, &weights, monochromatic)
+        )
+        .as_bytes(),
+    ]);
+    let cache = (!args.no_cache)
+        .then(unicac_sim::PsfCache::default_location)
+        .flatten();
+    let cached = cache
+        .as_ref()
+        .and_then(|c| c.load(&key))
+        .and_then(|mut p| p.pop());
+    let from_cache = cached.is_some();
+    let psf = match cached {
+        Some(psf) => psf,
+        None => {
+            let psf = compute(&lens, &weights, pixel_um, args, monochromatic)?;
+            if let Some(cache) = &cache {
+                if let Err(error) = cache.store(&key, std::slice::from_ref(&psf)) {
+                    eprintln!("warning: PSF cache {}: {error}", cache.dir.display());
+                }
+            }
             psf
         }
     };
@@ -90,6 +111,8 @@ pub fn run(args: &PsfArgs) -> Result<()> {
         transmission: psf.transmission,
         energy_cut: &psf.energy_cut,
         rays_traced: psf.rays_traced,
+        lens_sha256,
+        from_cache,
         out: args.out.display().to_string(),
     };
     let metadata = args.out.with_extension("json");
@@ -103,6 +126,28 @@ pub fn run(args: &PsfArgs) -> Result<()> {
         metadata.display()
     );
     Ok(())
+}
+
+/// The PSF of the requested mode, traced now.
+fn compute(
+    lens: &Lens,
+    weights: &SpectralWeights,
+    pixel_um: f64,
+    args: &PsfArgs,
+    monochromatic: bool,
+) -> Result<FieldPsf> {
+    Ok(match args.mode.as_str() {
+        "wave" => wave_psf(&lens, weights.clone(), pixel_um, args.field_deg, monochromatic)?,
+        _ => {
+            let tracer = PsfTracer::new(&lens, weights.clone(), PsfSettings::new(pixel_um))?;
+            let reference = tracer.reference_point_mm(args.field_deg)?;
+            let hits = tracer.hits(args.field_deg, reference);
+            let size = tracer.kernel_size_for(&hits);
+            let psf = tracer.kernels_from_hits(args.field_deg, reference, &hits, size, monochromatic);
+            warn_if_cut(&psf, size, tracer.settings().max_kernel_px);
+            psf
+        }
+    })
 }
 
 fn warn_if_cut(psf: &FieldPsf, requested: usize, cap: usize) {

@@ -26,6 +26,11 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             let settings = SimulationSettings {
                 distortion: !args.no_distortion,
                 illumination: !args.no_illumination,
+                cache: if args.no_cache {
+                    None
+                } else {
+                    unicac_sim::PsfCache::default_location()
+                },
                 ..Default::default()
             };
             simulator = Some(LensSimulator::new(
@@ -37,6 +42,12 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             )?);
         }
         let sim = simulator.as_ref().expect("prepared above");
+        if index == 0 && sim.psfs_from_cache {
+            bar.println(format!(
+                "PSF map loaded from the cache (lens {})",
+                &sim.lens_sha256[..16]
+            ));
+        }
         let pipeline = Pipeline {
             no_isp: args.no_isp,
             no_noise: args.no_noise,

@@ -1,0 +1,264 @@
+//! FFT convolution (rustfft): one kernel over a whole plane (f64), and the four corner kernels of one
+//! tile of the spatially varying convolution (f32, overlap-save).
+//!
+//! Overlap-save: a tile of T pixels needs an input patch of T + K - 1 pixels (a K px kernel reaches
+//! K/2 either side; outside the image the border pixels are replicated). Its circular convolution with
+//! the zero-padded kernel on an N >= T + K - 1 grid equals the linear one at the T outputs that start
+//! K - 1 samples in, so nothing wraps around.
+//!
+//! Two real kernels share one complex transform: with Z = FFT(K_top + i K_bottom) and X the patch's
+//! spectrum, IFFT(X Z) = (I * K_top) + i (I * K_bottom) because I, K_top and K_bottom are real. A tile's
+//! four corner kernels therefore cost two inverse transforms, and its left and right corner pairs are
+//! each one transform shared with the neighbouring tile.
+
+use super::KernelGrid;
+use rayon::prelude::*;
+use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftNum, FftPlanner};
+use std::ops::Range;
+use std::sync::Arc;
+use unicac_psf::Kernel;
+
+/// Smallest n >= `minimum` whose only prime factors are 2, 3 and 5 (rustfft's fastest sizes).
+pub(super) fn fast_len(minimum: usize) -> usize {
+    (minimum.max(1)..)
+        .find(|&n| {
+            let mut m = n;
+            for p in [2, 3, 5] {
+                while m % p == 0 {
+                    m /= p;
+                }
+            }
+            m == 1
+        })
+        .expect("some n is 5-smooth")
+}
+
+/// A planned 2-D transform of `width` x `height` (row-major grids). Spectra stay transposed
+/// (column-major): they are only multiplied and transformed back, so two transposes are saved.
+struct Fft2<T: FftNum> {
+    width: usize,
+    height: usize,
+    rows: [Arc<dyn Fft<T>>; 2],
+    columns: [Arc<dyn Fft<T>>; 2],
+}
+
+impl<T: FftNum> Fft2<T> {
+    fn new(width: usize, height: usize) -> Fft2<T> {
+        let mut planner = FftPlanner::<T>::new();
+        Fft2 {
+            width,
+            height,
+            rows: [planner.plan_fft_forward(width), planner.plan_fft_inverse(width)],
+            columns: [planner.plan_fft_forward(height), planner.plan_fft_inverse(height)],
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.width * self.height
+    }
+
+    /// Row-major `grid` (overwritten) to the transposed spectrum.
+    fn forward(&self, grid: &mut [Complex<T>], spectrum: &mut [Complex<T>]) {
+        process_rows(&self.rows[0], grid, self.width);
+        transpose(grid, spectrum, self.width, self.height);
+        process_rows(&self.columns[0], spectrum, self.height);
+    }
+
+    /// Transposed `spectrum` (overwritten) back to a row-major grid, unscaled (times width x height).
+    fn inverse(&self, spectrum: &mut [Complex<T>], grid: &mut [Complex<T>]) {
+        process_rows(&self.columns[1], spectrum, self.height);
+        transpose(spectrum, grid, self.height, self.width);
+        process_rows(&self.rows[1], grid, self.width);
+    }
+}
+
+/// Transforms every row; rows are handed out in groups so that small transforms stay cheap to schedule.
+fn process_rows<T: FftNum>(fft: &Arc<dyn Fft<T>>, data: &mut [Complex<T>], row_len: usize) {
+    const ROWS_PER_TASK: usize = 16;
+    data.par_chunks_mut(row_len * ROWS_PER_TASK)
+        .for_each(|rows| fft.process(rows));
+}
+
+fn transpose<T: Copy>(source: &[T], target: &mut [T], width: usize, height: usize) {
+    for (y, row) in source.chunks_exact(width).enumerate() {
+        for (x, &value) in row.iter().enumerate() {
+            target[x * height + y] = value;
+        }
+    }
+}
+
+/// Writes the plane's pixels from (`x0`, `y0`) over `patch_width` x `patch_height` (replicated borders)
+/// into the top-left of a zeroed row-major grid `stride` wide.
+#[allow(clippy::too_many_arguments)]
+fn fill_patch<T: FftNum>(
+    plane: &[f32],
+    (width, height): (usize, usize),
+    (x0, y0): (i64, i64),
+    (patch_width, patch_height): (usize, usize),
+    grid: &mut [Complex<T>],
+    stride: usize,
+) {
+    grid.iter_mut()
+        .for_each(|v| *v = Complex::new(T::zero(), T::zero()));
+    for py in 0..patch_height {
+        let source_y = (y0 + py as i64).clamp(0, height as i64 - 1) as usize;
+        let source = &plane[source_y * width..(source_y + 1) * width];
+        let target = &mut grid[py * stride..py * stride + patch_width];
+        for (px, value) in target.iter_mut().enumerate() {
+            let source_x = (x0 + px as i64).clamp(0, width as i64 - 1) as usize;
+            *value = Complex::new(T::from_f32(source[source_x]).expect("f32 converts"), T::zero());
+        }
+    }
+}
+
+/// The zero-padded transform of `real` + i `imaginary` (either may be absent) on `fft`'s grid.
+fn kernel_spectrum<T: FftNum>(fft: &Fft2<T>, real: &Kernel, imaginary: Option<&Kernel>) -> Vec<Complex<T>> {
+    let to_t = |v: f32| T::from_f32(v).expect("f32 converts");
+    let mut grid = vec![Complex::new(T::zero(), T::zero()); fft.len()];
+    for y in 0..real.size {
+        for x in 0..real.size {
+            let im = imaginary.map_or(0.0, |k| k.at(x, y));
+            grid[y * fft.width + x] = Complex::new(to_t(real.at(x, y)), to_t(im));
+        }
+    }
+    let mut spectrum = vec![Complex::new(T::zero(), T::zero()); fft.len()];
+    fft.forward(&mut grid, &mut spectrum);
+    spectrum
+}
+
+/// One kernel over the whole plane with replicated borders, in f64 (the invariant path is used for
+/// reference-quality metrics).
+pub(super) fn convolve_invariant_fft(
+    plane: &[f32],
+    width: usize,
+    height: usize,
+    kernel: &Kernel,
+) -> Vec<f32> {
+    let reach = kernel.size - 1;
+    let fft = Fft2::<f64>::new(fast_len(width + reach), fast_len(height + reach));
+    let half = kernel.half() as i64;
+    let mut grid = vec![Complex::new(0.0, 0.0); fft.len()];
+    fill_patch(
+        plane,
+        (width, height),
+        (-half, -half),
+        (width + reach, height + reach),
+        &mut grid,
+        fft.width,
+    );
+    let mut spectrum = vec![Complex::new(0.0, 0.0); fft.len()];
+    fft.forward(&mut grid, &mut spectrum);
+    let filter = kernel_spectrum(&fft, kernel, None);
+    spectrum.iter_mut().zip(&filter).for_each(|(a, b)| *a *= b);
+    fft.inverse(&mut spectrum, &mut grid);
+    let scale = 1.0 / fft.len() as f64;
+    (0..width * height)
+        .map(|i| (grid[(i / width + reach) * fft.width + i % width + reach].re * scale) as f32)
+        .collect()
+}
+
+/// The FFT state of one band of tiles (between node rows `j` and `j + 1`): one transform size for all
+/// its tiles and, per node column, the shared spectrum of its top and bottom kernels.
+pub(super) struct BandFft {
+    fft: Fft2<f32>,
+    kernel_size: usize,
+    column_spectra: Vec<Vec<Complex<f32>>>,
+    grid: Vec<Complex<f32>>,
+    spectrum: Vec<Complex<f32>>,
+    product: Vec<Complex<f32>>,
+    left: Vec<Complex<f32>>,
+    right: Vec<Complex<f32>>,
+}
+
+impl BandFft {
+    pub(super) fn new(grid: &KernelGrid, j: usize, widest_tile: usize, band_height: usize) -> BandFft {
+        let kernel_size = grid.kernels[0].size;
+        let fft = Fft2::<f32>::new(
+            fast_len(widest_tile + kernel_size - 1),
+            fast_len(band_height + kernel_size - 1),
+        );
+        let column_spectra = (0..grid.nodes_x)
+            .map(|i| {
+                let top = &grid.kernels[j * grid.nodes_x + i];
+                let bottom = &grid.kernels[(j + 1) * grid.nodes_x + i];
+                kernel_spectrum(&fft, top, Some(bottom))
+            })
+            .collect();
+        let n = fft.len();
+        BandFft {
+            fft,
+            kernel_size,
+            column_spectra,
+            grid: vec![Complex::default(); n],
+            spectrum: vec![Complex::default(); n],
+            product: vec![Complex::default(); n],
+            left: vec![Complex::default(); n],
+            right: vec![Complex::default(); n],
+        }
+    }
+
+    /// Convolves the tile between node columns `i` and `i + 1` over `columns` x `rows` with its four
+    /// corner kernels; afterwards `corners(column, row)` gives [top-left, top-right, bottom-left,
+    /// bottom-right] at a pixel of the tile.
+    pub(super) fn convolve_tile(
+        &mut self,
+        plane: &[f32],
+        (width, height): (usize, usize),
+        i: usize,
+        columns: &Range<usize>,
+        rows: &Range<usize>,
+    ) -> TileCorners<'_> {
+        let reach = self.kernel_size - 1;
+        let half = (self.kernel_size / 2) as i64;
+        fill_patch(
+            plane,
+            (width, height),
+            (columns.start as i64 - half, rows.start as i64 - half),
+            (columns.len() + reach, rows.len() + reach),
+            &mut self.grid,
+            self.fft.width,
+        );
+        self.fft.forward(&mut self.grid, &mut self.spectrum);
+        for (pair, target) in [(i, 0), (i + 1, 1)] {
+            let kernels = &self.column_spectra[pair];
+            self.product
+                .iter_mut()
+                .zip(self.spectrum.iter().zip(kernels))
+                .for_each(|(p, (a, b))| *p = a * b);
+            let out = if target == 0 {
+                &mut self.left
+            } else {
+                &mut self.right
+            };
+            self.fft.inverse(&mut self.product, out);
+        }
+        TileCorners {
+            left: &self.left,
+            right: &self.right,
+            stride: self.fft.width,
+            origin: (columns.start, rows.start),
+            reach,
+            scale: 1.0 / self.fft.len() as f32,
+        }
+    }
+}
+
+/// The four corner convolutions of one tile, read per pixel.
+pub(super) struct TileCorners<'a> {
+    left: &'a [Complex<f32>],
+    right: &'a [Complex<f32>],
+    stride: usize,
+    origin: (usize, usize),
+    reach: usize,
+    scale: f32,
+}
+
+impl TileCorners<'_> {
+    #[inline]
+    pub(super) fn at(&self, column: usize, row: usize) -> [f32; 4] {
+        let index = (row - self.origin.1 + self.reach) * self.stride + column - self.origin.0 + self.reach;
+        let (l, r) = (self.left[index], self.right[index]);
+        [l.re, r.re, l.im, r.im].map(|v| v * self.scale)
+    }
+}

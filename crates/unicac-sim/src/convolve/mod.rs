@@ -1,0 +1,375 @@
+//! Spatially varying convolution without seams.
+//!
+//! PSFs are known at the nodes of a regular grid laid over the image (node columns at
+//! x_i = i (W-1)/(nx-1), rows likewise). The output is the **gather** blend
+//! out(p) = sum_n w_n(p) (I * K_n)(p), with w_n the bilinear weights of the four nodes around p.
+//! The weights are continuous and sum to one, so there is no seam at tile borders, and a constant
+//! image stays exactly constant (each I * K_n is constant when K_n sums to one). Borders replicate
+//! the edge pixels.
+//!
+//! A tile (the pixels between two node columns and two node rows) needs the convolutions of its four
+//! corner kernels over its own pixels only. They come from direct summation (`direct`, 4 K^2
+//! multiply-adds per pixel) or from overlap-save FFTs (`fft`, four transforms of (T + K - 1)^2 per
+//! tile of T^2 pixels, whatever K); `Method::Auto` picks the cheaper per band from a measured cost
+//! model. Bands of tiles run in parallel.
+
+mod direct;
+mod fft;
+
+use rayon::prelude::*;
+use serde::Serialize;
+use std::ops::Range;
+use unicac_psf::Kernel;
+
+/// Node grid and one kernel per node (row-major, `nodes_x * nodes_y`), all of one size.
+pub struct KernelGrid {
+    pub nodes_x: usize,
+    pub nodes_y: usize,
+    pub kernels: Vec<Kernel>,
+}
+
+/// How the corner convolutions of a tile are computed (the result is the same up to f32 rounding).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// The cheaper of the two by the cost model.
+    Auto,
+    Direct,
+    Fft,
+}
+
+/// How a pixel mixes the convolutions of its tile's four corner kernels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Blend {
+    /// Bilinear weights of the four corners: continuous, no seams (the default).
+    Bilinear,
+    /// The nearest corner only: piecewise-constant PSFs with seams at the tile mid-lines; kept as the
+    /// baseline that shows what blending buys (docs/performance.md).
+    Nearest,
+}
+
+impl Blend {
+    /// Weights of [top-left, top-right, bottom-left, bottom-right] at fractional tile position (tx, ty).
+    #[inline]
+    fn weights(self, tx: f32, ty: f32) -> [f32; 4] {
+        match self {
+            Blend::Bilinear => [(1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty],
+            Blend::Nearest => {
+                let (right, bottom) = (tx >= 0.5, ty >= 0.5);
+                let mut w = [0.0; 4];
+                w[usize::from(right) + 2 * usize::from(bottom)] = 1.0;
+                w
+            }
+        }
+    }
+}
+
+/// Node positions along an axis of `length` pixels.
+pub fn node_positions(length: usize, nodes: usize) -> Vec<f64> {
+    if nodes <= 1 {
+        return vec![(length as f64 - 1.0) / 2.0];
+    }
+    (0..nodes)
+        .map(|i| i as f64 * (length as f64 - 1.0) / (nodes - 1) as f64)
+        .collect()
+}
+
+/// The pixel ranges between consecutive nodes: interval `i` takes the pixels after node i up to and
+/// including node i + 1 (the first interval also takes the pixels from 0, the last those to the end).
+fn intervals(positions: &[f64], length: usize) -> Vec<Range<usize>> {
+    let last = positions.len() - 2;
+    (0..=last)
+        .map(|i| {
+            let start = if i == 0 {
+                0
+            } else {
+                positions[i].floor() as usize + 1
+            };
+            let end = if i == last {
+                length
+            } else {
+                positions[i + 1].floor() as usize + 1
+            };
+            start..end
+        })
+        .collect()
+}
+
+/// Relative cost of one FFT butterfly operation against one direct multiply-add, measured with the
+/// `convolve` bench (`cargo bench -p unicac-sim`) on the 2-core reference machine.
+const FFT_OP_COST: f64 = 0.6;
+
+/// Whether the FFT path is cheaper for tiles of `tile_width` x `tile_height` with `kernel` px kernels.
+fn fft_is_cheaper(tile_width: usize, tile_height: usize, kernel: usize) -> bool {
+    let direct = 4.0 * (kernel * kernel) as f64 * (tile_width * tile_height) as f64;
+    let n = (fft::fast_len(tile_width + kernel - 1) * fft::fast_len(tile_height + kernel - 1)) as f64;
+    // One forward and two inverse transforms per tile, plus one kernel-pair transform per node column.
+    let transforms = 4.0 * n * n.log2();
+    FFT_OP_COST * transforms < direct
+}
+
+/// Convolves one plane with the kernel grid, choosing the method per band.
+pub fn convolve_varying(plane: &[f32], width: usize, height: usize, grid: &KernelGrid) -> Vec<f32> {
+    convolve_varying_with(plane, width, height, grid, Method::Auto, Blend::Bilinear)
+}
+
+/// Convolves one plane with the kernel grid by the given method.
+pub fn convolve_varying_with(
+    plane: &[f32],
+    width: usize,
+    height: usize,
+    grid: &KernelGrid,
+    method: Method,
+    blend: Blend,
+) -> Vec<f32> {
+    assert_eq!(plane.len(), width * height);
+    assert!(
+        grid.nodes_x >= 2 && grid.nodes_y >= 2,
+        "need at least 2 x 2 nodes"
+    );
+    assert_eq!(grid.kernels.len(), grid.nodes_x * grid.nodes_y);
+    let kernel_size = grid.kernels[0].size;
+    let xs = node_positions(width, grid.nodes_x);
+    let ys = node_positions(height, grid.nodes_y);
+    let columns = intervals(&xs, width);
+    let bands = intervals(&ys, height);
+    let widest = columns.iter().map(|c| c.len()).max().unwrap_or(1);
+    let mut out = vec![0.0f32; width * height];
+    let mut slices: Vec<&mut [f32]> = Vec::with_capacity(bands.len());
+    let mut rest = out.as_mut_slice();
+    for rows in &bands {
+        let (band, tail) = rest.split_at_mut(rows.len() * width);
+        slices.push(band);
+        rest = tail;
+    }
+    slices
+        .into_par_iter()
+        .zip(bands.par_iter().enumerate())
+        .for_each(|(band, (j, rows))| {
+            let use_fft = match method {
+                Method::Direct => false,
+                Method::Fft => true,
+                Method::Auto => fft_is_cheaper(widest, rows.len(), kernel_size),
+            };
+            let mut band_fft = use_fft.then(|| fft::BandFft::new(grid, j, widest, rows.len()));
+            for (i, tile_columns) in columns.iter().enumerate() {
+                let kernel = |di: usize, dj: usize| &grid.kernels[(j + dj) * grid.nodes_x + i + di];
+                let corners = [kernel(0, 0), kernel(1, 0), kernel(0, 1), kernel(1, 1)];
+                let tile = Tile {
+                    columns: tile_columns,
+                    rows,
+                    x: (xs[i], xs[i + 1]),
+                    y: (ys[j], ys[j + 1]),
+                    blend,
+                };
+                match band_fft.as_mut() {
+                    Some(band_fft) => {
+                        let values = band_fft.convolve_tile(plane, (width, height), i, tile_columns, rows);
+                        tile.blend(band, width, |column, row, _| values.at(column, row));
+                    }
+                    None => tile.blend(band, width, |column, row, weights| {
+                        let mut values = [0.0; 4];
+                        for ((value, kernel), w) in values.iter_mut().zip(corners).zip(weights) {
+                            // A corner whose weight is zero here costs nothing.
+                            if w != 0.0 {
+                                *value = direct::convolve_at(plane, width, height, kernel, column, row);
+                            }
+                        }
+                        values
+                    }),
+                }
+            }
+        });
+    out
+}
+
+/// The pixels between node columns x.0..x.1 and node rows y.0..y.1.
+struct Tile<'a> {
+    columns: &'a Range<usize>,
+    rows: &'a Range<usize>,
+    x: (f64, f64),
+    y: (f64, f64),
+    blend: Blend,
+}
+
+impl Tile<'_> {
+    /// Writes sum_k w_k corner_k into the band, with `corners(column, row, weights)` giving the four
+    /// corner convolutions [top-left, top-right, bottom-left, bottom-right] at a pixel.
+    fn blend(&self, band: &mut [f32], width: usize, corners: impl Fn(usize, usize, [f32; 4]) -> [f32; 4]) {
+        for row in self.rows.clone() {
+            let ty = ((row as f64 - self.y.0) / (self.y.1 - self.y.0)).clamp(0.0, 1.0) as f32;
+            let target = &mut band[(row - self.rows.start) * width..][..width];
+            for column in self.columns.clone() {
+                let tx = ((column as f64 - self.x.0) / (self.x.1 - self.x.0)).clamp(0.0, 1.0) as f32;
+                let weights = self.blend.weights(tx, ty);
+                let values = corners(column, row, weights);
+                target[column] = values.iter().zip(weights).map(|(v, w)| v * w).sum();
+            }
+        }
+    }
+}
+
+/// Kernel width from which `convolve_invariant` uses the FFT instead of direct summation (direct costs
+/// K^2 per pixel, the FFT a few hundred operations per pixel whatever K).
+pub const FFT_FROM_KERNEL_PX: usize = 15;
+
+/// One kernel over the whole plane, replicated borders: direct for small kernels, FFT (f64) for large ones.
+pub fn convolve_invariant(plane: &[f32], width: usize, height: usize, kernel: &Kernel) -> Vec<f32> {
+    if kernel.size < FFT_FROM_KERNEL_PX {
+        return (0..width * height)
+            .into_par_iter()
+            .map(|i| direct::convolve_at(plane, width, height, kernel, i % width, i / width))
+            .collect();
+    }
+    fft::convolve_invariant_fft(plane, width, height, kernel)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Both methods, with the rounding each allows (f32 sums; f32 transforms of a few thousand points).
+    const METHODS: [(Method, f32); 2] = [(Method::Direct, 1e-6), (Method::Fft, 2e-6)];
+
+    fn delta(size: usize) -> Kernel {
+        let mut k = Kernel::zeros(size, 1.0);
+        k.data[size * size / 2] = 1.0;
+        k
+    }
+
+    fn boxed(size: usize) -> Kernel {
+        let mut k = Kernel::zeros(size, 1.0);
+        k.data.iter_mut().for_each(|v| *v = 1.0);
+        k.normalise();
+        k
+    }
+
+    #[test]
+    fn fft_and_direct_convolution_agree() {
+        let (w, h) = (53, 41);
+        let plane: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 101) as f32 / 101.0).collect();
+        let mut k = Kernel::zeros(17, 1.0);
+        k.data
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v = 1.0 + ((i * 31) % 7) as f32);
+        k.normalise();
+        let fft = fft::convolve_invariant_fft(&plane, w, h, &k);
+        let direct: Vec<f32> = (0..w * h)
+            .map(|i| direct::convolve_at(&plane, w, h, &k, i % w, i / w))
+            .collect();
+        let worst = fft
+            .iter()
+            .zip(&direct)
+            .fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+        assert!(worst < 1e-5, "{worst}");
+    }
+
+    /// A kernel of `size` px with a pseudo-random positive profile, normalised.
+    fn textured(size: usize, seed: usize) -> Kernel {
+        let mut k = Kernel::zeros(size, 1.0);
+        k.data
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v = 1.0 + ((i * 31 + seed * 17) % 11) as f32);
+        k.normalise();
+        k
+    }
+
+    #[test]
+    fn nearest_blending_takes_the_nearest_node_only() {
+        // Left nodes keep the image, right nodes zero it: nearest gives a hard step at the tile middle,
+        // bilinear a ramp.
+        let (w, h) = (21, 5);
+        let plane = vec![1.0f32; w * h];
+        let zero = Kernel::zeros(1, 1.0);
+        let grid = KernelGrid {
+            nodes_x: 2,
+            nodes_y: 2,
+            kernels: vec![delta(1), zero.clone(), delta(1), zero],
+        };
+        let nearest = convolve_varying_with(&plane, w, h, &grid, Method::Direct, Blend::Nearest);
+        let bilinear = convolve_varying_with(&plane, w, h, &grid, Method::Direct, Blend::Bilinear);
+        assert_eq!(&nearest[..w], &[[1.0; 10].as_slice(), &[0.0; 11]].concat());
+        assert!((bilinear[5] - 0.75).abs() < 1e-6);
+    }
+
+    #[test]
+    fn fft_and_direct_varying_convolutions_agree() {
+        // Odd image sizes, uneven tiles, kernels larger than a tile and kernels reaching past the image.
+        for (w, h, nodes_x, nodes_y, size) in [(61, 47, 4, 3, 9), (45, 38, 3, 5, 21), (30, 33, 2, 2, 31)] {
+            let plane: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 101) as f32 / 101.0).collect();
+            let grid = KernelGrid {
+                nodes_x,
+                nodes_y,
+                kernels: (0..nodes_x * nodes_y).map(|n| textured(size, n)).collect(),
+            };
+            let direct = convolve_varying_with(&plane, w, h, &grid, Method::Direct, Blend::Bilinear);
+            let fft = convolve_varying_with(&plane, w, h, &grid, Method::Fft, Blend::Bilinear);
+            let worst = fft
+                .iter()
+                .zip(&direct)
+                .fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+            // f32 transforms of ~1e4 points: rounding near 1e-6 of the signal.
+            assert!(worst < 2e-5, "{w}x{h}, K={size}: {worst}");
+        }
+    }
+
+    #[test]
+    fn delta_kernels_are_the_identity() {
+        let (w, h) = (37, 23);
+        let plane: Vec<f32> = (0..w * h).map(|i| (i as f32 * 0.37).sin()).collect();
+        let grid = KernelGrid {
+            nodes_x: 3,
+            nodes_y: 4,
+            kernels: (0..12).map(|_| delta(5)).collect(),
+        };
+        for (method, tolerance) in METHODS {
+            let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear);
+            // Bilinear weights sum to one up to f32 rounding.
+            assert!(
+                out.iter().zip(&plane).all(|(a, b)| (a - b).abs() < tolerance),
+                "{method:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn constant_images_stay_constant_with_varying_kernels() {
+        let (w, h) = (40, 30);
+        let plane = vec![0.37f32; w * h];
+        let kernels = (0..9)
+            .map(|i| if i % 2 == 0 { boxed(7) } else { delta(7) })
+            .collect();
+        let grid = KernelGrid {
+            nodes_x: 3,
+            nodes_y: 3,
+            kernels,
+        };
+        for (method, tolerance) in METHODS {
+            let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear);
+            assert!(out.iter().all(|v| (v - 0.37).abs() < tolerance), "{method:?}");
+        }
+    }
+
+    #[test]
+    fn a_shifted_delta_shifts_the_image() {
+        // Kernel with its mass one pixel right of centre moves content one pixel right.
+        let (w, h) = (16, 8);
+        let plane: Vec<f32> = (0..w * h).map(|i| (i % w) as f32).collect();
+        let mut k = Kernel::zeros(3, 1.0);
+        k.data[3 + 2] = 1.0;
+        let grid = KernelGrid {
+            nodes_x: 2,
+            nodes_y: 2,
+            kernels: vec![k.clone(), k.clone(), k.clone(), k],
+        };
+        for (method, tolerance) in METHODS {
+            let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear);
+            // Values up to 15: the FFT's rounding is relative to the signal.
+            assert!((out[3 * w + 5] - 4.0).abs() < 15.0 * tolerance, "{method:?}");
+            assert!(out[3 * w].abs() < 15.0 * tolerance, "{method:?}");
+        }
+    }
+}
