@@ -38,10 +38,17 @@ pub enum Command {
     Ode(OdeArgs),
     /// Slanted-edge MTF (ISO 12233) of an image holding one slanted edge.
     Mtf(MtfArgs),
+    /// GPU adapters, backends and features (`unicac gpu info`).
+    #[command(subcommand)]
+    Gpu(crate::commands::gpu::GpuCommand),
+    /// Automatic lens design (spherical and aspheric) into a lens library; resumes an existing one.
+    Design(crate::commands::design::DesignArgs),
 }
 
 #[derive(Args)]
 pub struct PsfArgs {
+    #[command(flatten)]
+    pub device: DeviceArgs,
     #[command(flatten)]
     pub lens: LensArg,
     #[arg(long, allow_hyphen_values = true)]
@@ -73,6 +80,8 @@ pub struct PsfArgs {
 #[derive(Args)]
 pub struct SimulateArgs {
     #[command(flatten)]
+    pub device: DeviceArgs,
+    #[command(flatten)]
     pub lens: LensArg,
     /// Sharp input images (PNG, TIFF or EXR).
     #[arg(required = true)]
@@ -98,6 +107,9 @@ pub struct SimulateArgs {
     /// Output format; default: the input's.
     #[arg(long, value_parser = ["png", "tiff", "exr"])]
     pub format: Option<String>,
+    /// Picture of the PSF map used (a 7 x 5 grid over the sensor), .png or .svg.
+    #[arg(long)]
+    pub psf_plot: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -116,6 +128,8 @@ pub struct ChartArgs {
 
 #[derive(Args)]
 pub struct OdeArgs {
+    #[command(flatten)]
+    pub device: DeviceArgs,
     /// Lens files (.json, .zmx or builtin:NAME).
     #[arg(required = true)]
     pub lenses: Vec<String>,
@@ -216,6 +230,8 @@ pub struct RaySelection {
 #[derive(Args)]
 pub struct SpotArgs {
     #[command(flatten)]
+    pub device: DeviceArgs,
+    #[command(flatten)]
     pub lens: LensArg,
     #[command(flatten)]
     pub rays: RaySelection,
@@ -255,6 +271,26 @@ pub struct LayoutArgs {
     /// Rays per field.
     #[arg(long, default_value_t = 7)]
     pub rays: usize,
+}
+
+/// Where rays are traced (spot, psf, simulate, ode). See docs/gpu.md.
+#[derive(Args, Clone, Copy)]
+pub struct DeviceArgs {
+    /// cpu, gpu (the CPU with a message when no adapter exists) or auto (a real GPU, for batches big
+    /// enough to pay for the transfers).
+    #[arg(long, default_value = "auto", value_parser = parse_device)]
+    pub device: unicac_gpu::DeviceChoice,
+    /// Working precision of the GPU kernels: f32, or f64 where the adapter offers SHADER_F64.
+    #[arg(long, default_value = "f32", value_parser = parse_precision)]
+    pub gpu_precision: unicac_gpu::Precision,
+}
+
+fn parse_device(text: &str) -> Result<unicac_gpu::DeviceChoice, String> {
+    text.parse()
+}
+
+fn parse_precision(text: &str) -> Result<unicac_gpu::Precision, String> {
+    text.parse()
 }
 
 fn parse_numbers<const N: usize>(text: &str, what: &str) -> Result<[f64; N], String> {

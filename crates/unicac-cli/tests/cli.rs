@@ -347,9 +347,13 @@ fn charts_mtf_psf_and_simulate_work_end_to_end() {
         out_dir.to_str().unwrap(),
         "--seed",
         "1",
+        "--psf-plot",
+        scratch("psf-map.svg").to_str().unwrap(),
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(out_dir.join("leaves.png").exists());
+    let map = std::fs::read_to_string(scratch("psf-map.svg")).unwrap();
+    assert!(map.contains("PSF map of builtin:cooke_triplet"));
 }
 
 /// Per-channel sums of an EXR PSF stack, read back through the PNG-free EXR path of `unicac mtf`'s reader.

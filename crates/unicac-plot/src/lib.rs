@@ -15,6 +15,7 @@
 //! - [`ode_bars`]: one row per lens, bars of Optical Degradation Evaluator (ODE) score and RMS spot radius side by side.
 //! - [`psf_panels`]: PSF kernels as images (each normalised to its peak, viridis colour map, scale bar in
 //!   µm) above a chart of their central rows.
+//! - [`psf_map`]: R, G, B kernels at a grid of sensor positions, each drawn where it sits on the sensor.
 //!
 //! Conventions: lengths in the layout are mm, aberrations and spot coordinates µm; field angles are in
 //! degrees; wavelength colours run from blue (shortest) to red (longest) whatever the actual
@@ -29,6 +30,7 @@ mod layout;
 mod mtf;
 mod ode;
 mod psf;
+mod psf_map;
 mod render;
 mod spot;
 mod style;
@@ -38,6 +40,7 @@ pub use layout::{layout, layout_bundles, RayBundle};
 pub use mtf::{mtf_curves, Curve};
 pub use ode::ode_bars;
 pub use psf::{psf_panels, PsfPanel};
+pub use psf_map::{psf_map, PsfMapCell};
 pub use spot::spot_diagram;
 
 use std::path::PathBuf;

@@ -1,28 +1,80 @@
 //! Run time against error of the image simulator's fidelity knobs (docs/performance.md, issue 3):
 //! one knob at a time, the others at their defaults, against the same simulation with that knob at a
-//! high-fidelity value, on a dead-leaves chart filling the lens's field (no noise, no ISP: optics only). Error: PSNR (dB) of the simulated linear image
-//! against the reference, and the mean L1 difference of the on-axis and corner G kernels.
+//! high-fidelity value, on a dead-leaves chart filling the lens's field (no noise, no ISP: optics
+//! only). Error: PSNR (dB) of the simulated linear image against the reference, and the mean L1
+//! difference of the on-axis and corner G kernels (kernels of different sizes are compared centred).
 //!
-//! Run: cargo run --release -p unicac-sim --example sweep [LENS] (default phone_asphere)
+//! Run: cargo run --release -p unicac-sim --example sweep [LENS] [WIDTHxHEIGHT] (default phone_asphere
+//! 640x480)
 
 use std::time::Instant;
 use unicac_image::charts::dead_leaves;
 use unicac_image::Planar;
 use unicac_optics::examples;
+use unicac_psf::Kernel;
+use unicac_sim::convolve::{Blend, Method};
 use unicac_sim::{LensSimulator, SimulationSettings};
 use unicac_trace::PupilSampling;
 
-const SIZE: (usize, usize) = (640, 480);
+/// One knob: a label per setting, the first being the high-fidelity reference.
+struct Knob {
+    name: &'static str,
+    values: Vec<(String, SimulationSettings)>,
+}
 
-fn settings(rays: usize, wavelengths: usize, radial: usize, nodes: usize) -> SimulationSettings {
-    let mut s = SimulationSettings {
-        wavelengths,
-        radial_samples: radial,
-        node_intervals: nodes,
-        ..Default::default()
+fn with(change: impl Fn(&mut SimulationSettings)) -> SimulationSettings {
+    let mut settings = SimulationSettings::default();
+    change(&mut settings);
+    settings
+}
+
+fn knobs() -> Vec<Knob> {
+    let numeric = |name, values: &[usize], set: fn(&mut SimulationSettings, usize)| Knob {
+        name,
+        values: values
+            .iter()
+            .map(|&v| (v.to_string(), with(|s| set(s, v))))
+            .collect(),
     };
-    s.psf.pupil_sampling = PupilSampling::Fibonacci { n: rays };
-    s
+    vec![
+        numeric("rays per PSF", &[32768, 256, 1024, 2048, 8192], |s, v| {
+            s.psf.pupil_sampling = PupilSampling::Fibonacci { n: v }
+        }),
+        numeric("wavelengths", &[61, 5, 11, 21, 31], |s, v| s.wavelengths = v),
+        numeric("radial PSF samples", &[49, 9, 17, 33], |s, v| {
+            s.radial_samples = v
+        }),
+        numeric("node intervals (longer side)", &[80, 5, 10, 20, 40], |s, v| {
+            s.node_intervals = v
+        }),
+        Knob {
+            name: "kernel energy fraction",
+            values: [0.99999, 0.95, 0.98, 0.99, 0.995, 0.999]
+                .iter()
+                .map(|&f| {
+                    let mut s = with(|s| s.psf.energy_fraction = f);
+                    s.psf.max_kernel_px = 255;
+                    (f.to_string(), s)
+                })
+                .collect(),
+        },
+        Knob {
+            name: "blending",
+            values: vec![
+                ("bilinear, 80 intervals".into(), with(|s| s.node_intervals = 80)),
+                ("nearest node".into(), with(|s| s.blend = Blend::Nearest)),
+                ("bilinear".into(), with(|_| ())),
+            ],
+        },
+        Knob {
+            name: "convolution method",
+            values: vec![
+                ("direct".into(), with(|s| s.method = Method::Direct)),
+                ("fft".into(), with(|s| s.method = Method::Fft)),
+                ("auto".into(), with(|_| ())),
+            ],
+        },
+    ]
 }
 
 fn psnr(a: &Planar, b: &Planar) -> f64 {
@@ -40,76 +92,73 @@ fn psnr(a: &Planar, b: &Planar) -> f64 {
     }
 }
 
+/// Half the L1 distance of two kernels laid over each other by their centres.
+fn kernel_l1(a: &Kernel, b: &Kernel) -> f64 {
+    let size = a.size.max(b.size);
+    let sample = |k: &Kernel, x: usize, y: usize| {
+        let offset = (size - k.size) / 2;
+        let inside = |v: usize| v >= offset && v < offset + k.size;
+        if inside(x) && inside(y) {
+            k.at(x - offset, y - offset) as f64
+        } else {
+            0.0
+        }
+    };
+    (0..size * size)
+        .map(|i| (sample(a, i % size, i / size) - sample(b, i % size, i / size)).abs())
+        .sum::<f64>()
+        / 2.0
+}
+
 fn main() {
-    let name = std::env::args().nth(1).unwrap_or_else(|| "phone_asphere".into());
+    let mut args = std::env::args().skip(1);
+    let name = args.next().unwrap_or_else(|| "phone_asphere".into());
+    let size = args.next().unwrap_or_else(|| "640x480".into());
+    let (width, height): (usize, usize) = size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+        .expect("size as WIDTHxHEIGHT");
     let lens = examples::lens(&name).unwrap();
-    let chart = dead_leaves(SIZE.0, SIZE.1, 7).unwrap();
-    let run = |s: SimulationSettings| {
+    let chart = dead_leaves(width, height, 7).unwrap();
+    let run = |s: &SimulationSettings| {
         let start = Instant::now();
-        let sim = LensSimulator::new(&lens, SIZE.0, SIZE.1, None, s).unwrap();
+        let sim = LensSimulator::new(&lens, width, height, None, s.clone()).unwrap();
         let out = sim.apply(&chart).unwrap();
         (start.elapsed().as_secs_f64(), out, sim)
     };
-    let corner_of = |sim: &LensSimulator| sim.grid.half_diagonal_mm() * 0.99;
-    let kernel_l1 = |sim: &LensSimulator, reference: &LensSimulator| {
-        let corner = corner_of(reference);
+    let kernels_l1 = |sim: &LensSimulator, reference: &LensSimulator| {
+        let corner = reference.grid.half_diagonal_mm() * 0.99;
         [(0.0, 0.0), (0.0, corner)]
             .iter()
             .map(|&(x, y)| {
-                let (a, b) = (sim.radial.kernel_at(x, y, 1), reference.radial.kernel_at(x, y, 1));
-                if a.size != b.size {
-                    return f64::NAN;
-                }
-                a.data
-                    .iter()
-                    .zip(&b.data)
-                    .map(|(p, q)| (p - q).abs() as f64)
-                    .sum::<f64>()
-                    / 2.0
+                kernel_l1(
+                    &sim.radial.kernel_at(x, y, 1),
+                    &reference.radial.kernel_at(x, y, 1),
+                )
             })
             .sum::<f64>()
     };
-    println!("lens {name}, image {}x{}; each knob against its own high-fidelity value, the others at their defaults", SIZE.0, SIZE.1);
-    println!("| knob | value | seconds | PSNR vs reference (dB) | G kernel L1, axis + corner |");
-    println!("|---|---|---|---|---|");
-    let default = (2048, 31, 17, 64);
-    type Knob = (
-        &'static str,
-        Vec<usize>,
-        fn((usize, usize, usize, usize), usize) -> (usize, usize, usize, usize),
+    println!(
+        "lens {name}, image {width}x{height}, {} threads; each knob against its own high-fidelity value, the others at their defaults",
+        rayon::current_num_threads()
     );
-    let knobs: [Knob; 4] = [
-        (
-            "rays per PSF",
-            vec![32768, 256, 512, 1024, 2048, 4096, 8192],
-            |d, v| (v, d.1, d.2, d.3),
-        ),
-        ("wavelengths", vec![61, 5, 11, 21, 31, 41], |d, v| {
-            (d.0, v, d.2, d.3)
-        }),
-        ("radial PSF samples", vec![49, 5, 9, 17, 25, 33], |d, v| {
-            (d.0, d.1, v, d.3)
-        }),
-        ("node spacing (px)", vec![8, 128, 64, 32, 16], |d, v| {
-            (d.0, d.1, d.2, v)
-        }),
-    ];
-    for (knob, values, apply) in knobs {
-        let at = |v: usize| {
-            let (r, w, p, n) = apply(default, v);
-            settings(r, w, p, n)
-        };
-        let (reference_s, reference, reference_sim) = run(at(values[0]));
+    println!("| knob | value | kernel px | seconds | PSNR vs reference (dB) | G kernel L1, axis + corner |");
+    println!("|---|---|---|---|---|---|");
+    for knob in knobs() {
+        let (reference_label, reference_settings) = &knob.values[0];
+        let (reference_s, reference, reference_sim) = run(reference_settings);
         println!(
-            "| {knob} | {} (reference) | {reference_s:.3} | - | - |",
-            values[0]
+            "| {} | {reference_label} (reference) | {} | {reference_s:.2} | - | - |",
+            knob.name, reference_sim.radial.kernel_size
         );
-        for &value in &values[1..] {
-            let (seconds, out, sim) = run(at(value));
+        for (label, settings) in &knob.values[1..] {
+            let (seconds, out, sim) = run(settings);
             println!(
-                "| {knob} | {value} | {seconds:.3} | {:.2} | {:.4} |",
+                "| {} | {label} | {} | {seconds:.2} | {:.1} | {:.4} |",
+                knob.name,
+                sim.radial.kernel_size,
                 psnr(&out, &reference),
-                kernel_l1(&sim, &reference_sim)
+                kernels_l1(&sim, &reference_sim)
             );
         }
     }

@@ -15,6 +15,11 @@ pub enum SimError {
     Psf(#[from] PsfError),
     #[error(transparent)]
     Image(#[from] ImageError),
+    #[error(
+        "the lens vignettes the whole field: none of the {rays_traced} rays traced from 0 to {max_field_deg:.2} deg \
+         reached the sensor (check the clear semi-diameters)"
+    )]
+    FullyVignetted { max_field_deg: f64, rays_traced: usize },
     #[error("invalid simulation request: {0}")]
     InvalidRequest(String),
 }

@@ -3,7 +3,7 @@
 //! between the two nearest radial samples and rotated to its azimuth.
 
 use crate::chief::ChiefRayMap;
-use crate::error::SimResult;
+use crate::error::{SimError, SimResult};
 use rayon::prelude::*;
 use serde::Serialize;
 use unicac_psf::{FieldPsf, Kernel, PsfTracer};
@@ -45,6 +45,19 @@ impl RadialPsfs {
             .map(|(_, _, hits)| tracer.kernel_size_for(hits))
             .max()
             .unwrap_or(1);
+        if traced
+            .iter()
+            .all(|(_, _, hits)| hits.iter().all(|h| h.offsets_um.is_empty()))
+        {
+            return Err(SimError::FullyVignetted {
+                max_field_deg: traced.last().map_or(0.0, |(angle, _, _)| *angle),
+                rays_traced: traced
+                    .iter()
+                    .flat_map(|(_, _, hits)| hits)
+                    .map(|h| h.counts.total())
+                    .sum(),
+            });
+        }
         let kernel_size = requested_kernel_size.min(tracer.settings().max_kernel_px);
         let psfs = traced
             .par_iter()
@@ -102,6 +115,12 @@ impl RadialPsfs {
             return radial;
         }
         rotate(&radial, azimuth)
+    }
+
+    /// The largest transmission over the field (on axis for any usual lens): relative illumination
+    /// is normalised by it, so a lens darker on axis than off axis cannot scale pixels up without bound.
+    pub fn peak_transmission(&self) -> f64 {
+        self.psfs.iter().map(|p| p.transmission).fold(0.0, f64::max)
     }
 
     /// Transmission (vignetting) at a radius, interpolated.

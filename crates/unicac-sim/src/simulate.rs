@@ -260,10 +260,10 @@ impl LensSimulator {
         out
     }
 
-    /// Relative illumination: chief-ray mapping times vignetting, normalised on axis.
+    /// Relative illumination: chief-ray mapping times vignetting, normalised by the peak transmission.
     fn shade(&self, image: &mut Planar) {
         let (w, h) = (image.width, image.height);
-        let axis = self.radial.transmission_at(0.0).max(1e-12);
+        let axis = self.radial.peak_transmission().max(1e-12);
         let factors: Vec<f32> = (0..w * h)
             .into_par_iter()
             .map(|i| {

@@ -11,6 +11,7 @@ use unicac_image::Planar;
 use unicac_sim::{LensSimulator, SimulationSettings};
 
 pub fn run(args: &SimulateArgs) -> Result<()> {
+    super::gpu::install(&args.device);
     let lens = load_lens(&args.lens.lens)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let bar = progress(args.images.len(), "simulate");
@@ -48,6 +49,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
                 &sim.lens_sha256[..16]
             ));
         }
+        if let (0, Some(plot)) = (index, &args.psf_plot) {
+            plot_psf_map(sim, &args.lens.lens, plot)?;
+            bar.println(format!("wrote {}", plot.display()));
+        }
         let pipeline = Pipeline {
             no_isp: args.no_isp,
             no_noise: args.no_noise,
@@ -72,6 +77,36 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     eprintln!("wrote {} image(s) to {}", args.images.len(), args.out.display());
+    Ok(())
+}
+
+/// The PSFs the simulator uses at a 7 x 5 grid of sensor positions (corners included).
+fn plot_psf_map(sim: &LensSimulator, lens_name: &str, path: &Path) -> Result<()> {
+    const COLUMNS: usize = 7;
+    const ROWS: usize = 5;
+    let [corner_x, corner_y] = sim.grid.to_mm(0.0, 0.0);
+    let (half_width, half_height) = (corner_x.abs(), corner_y.abs());
+    let cells: Vec<unicac_plot::PsfMapCell> = (0..ROWS)
+        .flat_map(|row| (0..COLUMNS).map(move |column| (column, row)))
+        .map(|(column, row)| {
+            let x_mm = half_width * (2.0 * column as f64 / (COLUMNS - 1) as f64 - 1.0);
+            let y_mm = half_height * (1.0 - 2.0 * row as f64 / (ROWS - 1) as f64);
+            let kernels = [0, 1, 2].map(|c| sim.radial.kernel_at(x_mm, y_mm, c));
+            unicac_plot::PsfMapCell {
+                x_mm,
+                y_mm,
+                size: kernels[0].size,
+                rgb: kernels.map(|k| k.data),
+            }
+        })
+        .collect();
+    let title = format!(
+        "PSF map of {lens_name} on a {} x {} px sensor ({} um pixels)",
+        sim.grid.width_px,
+        sim.grid.height_px,
+        (sim.grid.pitch_um * 1e3).round() / 1e3
+    );
+    unicac_plot::psf_map(&title, &cells, COLUMNS, sim.grid.pitch_um, path)?;
     Ok(())
 }
 
