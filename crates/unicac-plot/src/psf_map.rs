@@ -35,7 +35,7 @@ pub fn psf_map(
     pitch_um: f64,
     path: &Path,
 ) -> Result<(), PlotError> {
-    if cells.is_empty() || columns == 0 || cells.len() % columns != 0 {
+    if cells.is_empty() || columns == 0 || !cells.len().is_multiple_of(columns) {
         return Err(PlotError::InvalidInput(format!(
             "{} PSFs do not fill rows of {columns}",
             cells.len()
