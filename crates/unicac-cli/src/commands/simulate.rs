@@ -43,15 +43,12 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             )?);
         }
         let sim = simulator.as_ref().expect("prepared above");
-        if index == 0 && sim.psfs_from_cache {
-            bar.println(format!(
-                "PSF map loaded from the cache (lens {})",
-                &sim.lens_sha256[..16]
-            ));
+        if index == 0 {
+            bar.suspend(|| report_psf_map(sim));
         }
         if let (0, Some(plot)) = (index, &args.psf_plot) {
             plot_psf_map(sim, &args.lens.lens, plot)?;
-            bar.println(format!("wrote {}", plot.display()));
+            bar.suspend(|| eprintln!("wrote {}", plot.display()));
         }
         let pipeline = Pipeline {
             no_isp: args.no_isp,
@@ -78,6 +75,26 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     bar.finish_and_clear();
     eprintln!("wrote {} image(s) to {}", args.images.len(), args.out.display());
     Ok(())
+}
+
+/// Where the PSF map came from, and how much energy the kernel-size cap cut.
+fn report_psf_map(sim: &LensSimulator) {
+    if sim.psfs_from_cache {
+        eprintln!("PSF map loaded from the cache (lens {})", &sim.lens_sha256[..16]);
+    }
+    let worst_cut = sim
+        .radial
+        .psfs
+        .iter()
+        .flat_map(|p| &p.energy_cut)
+        .fold(0.0f64, |m, v| m.max(*v));
+    if worst_cut > 0.01 {
+        eprintln!(
+            "warning: PSF kernels capped at {} px; up to {:.2}% of a PSF's energy fell outside and was cut",
+            sim.radial.kernel_size,
+            100.0 * worst_cut
+        );
+    }
 }
 
 /// The PSFs the simulator uses at a 7 x 5 grid of sensor positions (corners included).
