@@ -3,7 +3,7 @@
 # Idempotent: apt runs only when a package is missing. Sourced by demo.sh and test.sh.
 set -euo pipefail
 
-APT_PACKAGES=(pkg-config libfontconfig1-dev libfreetype-dev fonts-dejavu-core)
+APT_PACKAGES=(pkg-config libfontconfig1-dev libfreetype-dev fonts-dejavu-core mesa-vulkan-drivers libvulkan1 python3-venv)
 MIN_RUST_MINOR=87   # workspace rust-version 1.87
 
 missing=()
@@ -16,6 +16,9 @@ if ((${#missing[@]})); then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
+
+# Mesa's Vulkan drivers (lavapipe, for the GPU tests) probe Wayland and print errors when this is unset.
+[ -n "${XDG_RUNTIME_DIR:-}" ] || { XDG_RUNTIME_DIR=$(mktemp -d); export XDG_RUNTIME_DIR; }
 
 if ! command -v cargo >/dev/null 2>&1; then
   [ -x "$HOME/.cargo/bin/cargo" ] && export PATH="$HOME/.cargo/bin:$PATH"

@@ -11,11 +11,13 @@
 //! sensor -y (the sensor's +y is up, image rows go down).
 
 use crate::error::{PsfError, PsfResult};
+use crate::hit_tracer::{default_hit_tracer, HitTracer};
 use crate::kernel::{rasterise, size_for_fraction, Kernel};
 use crate::spectrum::{combine_channels, SpectralWeights};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 use unicac_optics::Lens;
-use unicac_trace::{trace_rays, Aimer, Aiming, Clipping, PupilSampling, StatusCounts, TraceSystem};
+use unicac_trace::{Aimer, Aiming, Clipping, PupilSampling, StatusCounts, TraceSystem};
 
 /// Fidelity knobs of a geometric PSF (defaults from the sweep in docs/performance.md).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -104,6 +106,8 @@ pub struct PsfTracer {
     weights: SpectralWeights,
     systems: Vec<(TraceSystem, Aimer)>,
     reference: ChiefReference,
+    /// Who traces the rays (CPU or GPU; `hit_tracer::default_hit_tracer` unless set).
+    hit_tracer: Arc<dyn HitTracer>,
 }
 
 impl PsfTracer {
@@ -130,7 +134,13 @@ impl PsfTracer {
             weights,
             systems,
             reference,
+            hit_tracer: default_hit_tracer(),
         })
+    }
+
+    /// Traces this tracer's rays with `tracer` (e.g. the GPU) instead of the process default.
+    pub fn set_hit_tracer(&mut self, tracer: Arc<dyn HitTracer>) {
+        self.hit_tracer = tracer;
     }
 
     pub fn settings(&self) -> &PsfSettings {
@@ -156,7 +166,7 @@ impl PsfTracer {
                     .iter()
                     .filter_map(|[px, py]| aimer.ray(field_deg, *px, *py).ok())
                     .collect();
-                let statuses = trace_rays(system, &mut rays);
+                let statuses = self.hit_tracer.trace(system, &mut rays);
                 let mut counts = StatusCounts::from_statuses(&statuses);
                 counts.missed += self.pupil.len() - rays.len();
                 let offsets_um = rays

@@ -8,12 +8,14 @@
 
 pub mod error;
 pub mod geometric;
+pub mod hit_tracer;
 pub mod kernel;
 pub mod spectrum;
 pub mod wave;
 
 pub use error::{PsfError, PsfResult};
 pub use geometric::{ChiefReference, FieldHits, FieldPsf, PsfSettings, PsfTracer};
+pub use hit_tracer::{default_hit_tracer, set_default_hit_tracer, CpuHitTracer, HitTracer};
 pub use kernel::Kernel;
 pub use spectrum::{visible_wavelengths_um, SpectralResponse, SpectralWeights};
 pub use wave::{Transform, WaveFieldPsf, WavePsfSettings, WavePsfTracer, WaveSampling, Wavefront};

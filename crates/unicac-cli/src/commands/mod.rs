@@ -1,7 +1,9 @@
 //! One module per command.
 
 mod chart;
+pub(crate) mod design;
 mod fan;
+pub(crate) mod gpu;
 mod layout;
 mod lens;
 mod mtf;
@@ -29,6 +31,8 @@ pub fn run(command: Command) -> Result<()> {
         Command::Chart(args) => chart::run(&args),
         Command::Ode(args) => ode::run(&args),
         Command::Mtf(args) => mtf::run(&args),
+        Command::Gpu(command) => gpu::run(&command),
+        Command::Design(args) => design::run(&args),
     }
 }
 

@@ -17,6 +17,7 @@ struct LensOde {
 }
 
 pub fn run(args: &OdeArgs) -> Result<()> {
+    super::gpu::install(&args.device);
     let settings = OdeSettings::default();
     let bar = progress(args.lenses.len(), "ode");
     let results: Vec<Result<LensOde>> = args

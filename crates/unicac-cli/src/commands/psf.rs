@@ -36,6 +36,7 @@ struct PsfReport<'a> {
 }
 
 pub fn run(args: &PsfArgs) -> Result<()> {
+    super::gpu::install(&args.device);
     let mut spec = load_spec(&args.lens.lens)?;
     if let Some(distance) = args.object_distance_mm {
         spec.object_distance_mm = Some(distance);
@@ -137,9 +138,9 @@ fn compute(
     monochromatic: bool,
 ) -> Result<FieldPsf> {
     Ok(match args.mode.as_str() {
-        "wave" => wave_psf(&lens, weights.clone(), pixel_um, args.field_deg, monochromatic)?,
+        "wave" => wave_psf(lens, weights.clone(), pixel_um, args.field_deg, monochromatic)?,
         _ => {
-            let tracer = PsfTracer::new(&lens, weights.clone(), PsfSettings::new(pixel_um))?;
+            let tracer = PsfTracer::new(lens, weights.clone(), PsfSettings::new(pixel_um))?;
             let reference = tracer.reference_point_mm(args.field_deg)?;
             let hits = tracer.hits(args.field_deg, reference);
             let size = tracer.kernel_size_for(&hits);

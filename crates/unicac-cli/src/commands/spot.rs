@@ -18,7 +18,19 @@ struct SpotReport<'a> {
 pub fn run(args: &SpotArgs) -> Result<()> {
     let lens = load_lens(&args.lens.lens)?;
     let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.rays)?;
-    let spots = spots(&lens, &fields, &wavelengths, args.rays.aim, &args.pupil_sampling)?;
+    let selection = super::gpu::install(&args.device);
+    let rays_per_spot = args.pupil_sampling.points().len();
+    let spots = match selection.tracer_for(rays_per_spot) {
+        Some(tracer) => unicac_gpu::spot::spots(
+            tracer,
+            &lens,
+            &fields,
+            &wavelengths,
+            args.rays.aim,
+            &args.pupil_sampling,
+        )?,
+        None => spots(&lens, &fields, &wavelengths, args.rays.aim, &args.pupil_sampling)?,
+    };
     if let Some(path) = &args.plot {
         unicac_plot::spot_diagram(&spots, path)?;
         eprintln!("wrote {}", path.display());
