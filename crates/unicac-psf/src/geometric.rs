@@ -143,6 +143,11 @@ impl PsfTracer {
         self.hit_tracer = tracer;
     }
 
+    /// Which device traces the rays ("cpu", "gpu (f32, ...)"): part of a PSF's provenance and cache key.
+    pub fn device(&self) -> String {
+        self.hit_tracer.describe()
+    }
+
     pub fn settings(&self) -> &PsfSettings {
         &self.settings
     }

@@ -61,7 +61,14 @@ pub fn run(args: &PsfArgs) -> Result<()> {
         lens_sha256.as_bytes(),
         format!(
             "{:?}",
-            (&args.mode, args.field_deg, pixel_um, &weights, monochromatic)
+            (
+                &args.mode,
+                args.field_deg,
+                pixel_um,
+                &weights,
+                monochromatic,
+                unicac_psf::default_hit_tracer().describe()
+            )
         )
         .as_bytes(),
     ]);
