@@ -10,3 +10,4 @@ cargo test --workspace --quiet 2>&1 | tee /tmp/unicac-test.log
 # One closing line with the totals over every test binary.
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i; if ($(i+1) ~ /^ignored/) s += $i } }
      END { printf "unicac: %d passed, %d failed, %d skipped\n", p, f, s; exit (f > 0) }' /tmp/unicac-test.log
+bash scripts/python_test.sh   # builds the Python package on the test artifacts, runs python/tests

@@ -1,0 +1,147 @@
+//! The one place where Rust errors become Python exceptions.
+//!
+//! Every failure of a whole request raises a subclass of `unicac.UnicacError` named after the stage
+//! that failed: `LensError` (reading or analysing a lens), `TraceError` (ray aiming, trace requests),
+//! `PsfError`, `ImageError` (files, ISP steps), `SimulationError`, `MetricsError` and `OdeError`.
+//! A nested error keeps the most specific stage: a lens problem found while simulating is a
+//! `LensError`. Wrong argument types, dtypes or shapes are caught before Rust sees them and raise
+//! the standard `TypeError` / `ValueError` naming the argument (see `arrays.rs`). Per-ray failures are
+//! not errors: they are status codes.
+
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+
+create_exception!(
+    unicac,
+    UnicacError,
+    PyException,
+    "Base class of every error unicac raises for a failed request."
+);
+create_exception!(
+    unicac,
+    LensError,
+    UnicacError,
+    "A lens file or lens could not be read, validated or analysed."
+);
+create_exception!(
+    unicac,
+    TraceError,
+    UnicacError,
+    "A trace request failed as a whole (e.g. real ray aiming)."
+);
+create_exception!(
+    unicac,
+    PsfError,
+    UnicacError,
+    "A PSF could not be computed (e.g. a field vignetted away)."
+);
+create_exception!(
+    unicac,
+    ImageError,
+    UnicacError,
+    "An image could not be read, written or processed."
+);
+create_exception!(
+    unicac,
+    SimulationError,
+    UnicacError,
+    "An image simulation request was invalid."
+);
+create_exception!(
+    unicac,
+    MetricsError,
+    UnicacError,
+    "A metric could not be computed from its inputs."
+);
+create_exception!(
+    unicac,
+    OdeError,
+    UnicacError,
+    "The Optical Degradation Evaluator failed for a lens."
+);
+
+/// A Rust error that knows which Python exception it becomes.
+pub trait ToPyErr {
+    fn to_py_err(self) -> PyErr;
+}
+
+/// `result.or_raise()?` turns any unicac error into the matching Python exception.
+pub trait OrRaise<T> {
+    fn or_raise(self) -> PyResult<T>;
+}
+
+impl<T, E: ToPyErr> OrRaise<T> for Result<T, E> {
+    fn or_raise(self) -> PyResult<T> {
+        self.map_err(ToPyErr::to_py_err)
+    }
+}
+
+impl ToPyErr for unicac_optics::OpticsError {
+    fn to_py_err(self) -> PyErr {
+        LensError::new_err(self.to_string())
+    }
+}
+
+impl ToPyErr for unicac_trace::TraceError {
+    fn to_py_err(self) -> PyErr {
+        match self {
+            unicac_trace::TraceError::Optics(e) => e.to_py_err(),
+            other => TraceError::new_err(other.to_string()),
+        }
+    }
+}
+
+impl ToPyErr for unicac_psf::PsfError {
+    fn to_py_err(self) -> PyErr {
+        match self {
+            unicac_psf::PsfError::Optics(e) => e.to_py_err(),
+            unicac_psf::PsfError::Trace(e) => e.to_py_err(),
+            other => PsfError::new_err(other.to_string()),
+        }
+    }
+}
+
+impl ToPyErr for unicac_image::ImageError {
+    fn to_py_err(self) -> PyErr {
+        ImageError::new_err(self.to_string())
+    }
+}
+
+impl ToPyErr for unicac_metrics::MetricsError {
+    fn to_py_err(self) -> PyErr {
+        MetricsError::new_err(self.to_string())
+    }
+}
+
+impl ToPyErr for unicac_sim::SimError {
+    fn to_py_err(self) -> PyErr {
+        match self {
+            unicac_sim::SimError::Optics(e) => e.to_py_err(),
+            unicac_sim::SimError::Trace(e) => e.to_py_err(),
+            unicac_sim::SimError::Psf(e) => e.to_py_err(),
+            unicac_sim::SimError::Image(e) => e.to_py_err(),
+            other => SimulationError::new_err(other.to_string()),
+        }
+    }
+}
+
+impl ToPyErr for unicac_ode::OdeError {
+    fn to_py_err(self) -> PyErr {
+        OdeError::new_err(self.to_string())
+    }
+}
+
+/// Registers the exception classes on the module.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("UnicacError", py.get_type::<UnicacError>())?;
+    m.add("LensError", py.get_type::<LensError>())?;
+    m.add("TraceError", py.get_type::<TraceError>())?;
+    m.add("PsfError", py.get_type::<PsfError>())?;
+    m.add("ImageError", py.get_type::<ImageError>())?;
+    m.add("SimulationError", py.get_type::<SimulationError>())?;
+    m.add("MetricsError", py.get_type::<MetricsError>())?;
+    m.add("OdeError", py.get_type::<OdeError>())?;
+    Ok(())
+}

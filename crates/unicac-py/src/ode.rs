@@ -1,0 +1,81 @@
+//! The Optical Degradation Evaluator (ODE) of a lens and the OIQE score of a PSF.
+
+use crate::arrays::planar_f32;
+use crate::errors::{OdeError, OrRaise};
+use crate::json;
+use crate::lens::PyLens;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use serde::Serialize;
+use unicac_ode::evaluate::edge_mtfs;
+use unicac_ode::{evaluate, OdeReport, OdeSettings};
+use unicac_psf::Kernel;
+
+/// One entry of `unicac ode --json`'s `lenses` list.
+#[derive(Serialize)]
+struct LensOde<'a> {
+    lens: &'a str,
+    #[serde(flatten)]
+    report: OdeReport,
+}
+
+/// ODE, OIQ, uniformity, OIQE, PSNR, SSIM and RMS spot radius of a lens with the default settings
+/// (docs/ode.md): a dict with the keys of one entry of `unicac ode LENS --json` (`lens` is the
+/// lens's source; `times` are wall-clock seconds and vary run to run). GIL released.
+#[pyfunction]
+pub fn ode<'py>(py: Python<'py>, lens: &PyLens) -> PyResult<Bound<'py, PyDict>> {
+    let settings = OdeSettings::default();
+    let report = crate::pool::detach(py, || evaluate(&lens.lens, &settings).or_raise())?;
+    json::serialize_dict(
+        py,
+        &LensOde {
+            lens: &lens.source,
+            report,
+        },
+    )
+}
+
+/// OIQE of one PSF kernel (float32, K x K, K odd, at the pixel pitch), as ODE scores a field and
+/// channel: slanted edges imaged through the kernel, MTF50 and normalised MTF area in both directions.
+/// Returns a dict with `oiqe`, `mtf50_sagittal_cy_per_px` and `mtf50_tangential_cy_per_px`.
+#[pyfunction]
+pub fn oiqe_of_psf<'py>(py: Python<'py>, kernel: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
+    let plane = planar_f32(kernel, "kernel", 2, &[])?;
+    if plane.width != plane.height || plane.width % 2 == 0 {
+        return Err(PyValueError::new_err(format!(
+            "kernel: expected a square kernel of odd size, got {} x {}",
+            plane.height, plane.width
+        )));
+    }
+    let sum: f64 = plane.data.iter().map(|&v| f64::from(v)).sum();
+    if !(sum.is_finite() && sum > 0.0) {
+        return Err(PyValueError::new_err(
+            "kernel: samples must be finite with a positive sum",
+        ));
+    }
+    let kernel = Kernel {
+        size: plane.width,
+        pitch_um: 1.0,
+        data: plane.data.iter().map(|&v| (f64::from(v) / sum) as f32).collect(),
+    };
+    let settings = OdeSettings::default();
+    let (oiqe, sagittal, tangential) = crate::pool::detach(py, || -> PyResult<(f64, f64, f64)> {
+        let edges = edge_mtfs(&kernel, &settings)
+            .map_err(|(direction, e)| OdeError::new_err(format!("slanted edge, {direction}: {e}")))?;
+        let (sagittal, tangential) = (edges[0].summary(), edges[1].summary());
+        let oiqe = unicac_metrics::oiqe(&tangential, &sagittal, &settings.oiqe_weights).or_raise()?;
+        Ok((oiqe, sagittal.mtf50_cy_per_px, tangential.mtf50_cy_per_px))
+    })?;
+    let out = PyDict::new(py);
+    out.set_item("oiqe", oiqe)?;
+    out.set_item("mtf50_sagittal_cy_per_px", sagittal)?;
+    out.set_item("mtf50_tangential_cy_per_px", tangential)?;
+    Ok(out)
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(ode, m)?)?;
+    m.add_function(wrap_pyfunction!(oiqe_of_psf, m)?)?;
+    Ok(())
+}

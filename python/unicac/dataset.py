@@ -1,0 +1,268 @@
+"""(degraded, sharp) training pairs generated on the fly, for restoration models.
+
+:class:`PairGenerator` is the numpy core: every pair is a pure function of ``(seed, index)``, so a
+run is reproducible and data-loader workers can share the work without coordination
+(:meth:`PairGenerator.iter_pairs` gives worker ``w`` of ``n`` the indices ``w, w + n, w + 2n, ...``).
+:func:`torch_dataset` wraps it as a PyTorch dataset; torch is imported only when that function is
+called (install it with ``pip install "unicac[train]"``).
+
+One pair: pick a lens and a sharp frame (a random crop of an image from ``images``, or a generated
+chart), simulate the frame through the lens on the sensor (spatially varying PSFs, distortion,
+relative illumination, noise, ISP; ``Simulator.render_pair``), then cut the same random patch from
+the degraded frame and from the target (the sharp frame through the same output encoding). Patches
+are float32 H x W x 3, sRGB-encoded, in [0, 1]. Optional optical priors: the field map of the patch
+(sensor x and y divided by the half-diagonal, and the field angle in degrees) and the PSFs at the
+patch centre.
+"""
+
+from __future__ import annotations
+
+import os
+from collections import OrderedDict
+from pathlib import Path
+from typing import Any, Iterator, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _native
+
+IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".exr")
+CHART_KINDS = ("dead-leaves", "checkerboard", "slanted-edge", "siemens-star")
+_SEED_BOUND = 2**63
+
+LensLike = Union[str, "os.PathLike[str]", _native.Lens]
+
+
+def _lens_source(lens: LensLike) -> str:
+    """What ``load_lens`` needs to rebuild a lens in another process (Lens objects do not pickle)."""
+    if isinstance(lens, _native.Lens):
+        return lens.source
+    return os.fspath(lens)
+
+
+class PairGenerator:
+    """Deterministic (degraded, sharp) patch pairs from sharp images and lenses.
+
+    Args:
+        lenses: lenses as ``Lens`` objects, paths (``.json``/``.zmx``) or ``"builtin:NAME"``.
+        images: a folder of sharp images (PNG, TIFF, EXR; searched recursively), a list of files, or
+            None to use generated charts (``charts``). Images must be at least ``frame_px`` large.
+        patch_px: side of the square patches.
+        frame_px: (width, height) of the sensor frame each pair is simulated on; the patch is cut
+            from a random place in it, so patches cover the whole field of the lens.
+        seed: base seed; pair ``index`` depends on ``(seed, index)`` only.
+        charts: chart kinds drawn from when ``images`` is None.
+        isp, noise: switches of the sensor/ISP chain (as ``unicac simulate --no-isp/--no-noise``).
+        pixel_um: sensor pixel pitch; None makes each lens's field fill the frame's half-diagonal.
+        with_field_map: add ``"field_map"`` (float32 P x P x 3: x / half-diagonal, y / half-diagonal,
+            field angle in degrees) to each pair.
+        with_psf: add ``"psf"`` (float32 3 x K x K, the R, G, B PSFs at the patch centre).
+        psf_px: give every ``"psf"`` this odd side K (centre-cropped or zero-padded, renormalised),
+            so that pairs from lenses with different kernel sizes batch together; None keeps each
+            lens's own size.
+        cache_size: simulators (traced PSF maps) kept per process, least recently used dropped.
+    """
+
+    def __init__(
+        self,
+        lenses: Sequence[LensLike],
+        images: Union[None, str, "os.PathLike[str]", Sequence[Union[str, "os.PathLike[str]"]]] = None,
+        *,
+        patch_px: int = 128,
+        frame_px: tuple[int, int] = (512, 384),
+        seed: int = 0,
+        charts: Sequence[str] = ("dead-leaves",),
+        isp: bool = True,
+        noise: bool = True,
+        pixel_um: Optional[float] = None,
+        with_field_map: bool = False,
+        with_psf: bool = False,
+        psf_px: Optional[int] = None,
+        cache_size: int = 4,
+    ) -> None:
+        if len(lenses) == 0:
+            raise ValueError("lenses: give at least one lens")
+        width, height = (int(v) for v in frame_px)
+        if not (0 < patch_px <= min(width, height)):
+            raise ValueError(f"patch_px: {patch_px} must be positive and fit in frame_px {frame_px}")
+        if psf_px is not None and (psf_px < 1 or psf_px % 2 == 0):
+            raise ValueError(f"psf_px: {psf_px} must be a positive odd number")
+        if images is None and not charts:
+            raise ValueError("charts: give at least one chart kind when images is None")
+        for kind in charts:
+            if kind not in CHART_KINDS:
+                raise ValueError(f"charts: '{kind}' is not one of {CHART_KINDS}")
+        self.lens_sources = [_lens_source(lens) for lens in lenses]
+        self.image_paths = _image_paths(images) if images is not None else []
+        if images is not None and not self.image_paths:
+            raise ValueError(f"images: no {'/'.join(IMAGE_SUFFIXES)} files found in {images!r}")
+        self.patch_px = int(patch_px)
+        self.frame_px = (width, height)
+        self.seed = int(seed)
+        self.charts = tuple(charts)
+        self.isp = bool(isp)
+        self.noise = bool(noise)
+        self.pixel_um = pixel_um
+        self.with_field_map = bool(with_field_map)
+        self.with_psf = bool(with_psf)
+        self.psf_px = psf_px
+        self.cache_size = max(1, int(cache_size))
+        self._simulators: OrderedDict[int, tuple[_native.Simulator, Optional[np.ndarray]]] = OrderedDict()
+        # Fail early (in the parent process) on a lens that does not load.
+        for source in self.lens_sources:
+            _native.load_lens(source)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_simulators"] = OrderedDict()  # rebuilt lazily in each worker process
+        return state
+
+    def _simulator(self, lens_index: int) -> tuple[_native.Simulator, Optional[np.ndarray]]:
+        cached = self._simulators.get(lens_index)
+        if cached is not None:
+            self._simulators.move_to_end(lens_index)
+            return cached
+        lens = _native.load_lens(self.lens_sources[lens_index])
+        width, height = self.frame_px
+        simulator = _native.Simulator(lens, width, height, pixel_um=self.pixel_um)
+        field_map = None
+        if self.with_field_map:
+            field_map = simulator.field_map()
+            field_map[..., :2] /= np.float32(simulator.half_diagonal_mm)
+        self._simulators[lens_index] = (simulator, field_map)
+        while len(self._simulators) > self.cache_size:
+            self._simulators.popitem(last=False)
+        return simulator, field_map
+
+    def _sharp_frame(self, rng: np.random.Generator) -> np.ndarray:
+        width, height = self.frame_px
+        if not self.image_paths:
+            kind = self.charts[int(rng.integers(len(self.charts)))]
+            return _native.chart(kind, width, height, seed=int(rng.integers(_SEED_BOUND)))
+        path = self.image_paths[int(rng.integers(len(self.image_paths)))]
+        image = _native.read_image(path, linear=True)
+        h, w = image.shape[:2]
+        if h < height or w < width:
+            raise ValueError(f"{path}: {w} x {h} px is smaller than frame_px {self.frame_px}")
+        y0 = int(rng.integers(h - height + 1))
+        x0 = int(rng.integers(w - width + 1))
+        return np.ascontiguousarray(image[y0 : y0 + height, x0 : x0 + width])
+
+    def pair(self, index: int) -> dict[str, Any]:
+        """The pair number ``index``: a dict with ``degraded`` and ``sharp`` (float32 P x P x 3),
+        ``lens`` (its source), ``origin_px`` (column, row of the patch in the frame) and, if asked,
+        ``field_map`` and ``psf``. A pure function of ``(seed, index)``."""
+        if index < 0:
+            raise ValueError(f"index: {index} must be non-negative")
+        rng = np.random.default_rng([self.seed, int(index)])
+        lens_index = int(rng.integers(len(self.lens_sources)))
+        frame = self._sharp_frame(rng)
+        simulator, field_map = self._simulator(lens_index)
+        degraded, sharp = simulator.render_pair(
+            frame, seed=int(rng.integers(_SEED_BOUND)), isp=self.isp, noise=self.noise
+        )
+        width, height = self.frame_px
+        p = self.patch_px
+        y0 = int(rng.integers(height - p + 1))
+        x0 = int(rng.integers(width - p + 1))
+        window = (slice(y0, y0 + p), slice(x0, x0 + p))
+        out: dict[str, Any] = {
+            "degraded": np.ascontiguousarray(degraded[window]),
+            "sharp": np.ascontiguousarray(sharp[window]),
+            "lens": self.lens_sources[lens_index],
+            "index": int(index),
+            "origin_px": (x0, y0),
+        }
+        if field_map is not None:
+            out["field_map"] = np.ascontiguousarray(field_map[window])
+        if self.with_psf:
+            psf = simulator.psf_at(x0 + (p - 1) / 2, y0 + (p - 1) / 2)
+            out["psf"] = psf if self.psf_px is None else fit_kernels(psf, self.psf_px)
+        return out
+
+    def iter_pairs(
+        self, worker: int = 0, num_workers: int = 1, start: int = 0, stop: Optional[int] = None
+    ) -> Iterator[dict[str, Any]]:
+        """Pairs ``start + worker``, ``start + worker + num_workers``, ... (up to ``stop``, or
+        forever): the share of one of ``num_workers`` workers. Deterministic per seed and worker; the
+        union over the workers is the same sequence whatever their number."""
+        if not (0 <= worker < num_workers):
+            raise ValueError(f"worker: {worker} must lie in [0, num_workers={num_workers})")
+        index = start + worker
+        while stop is None or index < stop:
+            yield self.pair(index)
+            index += num_workers
+
+
+def _image_paths(images: Union[str, "os.PathLike[str]", Sequence[Union[str, "os.PathLike[str]"]]]) -> list[str]:
+    if isinstance(images, (str, os.PathLike)):
+        root = Path(images)
+        if not root.is_dir():
+            raise ValueError(f"images: {root} is not a folder")
+        files = (p for p in root.rglob("*") if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
+        return sorted(str(p) for p in files)
+    return [os.fspath(p) for p in images]
+
+
+def fit_kernels(kernels: np.ndarray, size: int) -> np.ndarray:
+    """(C, K, K) kernels centre-cropped or zero-padded to (C, size, size), each renormalised to sum 1."""
+    k = kernels.shape[-1]
+    if size < k:
+        start = (k - size) // 2
+        fitted = kernels[:, start : start + size, start : start + size]
+    else:
+        pad = (size - k) // 2
+        fitted = np.pad(kernels, ((0, 0), (pad, pad), (pad, pad)))
+    sums = fitted.sum(axis=(1, 2), keepdims=True)
+    return np.ascontiguousarray(fitted / np.where(sums > 0, sums, 1), dtype=np.float32)
+
+
+def to_chw(image: np.ndarray) -> np.ndarray:
+    """H x W x C -> C x H x W (contiguous), the layout of PyTorch tensors."""
+    return np.ascontiguousarray(np.moveaxis(image, -1, 0))
+
+
+def torch_dataset(generator: PairGenerator, length: Optional[int] = None) -> Any:
+    """A PyTorch dataset over ``generator``. Imports torch (``pip install "unicac[train]"``).
+
+    With ``length``: a map-style ``Dataset`` of pairs ``0..length-1`` (shuffle in the DataLoader).
+    Without: an endless ``IterableDataset``; in a DataLoader each worker takes its share of the
+    indices (``iter_pairs(worker, num_workers)``), so the stream is deterministic per seed and worker.
+    Items are dicts of tensors: ``degraded`` and ``sharp`` (float32 3 x P x P), ``field_map``
+    (3 x P x P) and ``psf`` (3 x K x K) when the generator adds them, and ``index``.
+    """
+    import torch
+    from torch.utils.data import Dataset, IterableDataset, get_worker_info
+
+    def tensors(pair: dict[str, Any]) -> dict[str, Any]:
+        out = {
+            "degraded": torch.from_numpy(to_chw(pair["degraded"])),
+            "sharp": torch.from_numpy(to_chw(pair["sharp"])),
+            "index": pair["index"],
+        }
+        if "field_map" in pair:
+            out["field_map"] = torch.from_numpy(to_chw(pair["field_map"]))
+        if "psf" in pair:
+            out["psf"] = torch.from_numpy(np.ascontiguousarray(pair["psf"]))
+        return out
+
+    if length is not None:
+
+        class PairDataset(Dataset):  # type: ignore[type-arg]
+            def __len__(self) -> int:
+                return int(length)
+
+            def __getitem__(self, index: int) -> dict[str, Any]:
+                if not (0 <= index < int(length)):
+                    raise IndexError(index)
+                return tensors(generator.pair(index))
+
+        return PairDataset()
+
+    class PairStream(IterableDataset):  # type: ignore[type-arg]
+        def __iter__(self) -> Iterator[dict[str, Any]]:
+            info = get_worker_info()
+            worker, workers = (0, 1) if info is None else (info.id, info.num_workers)
+            return (tensors(pair) for pair in generator.iter_pairs(worker, workers))
+
+    return PairStream()
