@@ -15,6 +15,6 @@ $unicac fan "$lens" --plot out/fan.png
 $unicac layout "$lens" --plot out/layout.svg
 $unicac psf "$lens" --field-deg 14 --out out/psf.exr --plot out/psf.png
 $unicac chart dead-leaves --size 640x480 --seed 1 --out out/chart.png
-$unicac simulate "$lens" out/chart.png --out out/simulated --seed 1
+$unicac simulate "$lens" out/chart.png --out out/simulated --seed 1 --psf-plot out/psf-map.png
 $unicac ode "$lens" --plot out/ode.png
-echo "written: out/spot.png out/fan.png out/layout.svg out/psf.exr out/psf.png out/chart.png out/simulated/chart.png out/ode.png"
+echo "written: out/spot.png out/fan.png out/layout.svg out/psf.exr out/psf.png out/chart.png out/simulated/chart.png out/psf-map.png out/ode.png"
