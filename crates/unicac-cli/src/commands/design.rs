@@ -1,0 +1,222 @@
+//! `unicac design`: automatic lens design into a lens library (crates/unicac-design, docs/design.md).
+
+use anyhow::{bail, Result};
+use clap::Args;
+use std::path::PathBuf;
+use std::sync::Mutex;
+use unicac_design::library::Library;
+use unicac_design::local::Gradient;
+use unicac_design::run::{run_specs, Event, RunSettings};
+use unicac_design::spec::{
+    focal_length_for_sensor, paper_grid, GRID_ELEMENTS, GRID_F_NUMBERS, GRID_HALF_FOV_DEG, GRID_STOPS,
+};
+use unicac_design::{DesignSpec, StopPosition};
+
+#[derive(Args)]
+pub struct DesignArgs {
+    /// Number of elements (1-6).
+    #[arg(long)]
+    pub elements: Option<usize>,
+    /// Half field of view (deg).
+    #[arg(long)]
+    pub half_fov_deg: Option<f64>,
+    #[arg(long)]
+    pub f_number: Option<f64>,
+    /// Aperture stop position: front, middle or back.
+    #[arg(long)]
+    pub stop: Option<StopPosition>,
+    /// Focal length (mm); default 50, or from --sensor.
+    #[arg(long, conflicts_with = "sensor")]
+    pub focal_length_mm: Option<f64>,
+    /// Sensor size WIDTHxHEIGHT in mm (e.g. 36x24): the full field fills its half diagonal.
+    #[arg(long)]
+    pub sensor: Option<String>,
+    /// Also make an aspheric version of each design (conic + r^4..r^10 on two surfaces).
+    #[arg(long)]
+    pub aspheric: bool,
+    /// Accepted (spherical) designs wanted per specification.
+    #[arg(long, default_value_t = 4)]
+    pub count: usize,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Wall-clock budget for the whole run (s); work stops cleanly with the designs so far written.
+    #[arg(long)]
+    pub time_budget_s: Option<f64>,
+    /// Accept only designs whose mean RMS spot radius is at most this (um).
+    #[arg(long)]
+    pub max_rms_um: Option<f64>,
+    /// Gradients of the local refinement: exact (dual numbers) or fd (central differences, the baseline).
+    #[arg(long, default_value = "exact", value_parser = ["exact", "fd"])]
+    pub gradient: String,
+    /// Run the specification grid (elements 1-6 x half field 20/30/40 x F/2,3,4 x stop front/middle/back);
+    /// the --grid-* options narrow it.
+    #[arg(long)]
+    pub grid: bool,
+    #[arg(long, value_delimiter = ',')]
+    pub grid_elements: Vec<usize>,
+    #[arg(long, value_delimiter = ',')]
+    pub grid_half_fov_deg: Vec<f64>,
+    #[arg(long, value_delimiter = ',')]
+    pub grid_f_numbers: Vec<f64>,
+    #[arg(long, value_delimiter = ',')]
+    pub grid_stops: Vec<StopPosition>,
+    /// Library directory (lenses/, manifest.jsonl, manifest.csv); an existing one is resumed.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Print the run summary as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn focal_length(args: &DesignArgs, half_fov_deg: f64) -> Result<f64> {
+    match (&args.sensor, args.focal_length_mm) {
+        (Some(sensor), _) => {
+            let parts: Vec<f64> = sensor
+                .split('x')
+                .map(|p| p.trim().parse::<f64>())
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|_| anyhow::anyhow!("--sensor {sensor}: expected WIDTHxHEIGHT in mm, e.g. 36x24"))?;
+            let [w, h] = parts[..] else {
+                bail!("--sensor {sensor}: expected WIDTHxHEIGHT in mm, e.g. 36x24");
+            };
+            if !(w > 0.0 && h > 0.0) {
+                bail!("--sensor {sensor}: width and height must be positive");
+            }
+            Ok(focal_length_for_sensor(0.5 * w.hypot(h), half_fov_deg))
+        }
+        (None, Some(f)) => Ok(f),
+        (None, None) => Ok(50.0),
+    }
+}
+
+fn specs(args: &DesignArgs) -> Result<Vec<DesignSpec>> {
+    if args.grid {
+        let or = |given: &Vec<f64>, default: &[f64]| {
+            if given.is_empty() {
+                default.to_vec()
+            } else {
+                given.clone()
+            }
+        };
+        let elements = if args.grid_elements.is_empty() {
+            GRID_ELEMENTS.to_vec()
+        } else {
+            args.grid_elements.clone()
+        };
+        let stops = if args.grid_stops.is_empty() {
+            GRID_STOPS.to_vec()
+        } else {
+            args.grid_stops.clone()
+        };
+        let mut all = Vec::new();
+        // With --sensor the focal length follows each half field.
+        for h in or(&args.grid_half_fov_deg, &GRID_HALF_FOV_DEG) {
+            all.extend(paper_grid(
+                &elements,
+                &[h],
+                &or(&args.grid_f_numbers, &GRID_F_NUMBERS),
+                &stops,
+                focal_length(args, h)?,
+                args.aspheric,
+            )?);
+        }
+        all.sort_by_key(|s| s.elements);
+        return Ok(all);
+    }
+    let (Some(elements), Some(half_fov_deg), Some(f_number), Some(stop)) =
+        (args.elements, args.half_fov_deg, args.f_number, args.stop)
+    else {
+        bail!("give --elements, --half-fov-deg, --f-number and --stop (or --grid)");
+    };
+    let mut spec = DesignSpec::new(
+        elements,
+        half_fov_deg,
+        f_number,
+        stop,
+        focal_length(args, half_fov_deg)?,
+    )?;
+    spec.aspheric = args.aspheric;
+    Ok(vec![spec])
+}
+
+pub fn run(args: &DesignArgs) -> Result<()> {
+    if args.count == 0 {
+        bail!("--count must be at least 1");
+    }
+    if let Some(t) = args.time_budget_s {
+        if !(t.is_finite() && t > 0.0) {
+            bail!("--time-budget-s {t}: must be positive");
+        }
+    }
+    let specs = specs(args)?;
+    let mut settings = RunSettings::new(args.count, args.seed);
+    settings.time_budget_s = args.time_budget_s;
+    settings.max_rms_um = args.max_rms_um;
+    settings.gradient = if args.gradient == "fd" {
+        Gradient::FiniteDifference
+    } else {
+        Gradient::Exact
+    };
+    if args.time_budget_s.is_some() {
+        // With a budget, keep searching (new rounds) until the lenses are found or time is up.
+        settings.rounds = usize::MAX;
+    }
+    let mut library = Library::open(&args.out)?;
+    let bar = super::progress(specs.len() * args.count, "design");
+    let initial: usize = specs
+        .iter()
+        .map(|s| {
+            library
+                .rows_for(&s.slug())
+                .filter(|r| !r.aspheric)
+                .count()
+                .min(args.count)
+        })
+        .sum();
+    bar.set_position(initial as u64);
+    let rejected = Mutex::new(0usize);
+    let events = |event: Event| match event {
+        Event::SpecStarted { slug, index, total } => {
+            bar.set_message(format!("{slug} ({}/{total})", index + 1))
+        }
+        Event::Generation { slug, progress } => bar.set_message(format!(
+            "{slug} gen {} best merit {:.1}",
+            progress.generation, progress.best_merit
+        )),
+        Event::Accepted {
+            id,
+            aspheric,
+            rms_mean_um,
+            ..
+        } => {
+            if !aspheric {
+                bar.inc(1);
+            }
+            bar.println(format!("accepted {id}: mean RMS spot {rms_mean_um:.2} um"));
+        }
+        Event::Rejected { .. } => *rejected.lock().unwrap_or_else(|e| e.into_inner()) += 1,
+        Event::SpecDone { .. } => {}
+    };
+    let summaries = run_specs(&specs, &settings, &mut library, &events)?;
+    bar.finish_and_clear();
+    let written = library.rows.len();
+    eprintln!(
+        "{written} lenses in {} ({} rejected this run); manifest: {}",
+        args.out.display(),
+        rejected.into_inner().unwrap_or_else(|e| e.into_inner()),
+        args.out.join("manifest.csv").display()
+    );
+    if args.json {
+        let rows: Vec<serde_json::Value> = summaries
+            .iter()
+            .map(|s| {
+                serde_json::json!({
+                    "spec": s.slug, "accepted": s.accepted,
+                    "first_accepted_s": s.first_accepted_s, "elapsed_s": s.elapsed_s,
+                })
+            })
+            .collect();
+        super::print_json(&serde_json::json!({ "specs": rows, "lenses": library.rows }))?;
+    }
+    Ok(())
+}

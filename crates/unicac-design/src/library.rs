@@ -1,0 +1,293 @@
+//! The lens library on disk: every accepted design as unicac JSON, Zemax .zmx, a report (spec, merit,
+//! every check by name, RMS spot) and a layout plot, plus a manifest with one row per lens (JSON lines
+//! and CSV) so that thousands of lenses can be filtered.
+//!
+//! Every file is written atomically (temporary sibling, then rename), the lens files before the manifest
+//! row that lists them, so an interrupted run never leaves a listed lens half-written. A run resumes by
+//! reading the manifest (finished lenses are kept and not redone) and the per-spec search checkpoint in
+//! `state/` (the global stage is not repeated; candidates already finished are skipped).
+
+use crate::error::{DesignError, Result};
+use crate::merit::Terms;
+use crate::spec::DesignSpec;
+use crate::verify::Verification;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use unicac_optics::io::write_atomically;
+use unicac_optics::LensSpec;
+
+/// One manifest row.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ManifestRow {
+    pub id: String,
+    pub spec: String,
+    pub elements: usize,
+    pub half_fov_deg: f64,
+    pub f_number: f64,
+    pub stop: String,
+    pub focal_length_mm: f64,
+    pub aspheric: bool,
+    /// The spherical design an aspheric one was made from ("" for spherical designs).
+    pub parent: String,
+    pub merit: f64,
+    pub rms_mean_um: f64,
+    pub rms_max_um: f64,
+    pub distortion_max_percent: f64,
+    pub relative_illumination_edge: f64,
+    pub lateral_colour_max_um: f64,
+    pub total_track_mm: f64,
+    pub back_focal_mm: f64,
+    pub efl_mm: f64,
+    pub glasses: String,
+    pub seed: u64,
+    /// Seconds from the start of the run (of this spec) to this lens being written.
+    pub elapsed_s: f64,
+    pub json: String,
+    pub zmx: String,
+}
+
+const CSV_COLUMNS: &str = "id,spec,elements,half_fov_deg,f_number,stop,focal_length_mm,aspheric,parent,merit,rms_mean_um,rms_max_um,distortion_max_percent,relative_illumination_edge,lateral_colour_max_um,total_track_mm,back_focal_mm,efl_mm,glasses,seed,elapsed_s,json,zmx";
+
+impl ManifestRow {
+    fn csv(&self) -> String {
+        format!(
+            "{},{},{},{},{},{},{},{},{},{:.6e},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.6},{},{},{:.2},{},{}",
+            self.id,
+            self.spec,
+            self.elements,
+            self.half_fov_deg,
+            self.f_number,
+            self.stop,
+            self.focal_length_mm,
+            self.aspheric,
+            self.parent,
+            self.merit,
+            self.rms_mean_um,
+            self.rms_max_um,
+            self.distortion_max_percent,
+            self.relative_illumination_edge,
+            self.lateral_colour_max_um,
+            self.total_track_mm,
+            self.back_focal_mm,
+            self.efl_mm,
+            self.glasses,
+            self.seed,
+            self.elapsed_s,
+            self.json,
+            self.zmx
+        )
+    }
+}
+
+/// The report written next to each lens.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report<'a> {
+    pub id: &'a str,
+    pub spec: &'a DesignSpec,
+    pub merit: f64,
+    pub terms: &'a Terms,
+    pub verification: &'a Verification,
+    pub parent: Option<&'a str>,
+    pub parent_rms_mean_um: Option<f64>,
+}
+
+/// A finished design ready to be written.
+pub struct Entry<'a> {
+    pub spec: &'a DesignSpec,
+    pub aspheric: bool,
+    pub parent: Option<String>,
+    pub parent_rms_mean_um: Option<f64>,
+    pub lens: &'a LensSpec,
+    pub terms: &'a Terms,
+    pub verification: &'a Verification,
+    pub seed: u64,
+    pub elapsed_s: f64,
+}
+
+pub struct Library {
+    pub dir: PathBuf,
+    pub rows: Vec<ManifestRow>,
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> DesignError + '_ {
+    move |source| DesignError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+impl Library {
+    /// Opens (creating) a library directory and reads its manifest.
+    pub fn open(dir: &Path) -> Result<Library> {
+        for sub in ["", "lenses", "state"] {
+            let path = dir.join(sub);
+            std::fs::create_dir_all(&path).map_err(io_error(&path))?;
+        }
+        let manifest = dir.join("manifest.jsonl");
+        let rows = match std::fs::read_to_string(&manifest) {
+            Ok(text) => text
+                .lines()
+                .filter(|l| !l.trim().is_empty())
+                .enumerate()
+                .map(|(i, line)| {
+                    serde_json::from_str(line).map_err(|e| DesignError::Resume {
+                        path: manifest.clone(),
+                        message: format!("line {}: {e}", i + 1),
+                    })
+                })
+                .collect::<Result<Vec<ManifestRow>>>()?,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+            Err(e) => return Err(io_error(&manifest)(e)),
+        };
+        Ok(Library {
+            dir: dir.to_path_buf(),
+            rows,
+        })
+    }
+
+    pub fn rows_for<'a>(&'a self, slug: &'a str) -> impl Iterator<Item = &'a ManifestRow> + 'a {
+        self.rows.iter().filter(move |r| r.spec == slug)
+    }
+
+    /// Whether a lens with the same spec, kind and figures (RMS and total track to 1e-6) is listed.
+    pub fn is_duplicate(&self, slug: &str, aspheric: bool, rms_mean_um: f64, total_track_mm: f64) -> bool {
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(1e-9);
+        self.rows_for(slug).any(|r| {
+            r.aspheric == aspheric
+                && close(r.rms_mean_um, rms_mean_um)
+                && close(r.total_track_mm, total_track_mm)
+        })
+    }
+
+    /// Writes the lens files, report and layout plot, then lists the lens in the manifest. Returns the id.
+    pub fn add(&mut self, entry: &Entry<'_>) -> Result<String> {
+        let slug = entry.spec.slug();
+        let kind = if entry.aspheric { "a" } else { "s" };
+        let number = self
+            .rows_for(&slug)
+            .filter(|r| r.aspheric == entry.aspheric)
+            .count()
+            + 1;
+        let id = format!("{slug}_{kind}{number:03}");
+        let base = self.dir.join("lenses").join(&id);
+        let json = base.with_extension("json");
+        let zmx = base.with_extension("zmx");
+        unicac_optics::write_spec(entry.lens, &json)?;
+        unicac_optics::write_spec(entry.lens, &zmx)?;
+        let report = Report {
+            id: &id,
+            spec: entry.spec,
+            merit: entry.terms.merit,
+            terms: entry.terms,
+            verification: entry.verification,
+            parent: entry.parent.as_deref(),
+            parent_rms_mean_um: entry.parent_rms_mean_um,
+        };
+        let report_path = self.dir.join("lenses").join(format!("{id}.report.json"));
+        let text = serde_json::to_string_pretty(&report).unwrap_or_default();
+        write_atomically(&report_path, text.as_bytes())?;
+        // A plot that cannot be drawn (no fonts on a server) must not lose the lens: note it and go on.
+        if let Err(e) = layout_plot(entry.lens, &base.with_extension("png")) {
+            eprintln!("warning: {id}: layout plot not written: {e}");
+        }
+        let t = entry.terms;
+        let row = ManifestRow {
+            id: id.clone(),
+            spec: slug,
+            elements: entry.spec.elements,
+            half_fov_deg: entry.spec.half_fov_deg,
+            f_number: entry.spec.f_number,
+            stop: entry.spec.stop.name().into(),
+            focal_length_mm: entry.spec.focal_length_mm,
+            aspheric: entry.aspheric,
+            parent: entry.parent.clone().unwrap_or_default(),
+            merit: t.merit,
+            rms_mean_um: entry.verification.rms_mean_um,
+            rms_max_um: entry.verification.rms_um.iter().copied().fold(0.0, f64::max),
+            distortion_max_percent: t.distortion_percent.iter().fold(0.0, |m, d| m.max(d.abs())),
+            relative_illumination_edge: t.relative_illumination.last().copied().unwrap_or(1.0),
+            lateral_colour_max_um: t.lateral_colour_um.iter().fold(0.0, |m, d| m.max(d.abs())),
+            total_track_mm: t.total_track_mm,
+            back_focal_mm: t.back_focal_mm,
+            efl_mm: entry.verification.efl_mm,
+            glasses: glasses(entry.lens),
+            seed: entry.seed,
+            elapsed_s: entry.elapsed_s,
+            json: format!("lenses/{id}.json"),
+            zmx: format!("lenses/{id}.zmx"),
+        };
+        self.rows.push(row);
+        self.write_manifest()?;
+        Ok(id)
+    }
+
+    fn write_manifest(&self) -> Result<()> {
+        let mut jsonl = String::new();
+        let mut csv = format!("{CSV_COLUMNS}\n");
+        for row in &self.rows {
+            jsonl.push_str(&serde_json::to_string(row).unwrap_or_default());
+            jsonl.push('\n');
+            csv.push_str(&row.csv());
+            csv.push('\n');
+        }
+        write_atomically(&self.dir.join("manifest.jsonl"), jsonl.as_bytes())?;
+        write_atomically(&self.dir.join("manifest.csv"), csv.as_bytes())?;
+        Ok(())
+    }
+
+    pub fn checkpoint_path(&self, slug: &str) -> PathBuf {
+        self.dir.join("state").join(format!("{slug}.json"))
+    }
+}
+
+fn glasses(lens: &LensSpec) -> String {
+    lens.surfaces
+        .iter()
+        .filter_map(|s| match &s.material {
+            Some(unicac_optics::spec::MaterialSpec::Named(n)) => Some(n.clone()),
+            Some(unicac_optics::spec::MaterialSpec::Model { nd, vd }) => Some(format!("{nd:.4}/{vd:.1}")),
+            None => None,
+        })
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+fn layout_plot(spec: &LensSpec, path: &Path) -> Result<()> {
+    let lens = unicac_optics::Lens::from_spec(spec)?;
+    let semi = unicac_trace::apertures::clear_semi_diameters(&lens, unicac_trace::Aiming::Paraxial)?;
+    let bundles = unicac_plot::layout_bundles(&lens, 7)?;
+    unicac_plot::layout(&lens, &bundles, &semi, path)?;
+    Ok(())
+}
+
+/// The resumable state of one spec's search: the archive of candidates and which ones are finished.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Checkpoint {
+    pub slug: String,
+    pub seed: u64,
+    pub round: usize,
+    pub candidates: Vec<Vec<f64>>,
+    pub merits: Vec<f64>,
+    pub finished: Vec<usize>,
+}
+
+impl Checkpoint {
+    pub fn load(path: &Path) -> Result<Option<Checkpoint>> {
+        match std::fs::read_to_string(path) {
+            Ok(text) => serde_json::from_str(&text)
+                .map(Some)
+                .map_err(|e| DesignError::Resume {
+                    path: path.to_path_buf(),
+                    message: e.to_string(),
+                }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(io_error(path)(e)),
+        }
+    }
+
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let text = serde_json::to_string(self).unwrap_or_default();
+        write_atomically(path, text.as_bytes())?;
+        Ok(())
+    }
+}

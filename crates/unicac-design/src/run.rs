@@ -1,0 +1,440 @@
+//! One specification (or a grid of them) from search to library, within a time budget.
+//!
+//! Per spec: the global stage (a share of the budget) fills an archive of distinct candidates, saved as a
+//! checkpoint; each candidate is then finished in merit order (full refinement with the fine merit,
+//! glass snapping and re-optimisation, then the aspheric stage if asked), verified, and written as soon
+//! as it is accepted. With time left and too few lenses, another search round runs with a new seed
+//! stream. At the budget, work stops between steps and everything accepted so far is on disk.
+
+use crate::asphere::asphericize;
+use crate::error::Result;
+use crate::export::to_lens_spec;
+use crate::glass_snap::snap;
+use crate::global::{search, GlobalProgress, GlobalSettings};
+use crate::library::{Checkpoint, Entry, Library};
+use crate::local::{refine, Gradient, LocalSettings};
+use crate::merit::{Merit, Sampling, Terms};
+use crate::params::Parameterization;
+use crate::spec::DesignSpec;
+use crate::system::Prescription;
+use crate::verify::{verify, Verification};
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// An aspheric child is written only if its merit is at least this fraction below its parent's (and
+/// its RMS spot smaller): an asphere that buys nothing is not a new lens.
+pub const MIN_ASPHERE_GAIN: f64 = 0.005;
+
+#[derive(Debug, Clone)]
+pub struct RunSettings {
+    /// Accepted lenses wanted per spec (spherical ones; with `aspheric`, each also gets its asphere).
+    pub count: usize,
+    pub seed: u64,
+    /// Wall-clock budget for the whole run (all specs), seconds.
+    pub time_budget_s: Option<f64>,
+    pub gradient: Gradient,
+    /// Accept only lenses with a mean RMS spot radius at most this (um).
+    pub max_rms_um: Option<f64>,
+    /// Share of a spec's budget given to the global stage of a round.
+    pub global_share: f64,
+    pub refine_iterations: usize,
+    /// Search rounds per spec at most (each with a fresh seed stream).
+    pub rounds: usize,
+    pub global: GlobalSettings,
+}
+
+impl RunSettings {
+    pub fn new(count: usize, seed: u64) -> Self {
+        RunSettings {
+            count,
+            seed,
+            time_budget_s: None,
+            gradient: Gradient::Exact,
+            max_rms_um: None,
+            global_share: 0.6,
+            refine_iterations: 60,
+            rounds: 3,
+            global: GlobalSettings::new(seed),
+        }
+    }
+}
+
+/// What a run reports as it goes.
+#[derive(Debug, Clone)]
+pub enum Event {
+    SpecStarted {
+        slug: String,
+        index: usize,
+        total: usize,
+    },
+    Generation {
+        slug: String,
+        progress: GlobalProgress,
+    },
+    Accepted {
+        slug: String,
+        id: String,
+        aspheric: bool,
+        rms_mean_um: f64,
+    },
+    Rejected {
+        slug: String,
+        reasons: Vec<String>,
+    },
+    SpecDone {
+        slug: String,
+        accepted: usize,
+    },
+}
+
+/// One finished design (before acceptance).
+#[derive(Debug, Clone)]
+pub struct Finished {
+    pub prescription: Prescription<f64>,
+    pub terms: Terms,
+    pub verification: Verification,
+    pub lens: unicac_optics::LensSpec,
+    pub aspheric: bool,
+}
+
+impl Finished {
+    pub fn acceptable(&self, max_rms_um: Option<f64>) -> bool {
+        self.terms.feasible()
+            && self.verification.passed
+            && max_rms_um.is_none_or(|m| self.verification.rms_mean_um <= m)
+    }
+
+    /// Every reason this design is not acceptable, by name.
+    pub fn rejection_reasons(&self, max_rms_um: Option<f64>) -> Vec<String> {
+        let mut reasons: Vec<String> = self
+            .terms
+            .violations()
+            .map(|c| format!("{}: {:.4} (limit {})", c.name, c.value, c.limit))
+            .collect();
+        reasons.extend(self.verification.failures.iter().cloned());
+        if let Some(m) = max_rms_um {
+            if self.verification.rms_mean_um > m {
+                reasons.push(format!("rms_mean_um: {:.2} > {m}", self.verification.rms_mean_um));
+            }
+        }
+        reasons
+    }
+}
+
+fn finished(
+    merit: &Merit,
+    params: &Parameterization,
+    x: &[f64],
+    aspheric: bool,
+    name: &str,
+) -> Option<Finished> {
+    let prescription = crate::system::values(&params.decode(x)?);
+    let terms = merit.evaluate(&prescription).terms;
+    let lens = to_lens_spec(
+        &prescription,
+        &merit.spec,
+        &terms.semi_diameters_mm,
+        name,
+        "unicac design (crates/unicac-design)",
+    );
+    let verification = verify(
+        &lens,
+        merit.spec.focal_length_mm,
+        merit.spec.constraints.focal_tolerance,
+    );
+    Some(Finished {
+        prescription,
+        terms,
+        verification,
+        lens,
+        aspheric,
+    })
+}
+
+/// A spherical design and, when made, its aspheric child.
+pub type FinishedPair = (Finished, Option<Finished>);
+
+/// Finishes one candidate of the spherical stage: refinement with the fine merit, glass snapping and
+/// re-optimisation, and (if the spec asks) the aspheric stage. Returns the spherical design and, if
+/// made, its aspheric child.
+pub fn finish_candidate(
+    spec: &DesignSpec,
+    x: &[f64],
+    settings: &RunSettings,
+    deadline: Option<Instant>,
+) -> Option<FinishedPair> {
+    let mut merit = Merit::new(spec, Sampling::FINE);
+    let params = Parameterization::spherical(spec);
+    let local = LocalSettings {
+        deadline,
+        ..LocalSettings::new(settings.refine_iterations, settings.gradient)
+    };
+    let refined = refine(&merit, &params, x, &local, |_| {});
+    let (snapped, x) = snap(&params, &refined.x)?;
+    let x = refine_within_limits(&mut merit, &snapped, &x, &local);
+    let spherical = finished(&merit, &snapped, &x, false, &spec.slug())?;
+    if !spec.aspheric {
+        return Some((spherical, None));
+    }
+    let (aspheric_params, x) = asphericize(
+        &snapped,
+        &x,
+        &spherical.terms.semi_diameters_mm,
+        spec.constraints.asphere_departure_max_mm,
+    )?;
+    let x = refine_within_limits(&mut merit, &aspheric_params, &x, &local);
+    let aspheric = finished(&merit, &aspheric_params, &x, true, &spec.slug())?;
+    Some((spherical, Some(aspheric)))
+}
+
+/// Refines, and while limits are still violated (beyond their tolerances) raises the penalty weights
+/// tenfold and refines again, at most twice. The merit keeps the raised weights, so a parent and its
+/// aspheric child are compared on the same merit.
+fn refine_within_limits(
+    merit: &mut Merit,
+    params: &Parameterization,
+    x: &[f64],
+    local: &LocalSettings,
+) -> Vec<f64> {
+    let mut x = refine(merit, params, x, local, |_| {}).x;
+    for _ in 0..2 {
+        let feasible = params
+            .decode(&x)
+            .is_some_and(|p| merit.evaluate(&p).terms.checks.iter().all(|c| c.met));
+        if feasible {
+            break;
+        }
+        merit.penalty_scale *= 10.0;
+        x = refine(merit, params, &x, local, |_| {}).x;
+    }
+    x
+}
+
+/// Summary of one spec.
+#[derive(Debug, Clone)]
+pub struct SpecSummary {
+    pub slug: String,
+    pub accepted: usize,
+    pub first_accepted_s: Option<f64>,
+    pub elapsed_s: f64,
+}
+
+/// Designs `spec` into `library` until `settings.count` lenses are accepted, the rounds are used up, or
+/// `deadline` passes.
+pub fn run_spec(
+    spec: &DesignSpec,
+    settings: &RunSettings,
+    library: &mut Library,
+    deadline: Option<Instant>,
+    events: &(dyn Fn(Event) + Sync),
+) -> Result<SpecSummary> {
+    spec.validate()?;
+    let start = Instant::now();
+    let slug = spec.slug();
+    let accepted_now = |library: &Library| library.rows_for(&slug).filter(|r| !r.aspheric).count();
+    let mut first_accepted_s = None;
+    let checkpoint_path = library.checkpoint_path(&slug);
+    let mut checkpoint = Checkpoint::load(&checkpoint_path)?.filter(|c| c.seed == settings.seed);
+    let mut round = checkpoint.as_ref().map_or(0, |c| c.round);
+    let out_of_time = || deadline.is_some_and(|d| Instant::now() >= d);
+    while accepted_now(library) < settings.count && round < settings.rounds && !out_of_time() {
+        // The global stage of this round, unless a checkpoint of it exists.
+        let state = match checkpoint.take().filter(|c| c.round == round) {
+            Some(state) => state,
+            None => {
+                let coarse = Merit::new(spec, Sampling::COARSE);
+                let params = Parameterization::spherical(spec);
+                let global_deadline = deadline.map(|d| {
+                    let left = d.saturating_duration_since(Instant::now());
+                    Instant::now() + left.mul_f64(settings.global_share)
+                });
+                let global = GlobalSettings {
+                    seed: settings.seed.wrapping_add(round as u64 * 0x9E37_79B9),
+                    deadline: global_deadline,
+                    gradient: settings.gradient,
+                    ..settings.global.clone()
+                };
+                let report = |progress: GlobalProgress| {
+                    events(Event::Generation {
+                        slug: slug.clone(),
+                        progress,
+                    })
+                };
+                let archive = search(&coarse, &params, &global, &report);
+                let state = Checkpoint {
+                    slug: slug.clone(),
+                    seed: settings.seed,
+                    round,
+                    merits: archive.iter().map(|c| c.merit).collect(),
+                    candidates: archive.into_iter().map(|c| c.x).collect(),
+                    finished: Vec::new(),
+                };
+                state.save(&checkpoint_path)?;
+                state
+            }
+        };
+        let mut state = state;
+        // Finish candidates two at a time (one per core), best first, writing each accepted lens at once.
+        let pending: Vec<usize> = (0..state.candidates.len())
+            .filter(|i| !state.finished.contains(i))
+            .collect();
+        for batch in pending.chunks(rayon::current_num_threads().max(1)) {
+            if accepted_now(library) >= settings.count || out_of_time() {
+                break;
+            }
+            let results: Vec<(usize, Option<FinishedPair>)> = batch
+                .par_iter()
+                .map(|&i| {
+                    (
+                        i,
+                        finish_candidate(spec, &state.candidates[i], settings, deadline),
+                    )
+                })
+                .collect();
+            for (i, result) in results {
+                if out_of_time() && result.is_none() {
+                    continue;
+                }
+                if let Some((spherical, aspheric)) = result {
+                    if accepted_now(library) < settings.count {
+                        let written = accept(
+                            spec,
+                            settings,
+                            library,
+                            &spherical,
+                            aspheric.as_ref(),
+                            start,
+                            events,
+                        )?;
+                        if written && first_accepted_s.is_none() {
+                            first_accepted_s = Some(start.elapsed().as_secs_f64());
+                        }
+                    }
+                }
+                state.finished.push(i);
+            }
+            state.save(&checkpoint_path)?;
+        }
+        if state.finished.len() == state.candidates.len() {
+            round += 1;
+            checkpoint = None;
+        } else {
+            checkpoint = Some(state);
+        }
+    }
+    let accepted = accepted_now(library);
+    events(Event::SpecDone {
+        slug: slug.clone(),
+        accepted,
+    });
+    Ok(SpecSummary {
+        slug,
+        accepted,
+        first_accepted_s,
+        elapsed_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Writes the spherical design (and its aspheric child, if it improves on it and passes) when acceptable
+/// and new. Returns whether the spherical design was written.
+fn accept(
+    spec: &DesignSpec,
+    settings: &RunSettings,
+    library: &mut Library,
+    spherical: &Finished,
+    aspheric: Option<&Finished>,
+    start: Instant,
+    events: &(dyn Fn(Event) + Sync),
+) -> Result<bool> {
+    let slug = spec.slug();
+    if !spherical.acceptable(settings.max_rms_um) {
+        events(Event::Rejected {
+            slug,
+            reasons: spherical.rejection_reasons(settings.max_rms_um),
+        });
+        return Ok(false);
+    }
+    let rms = spherical.verification.rms_mean_um;
+    if library.is_duplicate(&slug, false, rms, spherical.terms.total_track_mm) {
+        return Ok(false);
+    }
+    let elapsed_s = start.elapsed().as_secs_f64();
+    let id = library.add(&entry(spec, settings.seed, elapsed_s, spherical, None, None))?;
+    events(Event::Accepted {
+        slug: slug.clone(),
+        id: id.clone(),
+        aspheric: false,
+        rms_mean_um: rms,
+    });
+    if let Some(a) = aspheric {
+        let improves = a.terms.merit < spherical.terms.merit * (1.0 - MIN_ASPHERE_GAIN)
+            && a.verification.rms_mean_um < rms;
+        if a.acceptable(settings.max_rms_um) && improves {
+            let child = library.add(&entry(spec, settings.seed, elapsed_s, a, Some(id), Some(rms)))?;
+            events(Event::Accepted {
+                slug,
+                id: child,
+                aspheric: true,
+                rms_mean_um: a.verification.rms_mean_um,
+            });
+        } else {
+            let mut reasons = a.rejection_reasons(settings.max_rms_um);
+            if !improves {
+                reasons.push("aspheric: no gain over the spherical parent".into());
+            }
+            events(Event::Rejected { slug, reasons });
+        }
+    }
+    Ok(true)
+}
+
+fn entry<'a>(
+    spec: &'a DesignSpec,
+    seed: u64,
+    elapsed_s: f64,
+    f: &'a Finished,
+    parent: Option<String>,
+    parent_rms_mean_um: Option<f64>,
+) -> Entry<'a> {
+    Entry {
+        spec,
+        aspheric: f.aspheric,
+        parent,
+        parent_rms_mean_um,
+        lens: &f.lens,
+        terms: &f.terms,
+        verification: &f.verification,
+        seed,
+        elapsed_s,
+    }
+}
+
+/// Runs several specs, splitting the remaining budget evenly over the specs still to do.
+pub fn run_specs(
+    specs: &[DesignSpec],
+    settings: &RunSettings,
+    library: &mut Library,
+    events: &(dyn Fn(Event) + Sync),
+) -> Result<Vec<SpecSummary>> {
+    let start = Instant::now();
+    let end = settings
+        .time_budget_s
+        .map(|s| start + Duration::from_secs_f64(s.max(0.0)));
+    let mut summaries = Vec::new();
+    for (index, spec) in specs.iter().enumerate() {
+        if end.is_some_and(|e| Instant::now() >= e) {
+            break;
+        }
+        events(Event::SpecStarted {
+            slug: spec.slug(),
+            index,
+            total: specs.len(),
+        });
+        let deadline = end.map(|e| {
+            let left = e.saturating_duration_since(Instant::now());
+            Instant::now() + left.div_f64((specs.len() - index) as f64)
+        });
+        summaries.push(run_spec(spec, settings, library, deadline, events)?);
+    }
+    Ok(summaries)
+}
