@@ -12,27 +12,9 @@ use unicac_image::{charts, color, Planar};
 
 /// The R, G, B planes of a loaded file (grey replicated, alpha dropped), as `unicac simulate` reads it.
 fn rgb_planes(loaded: &LoadedImage, image: &Planar, path: &str) -> PyResult<Planar> {
-    let colour: Vec<usize> = loaded
-        .channel_names
-        .iter()
-        .enumerate()
-        .filter(|(_, n)| n.as_str() != "A")
-        .map(|(i, _)| i)
-        .collect();
-    let planes: Vec<usize> = match colour.as_slice() {
-        [y] => vec![*y; 3],
-        [r, g, b, ..] => vec![*r, *g, *b],
-        _ => {
-            return Err(ImageError::new_err(format!(
-                "{path}: expected a grey or RGB image"
-            )))
-        }
-    };
-    let mut out = Planar::new(image.width, image.height, 3);
-    for (c, &p) in planes.iter().enumerate() {
-        out.plane_mut(c).copy_from_slice(image.plane(p));
-    }
-    Ok(out)
+    loaded
+        .rgb_planes(image)
+        .ok_or_else(|| ImageError::new_err(format!("{path}: expected a grey or RGB image")))
 }
 
 /// Reads a PNG, TIFF or OpenEXR file as an H x W x 3 array (grey replicated, alpha dropped), as

@@ -5,10 +5,9 @@ use crate::json;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use serde::Serialize;
 use std::path::PathBuf;
-use unicac_optics::{examples, format, FirstOrder, Lens, LensSpec};
-use unicac_trace::{apertures::clear_semi_diameters, spot, Aiming};
+use unicac_optics::{examples, format, Lens, LensSpec};
+use unicac_trace::LensSummary;
 
 /// Prefix naming a lens bundled with unicac, as on the command line.
 pub const BUILTIN_PREFIX: &str = "builtin:";
@@ -23,29 +22,8 @@ pub struct PyLens {
 }
 
 /// What `unicac lens info --json` prints (the same struct, so the keys cannot drift apart).
-#[derive(Serialize)]
-struct LensInfo {
-    name: String,
-    surfaces: usize,
-    stop_surface_number: usize,
-    #[serde(flatten)]
-    first_order: FirstOrder,
-    working_f_number: Option<f64>,
-    clear_semi_diameters_mm: Vec<f64>,
-    distortion: Vec<spot::DistortionPoint>,
-}
-
-fn lens_info(lens: &Lens) -> PyResult<LensInfo> {
-    let first_order = lens.first_order().or_raise()?;
-    Ok(LensInfo {
-        name: lens.name.clone(),
-        surfaces: lens.surfaces.len(),
-        stop_surface_number: lens.stop_index + 1,
-        working_f_number: spot::real_working_f_number(lens).or_raise()?,
-        clear_semi_diameters_mm: clear_semi_diameters(lens, Aiming::Paraxial).or_raise()?,
-        distortion: spot::distortion(lens, &first_order.field_angles_deg).or_raise()?,
-        first_order,
-    })
+fn lens_info(lens: &Lens) -> PyResult<LensSummary> {
+    LensSummary::of(lens).or_raise()
 }
 
 impl PyLens {

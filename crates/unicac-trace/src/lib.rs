@@ -22,6 +22,7 @@ pub mod error;
 pub mod pupil;
 pub mod ray;
 pub mod spot;
+pub mod summary;
 pub mod system;
 
 pub use aim::{Aimer, Aiming};
@@ -30,4 +31,5 @@ pub use error::{TraceError, TraceResult};
 pub use pupil::PupilSampling;
 pub use ray::{Ray, RayStatus, StatusCounts};
 pub use spot::{spots, Spot, SpotTracer};
+pub use summary::LensSummary;
 pub use system::{Clipping, TraceSystem};

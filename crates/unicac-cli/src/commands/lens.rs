@@ -4,35 +4,12 @@ use super::{or_dash, print_json};
 use crate::args::{ConvertArgs, LensInfoArgs};
 use crate::lens_input::{load_lens, load_spec, BUILTIN_PREFIX};
 use anyhow::Result;
-use serde::Serialize;
-use unicac_optics::{examples, FirstOrder};
-use unicac_trace::{apertures::clear_semi_diameters, spot, Aiming};
-
-#[derive(Serialize)]
-struct LensInfo {
-    name: String,
-    surfaces: usize,
-    stop_surface_number: usize,
-    #[serde(flatten)]
-    first_order: FirstOrder,
-    /// 1 / (2 n' sin theta') of the real on-axis marginal ray.
-    working_f_number: Option<f64>,
-    clear_semi_diameters_mm: Vec<f64>,
-    distortion: Vec<spot::DistortionPoint>,
-}
+use unicac_optics::examples;
+use unicac_trace::LensSummary;
 
 pub fn info(args: &LensInfoArgs) -> Result<()> {
     let lens = load_lens(&args.lens.lens)?;
-    let first_order = lens.first_order()?;
-    let info = LensInfo {
-        name: lens.name.clone(),
-        surfaces: lens.surfaces.len(),
-        stop_surface_number: lens.stop_index + 1,
-        working_f_number: spot::real_working_f_number(&lens)?,
-        clear_semi_diameters_mm: clear_semi_diameters(&lens, Aiming::Paraxial)?,
-        distortion: spot::distortion(&lens, &first_order.field_angles_deg)?,
-        first_order,
-    };
+    let info = LensSummary::of(&lens)?;
     if args.json {
         return print_json(&info);
     }

@@ -129,28 +129,12 @@ fn plot_psf_map(sim: &LensSimulator, lens_name: &str, path: &Path) -> Result<()>
 
 /// The linear RGB planes of a loaded image (grey is replicated; alpha dropped).
 fn rgb(loaded: &LoadedImage, path: &Path) -> Result<Planar> {
-    let linear = loaded.to_linear();
-    let (w, h) = (linear.width, linear.height);
-    if w == 0 || h == 0 {
+    if loaded.image.width == 0 || loaded.image.height == 0 {
         bail!("{}: the image is empty", path.display());
     }
-    let colour: Vec<usize> = loaded
-        .channel_names
-        .iter()
-        .enumerate()
-        .filter(|(_, n)| n.as_str() != "A")
-        .map(|(i, _)| i)
-        .collect();
-    let planes: Vec<usize> = match colour.as_slice() {
-        [y] => vec![*y; 3],
-        [r, g, b, ..] => vec![*r, *g, *b],
-        _ => bail!("{}: expected a grey or RGB image", path.display()),
-    };
-    let mut out = Planar::new(w, h, 3);
-    for (c, &p) in planes.iter().enumerate() {
-        out.plane_mut(c).copy_from_slice(linear.plane(p));
-    }
-    Ok(out)
+    loaded
+        .rgb_planes(&loaded.to_linear())
+        .with_context(|| format!("{}: expected a grey or RGB image", path.display()))
 }
 
 fn format_from_name(name: &str) -> FileFormat {

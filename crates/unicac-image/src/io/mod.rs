@@ -100,6 +100,24 @@ impl LoadedImage {
         }
         image
     }
+
+    /// The R, G, B planes of `image` (this file's samples, or their `to_linear` form): a grey file's plane
+    /// is replicated and alpha is dropped; `None` for files that are neither grey nor RGB.
+    pub fn rgb_planes(&self, image: &Planar) -> Option<Planar> {
+        let colour: Vec<usize> = (0..self.channel_names.len())
+            .filter(|&i| self.channel_names[i] != "A")
+            .collect();
+        let planes = match colour.as_slice() {
+            [y] => [*y; 3],
+            [r, g, b, ..] => [*r, *g, *b],
+            _ => return None,
+        };
+        let mut out = Planar::new(image.width, image.height, 3);
+        for (c, &p) in planes.iter().enumerate() {
+            out.plane_mut(c).copy_from_slice(image.plane(p));
+        }
+        Some(out)
+    }
 }
 
 /// Reads a PNG, TIFF or OpenEXR file, choosing the decoder from the file's signature (not its extension).
