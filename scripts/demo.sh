@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job on an embedded lens, no user data: first-order data, spot diagram, ray fans, layout,
 # a spectral PSF, a generated dead-leaves chart simulated through the lens, and the lens's ODE, for the
-# built-in Cooke triplet (or the lens given as the first argument); everything is written to out/.
+# built-in Cooke triplet (or the lens given as the first argument); then a 20 s automatic design run whose
+# lenses are graded by the ODE beside it. Everything is written to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/setup.sh
@@ -17,4 +18,7 @@ $unicac psf "$lens" --field-deg 14 --out out/psf.exr --plot out/psf.png
 $unicac chart dead-leaves --size 640x480 --seed 1 --out out/chart.png
 $unicac simulate "$lens" out/chart.png --out out/simulated --seed 1 --psf-plot out/psf-map.png
 $unicac ode "$lens" --plot out/ode.png
-echo "written: out/spot.png out/fan.png out/layout.svg out/psf.exr out/psf.png out/chart.png out/simulated/chart.png out/psf-map.png out/ode.png"
+# Automatic design: a 20 s search for Cooke-triplet-like lenses, graded by the ODE beside the lens above.
+$unicac design --elements 3 --half-fov-deg 20 --f-number 5 --stop middle --count 2 --time-budget-s 20 --out out/designs
+$unicac ode "$lens" out/designs/lenses/*.json --plot out/ode-designs.png
+echo "written: out/spot.png out/fan.png out/layout.svg out/psf.exr out/psf.png out/chart.png out/simulated/chart.png out/psf-map.png out/ode.png out/designs/ out/ode-designs.png"
