@@ -43,7 +43,7 @@ pub struct SimulationSettings {
 }
 
 /// Node spacing floor (pixels): below it nodes cost more than they correct (docs/performance.md).
-pub const MIN_NODE_SPACING_PX: usize = 16;
+pub const MIN_NODE_SPACING_PX: usize = 8;
 
 impl Default for SimulationSettings {
     fn default() -> Self {
