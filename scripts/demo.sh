@@ -20,5 +20,5 @@ $unicac simulate "$lens" out/chart.png --out out/simulated --seed 1 --psf-plot o
 $unicac ode "$lens" --plot out/ode.png
 # Automatic design: a 20 s search for Cooke-triplet-like lenses, graded by the ODE beside the lens above.
 $unicac design --elements 3 --half-fov-deg 20 --f-number 5 --stop middle --count 2 --time-budget-s 20 --out out/designs
-$unicac ode "$lens" out/designs/lenses/*.json --plot out/ode-designs.png
+$unicac ode "$lens" out/designs/lenses/*.zmx --plot out/ode-designs.png
 echo "written: out/spot.png out/fan.png out/layout.svg out/psf.exr out/psf.png out/chart.png out/simulated/chart.png out/psf-map.png out/ode.png out/designs/ out/ode-designs.png"
