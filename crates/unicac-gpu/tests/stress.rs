@@ -20,11 +20,7 @@ fn system(lens: &Lens) -> TraceSystem {
 }
 
 fn max_field(lens: &Lens) -> f64 {
-    lens.first_order()
-        .unwrap()
-        .field_angles_deg
-        .iter()
-        .fold(0.0f64, |m, f| m.max(f.abs()))
+    lens.first_order().unwrap().max_field_deg()
 }
 
 /// The CPU reference for the device's pupil source, `pupil_scale` times the entrance pupil.

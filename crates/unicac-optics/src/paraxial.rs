@@ -46,6 +46,13 @@ pub struct FirstOrder {
     pub paraxial_chief_heights_at_image_surface_mm: Vec<f64>,
 }
 
+impl FirstOrder {
+    /// The largest field angle in magnitude (0 for an on-axis-only lens).
+    pub fn max_field_deg(&self) -> f64 {
+        self.field_angles_deg.iter().fold(0.0f64, |m, f| m.max(f.abs()))
+    }
+}
+
 /// A paraxial ray state after each surface: height at the vertex plane and reduced slope after refraction.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParaxialRay {

@@ -24,7 +24,7 @@ pub struct ChiefRayMap {
 impl ChiefRayMap {
     pub fn new(lens: &Lens) -> SimResult<ChiefRayMap> {
         let first = lens.first_order()?;
-        let max_field = first.field_angles_deg.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+        let max_field = first.max_field_deg();
         if max_field <= 0.0 {
             return Err(SimError::InvalidRequest(
                 "the lens has no off-axis field to simulate".into(),

@@ -1,31 +1,17 @@
-//! Criterion benches of the f64 tracer on the bundled lenses (100k rays per iteration, paraxially aimed,
-//! half on axis and half at the largest field). Throughput is reported as ray-surface intersections.
+//! Criterion benches of the f64 tracer on the bundled lenses (100k rays per iteration of
+//! `workload::axis_and_edge_rays`: paraxially aimed, half on axis and half at the largest field). Throughput is reported as ray-surface intersections.
 //! docs/performance.md has the 1M-ray figures and the peer comparison (examples/throughput.rs).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use unicac_optics::examples;
-use unicac_trace::{trace_rays, Aimer, Aiming, Clipping, PupilSampling, Ray, TraceSystem};
+use unicac_trace::workload::axis_and_edge_rays;
+use unicac_trace::{trace_rays, Clipping, TraceSystem};
 
 const RAYS: usize = 100_000;
 
 fn bench_lens(c: &mut Criterion, name: &str) {
     let lens = examples::lens(name).unwrap();
-    let aimer = Aimer::new(&lens, lens.primary_wavelength_um(), Aiming::Paraxial).unwrap();
-    let max_field = aimer
-        .first_order
-        .field_angles_deg
-        .iter()
-        .fold(0.0f64, |m, f| m.max(f.abs()));
-    let rays: Vec<Ray> = PupilSampling::Random { n: RAYS, seed: 1 }
-        .points()
-        .iter()
-        .enumerate()
-        .map(|(i, [px, py])| {
-            aimer
-                .ray(if i % 2 == 0 { 0.0 } else { max_field }, *px, *py)
-                .unwrap()
-        })
-        .collect();
+    let rays = axis_and_edge_rays(&lens, RAYS, 1).unwrap();
     let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
     let mut group = c.benchmark_group(format!("trace/{name}"));
     group.throughput(Throughput::Elements((RAYS * lens.surfaces.len()) as u64));

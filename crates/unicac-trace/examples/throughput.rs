@@ -7,29 +7,11 @@
 
 use std::time::Instant;
 use unicac_optics::examples;
-use unicac_trace::{trace_rays, Aimer, Aiming, Clipping, PupilSampling, Ray, TraceSystem};
+use unicac_trace::workload::axis_and_edge_rays;
+use unicac_trace::{trace_rays, Clipping, Ray, TraceSystem};
 
 const RAYS: usize = 1_000_000;
 const RUNS: usize = 5;
-
-fn rays_for(lens: &unicac_optics::Lens) -> Vec<Ray> {
-    let aimer = Aimer::new(lens, lens.primary_wavelength_um(), Aiming::Paraxial).unwrap();
-    let max_field = aimer
-        .first_order
-        .field_angles_deg
-        .iter()
-        .fold(0.0f64, |m, f| m.max(f.abs()));
-    let pupil = PupilSampling::Random { n: RAYS, seed: 12345 }.points();
-    pupil
-        .iter()
-        .enumerate()
-        .map(|(i, [px, py])| {
-            aimer
-                .ray(if i < RAYS / 2 { 0.0 } else { max_field }, *px, *py)
-                .unwrap()
-        })
-        .collect()
-}
 
 fn median_seconds(system: &TraceSystem, rays: &[Ray], threads: usize) -> (f64, usize) {
     let pool = rayon::ThreadPoolBuilder::new()
@@ -60,7 +42,7 @@ fn main() {
     {
         let lens = examples::lens(name).unwrap();
         let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
-        let rays = rays_for(&lens);
+        let rays = axis_and_edge_rays(&lens, RAYS, 12345).unwrap();
         let surfaces = lens.surfaces.len();
         for threads in [1, 2] {
             let (seconds, ok) = median_seconds(&system, &rays, threads);

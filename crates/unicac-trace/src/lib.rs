@@ -24,6 +24,7 @@ pub mod ray;
 pub mod spot;
 pub mod summary;
 pub mod system;
+pub mod workload;
 
 pub use aim::{Aimer, Aiming};
 pub use batch::{trace_rays, trace_rays_serial};

@@ -7,13 +7,14 @@
 //!    device-sampled rays with counts only (the kernel alone). CPU f64 on 2 threads alongside.
 //! 2. Threshold: host-ray batches of 2^10 .. 2^20 rays, GPU (everything included) against the CPU.
 //!
-//! Median of 5 runs after one warm-up. Run: cargo run --release -p unicac-gpu --example throughput
+//! Median of 5 runs after one warm-up. Run: cargo run --release -p unicac-gpu --example gpu_throughput
 
 use std::sync::Arc;
 use std::time::Instant;
 use unicac_gpu::{GpuContext, GpuTracer, ParaxialAim, Precision, PupilSource, RaySource};
 use unicac_optics::examples;
-use unicac_trace::{trace_rays, Aimer, Aiming, Clipping, PupilSampling, Ray, TraceSystem};
+use unicac_trace::workload::axis_and_edge_rays;
+use unicac_trace::{trace_rays, Clipping, PupilSampling, TraceSystem};
 
 const RAYS: usize = 1_000_000;
 const RUNS: usize = 5;
@@ -29,28 +30,6 @@ fn median(mut run: impl FnMut()) -> f64 {
         .collect();
     times.sort_by(f64::total_cmp);
     times[RUNS / 2]
-}
-
-fn rays_for(lens: &unicac_optics::Lens, count: usize) -> Vec<Ray> {
-    let aimer = Aimer::new(lens, lens.primary_wavelength_um(), Aiming::Paraxial).unwrap();
-    let max_field = aimer
-        .first_order
-        .field_angles_deg
-        .iter()
-        .fold(0.0f64, |m, f| m.max(f.abs()));
-    PupilSampling::Random {
-        n: count,
-        seed: 12345,
-    }
-    .points()
-    .iter()
-    .enumerate()
-    .map(|(i, [px, py])| {
-        aimer
-            .ray(if i < count / 2 { 0.0 } else { max_field }, *px, *py)
-            .unwrap()
-    })
-    .collect()
 }
 
 fn report(name: &str, path: &str, precision: &str, surfaces: usize, seconds: f64) {
@@ -76,18 +55,13 @@ fn main() {
         let lens = examples::lens(name).unwrap();
         let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
         let surfaces = lens.surfaces.len();
-        let rays = rays_for(&lens, RAYS);
+        let rays = axis_and_edge_rays(&lens, RAYS, 12345).unwrap();
         let cpu = median(|| {
             let mut batch = rays.clone();
             trace_rays(&system, &mut batch);
         });
         report(name, "cpu host rays (2 threads)", "f64", surfaces, cpu);
-        let max_field = lens
-            .first_order()
-            .unwrap()
-            .field_angles_deg
-            .iter()
-            .fold(0.0f64, |m, f| m.max(f.abs()));
+        let max_field = lens.first_order().unwrap().max_field_deg();
         for precision in [Precision::F32, Precision::F64] {
             let tracer = GpuTracer::new(context.clone(), precision).unwrap();
             let host = median(|| {
@@ -145,7 +119,7 @@ fn main() {
     let tracer = GpuTracer::new(context.clone(), Precision::F32).unwrap();
     println!("batch rays | cpu ms | gpu f32 ms (cooke triplet, host rays, everything included)");
     for shift in (10..=20).step_by(2) {
-        let rays = rays_for(&lens, 1 << shift);
+        let rays = axis_and_edge_rays(&lens, 1 << shift, 12345).unwrap();
         let cpu = median(|| {
             let mut batch = rays.clone();
             trace_rays(&system, &mut batch);
