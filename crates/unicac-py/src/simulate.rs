@@ -126,13 +126,7 @@ impl PySimulator {
         let (linear, kind) = image_linear(image, "image")?;
         self.check_dims(&linear, "image")?;
         let pipeline = pipeline(isp, noise);
-        let degraded = crate::pool::detach(py, || -> PyResult<Planar> {
-            let draw = pipeline.draw(seed).or_raise()?;
-            let raw = pipeline.unprocess(&linear, &draw).or_raise()?;
-            pipeline
-                .process(&self.sim.apply(&raw).or_raise()?, &draw)
-                .or_raise()
-        })?;
+        let degraded = crate::pool::detach(py, || self.sim.degrade(&pipeline, &linear, seed).or_raise())?;
         encoded_out(py, &degraded, kind)
     }
 
@@ -151,13 +145,9 @@ impl PySimulator {
         let (linear, _) = image_linear(image, "image")?;
         self.check_dims(&linear, "image")?;
         let pipeline = pipeline(isp, noise);
-        // Pipeline::render_pair's steps, spelt out so that optics errors keep their own class.
+        // `degrade` (not Pipeline::render_pair) so that optics errors keep their own class.
         let (degraded, target) = crate::pool::detach(py, || -> PyResult<(Planar, Planar)> {
-            let draw = pipeline.draw(seed).or_raise()?;
-            let raw = pipeline.unprocess(&linear, &draw).or_raise()?;
-            let degraded = pipeline
-                .process(&self.sim.apply(&raw).or_raise()?, &draw)
-                .or_raise()?;
+            let degraded = self.sim.degrade(&pipeline, &linear, seed).or_raise()?;
             Ok((degraded, pipeline.finish_reference(&linear).or_raise()?))
         })?;
         Ok((planar_out(py, &degraded, false)?, planar_out(py, &target, false)?))

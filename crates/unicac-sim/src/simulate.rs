@@ -14,6 +14,7 @@ use crate::psf_cache::{lens_fingerprint, PsfCache};
 use crate::psf_map::RadialPsfs;
 use rayon::prelude::*;
 use serde::Serialize;
+use unicac_image::isp::Pipeline;
 use unicac_image::Planar;
 use unicac_optics::Lens;
 use unicac_psf::{visible_wavelengths_um, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights};
@@ -71,6 +72,8 @@ pub struct LensSimulator {
     pub lens_sha256: String,
     /// Whether the PSF map came from the cache instead of being traced.
     pub psfs_from_cache: bool,
+    /// Why a freshly traced map could not be stored in the cache (the simulation itself is unaffected).
+    pub cache_warning: Option<String>,
     kernels: Vec<KernelGrid>,
 }
 
@@ -108,32 +111,37 @@ impl LensSimulator {
         let tracer = PsfTracer::new(lens, weights, psf_settings)?;
         let corner = grid.half_diagonal_mm().min(chief.max_height_mm());
         let lens_sha256 = lens_fingerprint(lens);
-        let key = settings.cache.as_ref().map(|_| {
-            PsfCache::key(&[
+        // The cache key covers everything the radial PSFs depend on, the tracing device included (a GPU f32
+        // map is not served to a CPU run).
+        let cache_entry = settings.cache.as_ref().map(|cache| {
+            let inputs = (
+                psf_settings,
+                tracer.weights(),
+                corner,
+                settings.radial_samples,
+                tracer.device(),
+            );
+            let key = PsfCache::key(&[
                 b"radial",
                 lens_sha256.as_bytes(),
-                format!(
-                    "{:?}",
-                    (psf_settings, tracer.weights(), corner, settings.radial_samples)
-                )
-                .as_bytes(),
-            ])
+                format!("{inputs:?}").as_bytes(),
+            ]);
+            (cache, key)
         });
-        let cached = settings
-            .cache
+        let cached = cache_entry
             .as_ref()
-            .zip(key.as_deref())
             .and_then(|(cache, key)| cache.load(key))
             .and_then(|psfs| RadialPsfs::from_psfs(corner, psfs));
         let psfs_from_cache = cached.is_some();
+        let mut cache_warning = None;
         let radial = match cached {
             Some(radial) => radial,
             None => {
                 let radial = RadialPsfs::trace(&tracer, &chief, corner, settings.radial_samples, false)?;
-                if let (Some(cache), Some(key)) = (&settings.cache, &key) {
+                if let Some((cache, key)) = &cache_entry {
                     // A cache that cannot be written costs the next run time, not this run its result.
                     if let Err(error) = cache.store(key, &radial.psfs) {
-                        eprintln!("warning: PSF cache {}: {error}", cache.dir.display());
+                        cache_warning = Some(format!("PSF cache {}: {error}", cache.dir.display()));
                     }
                 }
                 radial
@@ -152,6 +160,7 @@ impl LensSimulator {
             settings,
             lens_sha256,
             psfs_from_cache,
+            cache_warning,
             kernels: Vec::new(),
         };
         simulator.kernels = (0..3).map(|c| simulator.kernel_grid(c)).collect();
@@ -229,6 +238,15 @@ impl LensSimulator {
             self.shade(&mut out);
         }
         Ok(out)
+    }
+
+    /// The whole chain on one sharp linear image, as `unicac simulate` runs it: the ISP draw of `seed`
+    /// (white-balance perturbation, noise seed), inverse white balance, the optics (`apply`), then sensor
+    /// noise and the ISP.
+    pub fn degrade(&self, pipeline: &Pipeline, image: &Planar, seed: u64) -> SimResult<Planar> {
+        let draw = pipeline.draw(seed)?;
+        let raw = pipeline.unprocess(image, &draw)?;
+        Ok(pipeline.process(&self.apply(&raw)?, &draw)?)
     }
 
     /// Moves content from ideal to real positions: output pixel at real position r samples the

@@ -56,9 +56,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             ..Default::default()
         };
         let seed = args.seed.wrapping_add(index as u64);
-        let draw = pipeline.draw(seed)?;
-        let raw = pipeline.unprocess(&image, &draw)?;
-        let degraded = pipeline.process(&sim.apply(&raw)?, &draw)?;
+        let degraded = sim.degrade(&pipeline, &image, seed)?;
         let format = args
             .format
             .as_deref()
@@ -79,6 +77,9 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
 
 /// Where the PSF map came from, and how much energy the kernel-size cap cut.
 fn report_psf_map(sim: &LensSimulator) {
+    if let Some(warning) = &sim.cache_warning {
+        eprintln!("warning: {warning}");
+    }
     if sim.psfs_from_cache {
         eprintln!("PSF map loaded from the cache (lens {})", &sim.lens_sha256[..16]);
     }
