@@ -6,7 +6,7 @@ use crate::lens_input::load_lens;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use unicac_image::io::{read_image, FileFormat, LoadedImage, SampleDepth};
-use unicac_image::isp::Pipeline;
+use unicac_image::isp::{Pipeline, SensorNoise};
 use unicac_image::Planar;
 use unicac_sim::{LensSimulator, SimulationSettings};
 
@@ -53,8 +53,15 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         let pipeline = Pipeline {
             no_isp: args.no_isp,
             no_noise: args.no_noise,
+            sensor: SensorNoise {
+                bit_depth: args.sensor_bits,
+                ..SensorNoise::default()
+            },
             ..Default::default()
         };
+        if index == 0 {
+            bar.suspend(|| report_read_out(&pipeline));
+        }
         let seed = args.seed.wrapping_add(index as u64);
         let degraded = sim.degrade(&pipeline, &image, seed)?;
         let format = args
@@ -68,11 +75,28 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             .unwrap_or_else(|| format!("image{index}"));
         let out = args.out.join(format!("{stem}.{}", extension(format)));
         write_encoded(&degraded, &out, format, loaded.bit_depth)?;
+        if let (0, Some(crops)) = (index, &args.crops) {
+            let sharp = unicac_image::color::linear_to_srgb(&image);
+            super::crops::write(&sharp, &degraded, crops)?;
+            bar.suspend(|| eprintln!("wrote {}", crops.display()));
+        }
         bar.inc(1);
     }
     bar.finish_and_clear();
     eprintln!("wrote {} image(s) to {}", args.images.len(), args.out.display());
     Ok(())
+}
+
+/// The sensor read-out in use: its bit depth is a simulation parameter, so it is announced.
+fn report_read_out(pipeline: &Pipeline) {
+    if pipeline.no_isp && pipeline.no_noise {
+        eprintln!("sensor read-out: off (--no-isp --no-noise: optics only, full precision)");
+    } else {
+        eprintln!(
+            "sensor read-out: {} bits (--sensor-bits), black level {} DN",
+            pipeline.sensor.bit_depth, pipeline.sensor.black_level_dn
+        );
+    }
 }
 
 /// Where the PSF map came from, and how much energy the kernel-size cap cut.
