@@ -297,10 +297,11 @@ pub struct Checkpoint {
     pub candidates: Vec<Vec<f64>>,
     pub merits: Vec<f64>,
     pub finished: Vec<usize>,
-    /// The run of this spec and seed ended (converged, rounds done, count reached or budget used): a
-    /// rerun of the same job keeps the library as it is. A run that was killed leaves it false and resumes.
+    /// The `count` of the run of this spec and seed that ended (converged, rounds done, count reached or
+    /// budget used): a rerun asking for at most as many lenses keeps the library as it is; a larger count
+    /// continues. A run that was killed leaves it unset and resumes.
     #[serde(default)]
-    pub done: bool,
+    pub done_count: Option<usize>,
 }
 
 impl Checkpoint {

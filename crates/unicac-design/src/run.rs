@@ -270,14 +270,27 @@ pub fn run_spec(
     let mut first_accepted_s = None;
     let checkpoint_path = library.checkpoint_path(&slug);
     let mut checkpoint = Checkpoint::load(&checkpoint_path)?.filter(|c| c.seed == settings.seed);
-    let done_before = checkpoint.as_ref().is_some_and(|c| c.done);
+    let done_before = checkpoint
+        .as_ref()
+        .and_then(|c| c.done_count)
+        .is_some_and(|done| settings.count <= done);
+    if let Some(c) = checkpoint.as_mut() {
+        c.done_count = None;
+    }
     let mut round = checkpoint.as_ref().map_or(0, |c| c.round);
     let out_of_time = || deadline.is_some_and(|d| Instant::now() >= d);
     let enough = |library: &Library| settings.first_acceptable && accepted_now(library) >= settings.count;
     let mut idle_rounds = 0;
     let mut converged = false;
     let first_round = round;
-    while !done_before && !enough(library) && round < settings.rounds && !out_of_time() && !converged {
+    // Keeping the best, each run gets its own rounds (a resumed run with a larger count searches anew);
+    // first-acceptable runs count rounds from the start, as they always did.
+    let round_limit = if settings.first_acceptable {
+        settings.rounds
+    } else {
+        first_round.saturating_add(settings.rounds)
+    };
+    while !done_before && !enough(library) && round < round_limit && !out_of_time() && !converged {
         let mut improved = false;
         // The global stage of this round, unless a checkpoint of it exists.
         let state = match checkpoint.take().filter(|c| c.round == round) {
@@ -309,7 +322,7 @@ pub fn run_spec(
                     merits: archive.iter().map(|c| c.merit).collect(),
                     candidates: archive.into_iter().map(|c| c.x).collect(),
                     finished: Vec::new(),
-                    done: false,
+                    done_count: None,
                 };
                 state.save(&checkpoint_path)?;
                 state
@@ -388,7 +401,7 @@ pub fn run_spec(
             round,
             ..Checkpoint::default()
         });
-        finished.done = true;
+        finished.done_count = Some(settings.count);
         finished.save(&checkpoint_path)?;
     }
     let accepted = accepted_now(library);
