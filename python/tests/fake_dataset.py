@@ -39,12 +39,12 @@ def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
 
 
 def make_dataset(root: Path, *, psf: bool = True, gt_is_lq: bool = False, pairs_per_split: int = 4,
-                 crop_px: int = 40, seed: int = 0) -> Path:
+                 crop_px: int = 72, seed: int = 0) -> Path:
     """Writes the folder and returns it. `gt_is_lq`: the GT files are copies of the LQ files (the
     pitfall of a GT folder pointed at the degraded one). `psf=False`: no PSF tables."""
     rng = np.random.default_rng(seed)
     root.mkdir(parents=True, exist_ok=True)
-    lenses = [("lensA-000000000001", "train", (96, 64), 1.5), ("lensB-000000000002", "val", (80, 80), 2.5)]
+    lenses = [("lensA-000000000001", "train", (128, 96), 1.5), ("lensB-000000000002", "val", (100, 100), 2.5)]
     lens_rows, pair_rows = [], []
     for lens_id, split, (fw, fh), spread in lenses:
         table = f"psf/{lens_id}" if psf else ""
@@ -85,7 +85,7 @@ def make_dataset(root: Path, *, psf: bool = True, gt_is_lq: bool = False, pairs_
                 "isp_draw": {}, "psf": table, "fov": f"fov/{fw}x{fh}.npy",
             })
     manifest = {"format": "unicac-dataset", "format_version": 1, "unicac_version": unicac.__version__,
-                "settings": {}, "seed": seed, "frame_px": [96, 64], "stratifications": [],
+                "settings": {}, "seed": seed, "frame_px": [128, 96], "stratifications": [],
                 "counts": {"lenses": {"train": 1, "val": 1}, "pairs": {"train": pairs_per_split, "val": pairs_per_split}}}
     (root / "dataset.json").write_text(json.dumps(manifest))
     (root / "lenses.jsonl").write_text("".join(json.dumps(r) + "\n" for r in lens_rows))

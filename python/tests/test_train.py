@@ -29,6 +29,10 @@ from unicac.train.losses import LPIPS, LPIPS_SCALE_RGB, LPIPS_SHIFT_RGB, VGG16_L
 from unicac.train.metrics import psnr, ssim  # noqa: E402
 from unicac.train.models import RunError, Trainer  # noqa: E402
 
+# One thread: tiny tensors gain nothing from more, and on a shared 2-core machine a second thread
+# spin-waiting makes every step ten times slower. (Determinism holds at any fixed thread count.)
+torch.set_num_threads(1)
+
 MODELS = ["nafnet", "nafnet-fov", "nafnet-psf", "nafnet-psf-blind", "restormer", "nafnet-gan"]
 INPUTS = {"nafnet": ["lq"], "nafnet-fov": ["lq", "fov"], "nafnet-psf": ["lq", "psf"], "nafnet-psf-blind": ["lq"],
           "restormer": ["lq"], "nafnet-gan": ["lq"]}
@@ -69,6 +73,7 @@ def tiny_config(model: str, dataset: Path, iters: int = 6, **train_overrides) ->
     config["logger"].update(print_freq=1, save_checkpoint_freq=2)
     if model == "nafnet-gan":
         config["train"]["losses"]["perceptual"]["net"] = "alexnet"
+        config["datasets"]["train"]["patch_px"] = 64
         config["train"]["losses"]["gan"].update(start_iter=1, width=8)
     return config_mod.validate(config)
 
@@ -128,7 +133,7 @@ def test_config_errors_name_the_key(tmp_path):
         (("datasets", "train", "batch_size"), 0, r"datasets\.train\.batch_size: 0 is below the limit"),
         (("network", "widht"), 16, r"network\.widht: unknown key for NAFNet"),
         (("network", "width"), "16", r"network\.width: expected int"),
-        (("network", "prior"), "lens", r"prior"),
+        (("network", "prior"), "lens", r"network\.prior: 'lens' is not one of"),
         (("datasets", "train", "frame_px"), [64, "x"], r"datasets\.train\.frame_px\[1\]"),
     ]
     for path, value, pattern in cases:
@@ -140,8 +145,12 @@ def test_config_errors_name_the_key(tmp_path):
         target = tmp_path / "c.yml"
         target.write_text(yaml.safe_dump(config))
         with pytest.raises(config_mod.ConfigError, match=pattern):
-            cfg = config_mod.load(target)
-            build_network(cfg["network"])  # a bad prior value is refused by the network itself
+            config_mod.load(target)
+    small = json.loads(json.dumps(base))
+    small["datasets"] = {"train": {"patch_px": 48}}
+    small["train"]["losses"]["perceptual"] = {"weight": 1.0, "net": "alexnet"}
+    with pytest.raises(config_mod.ConfigError, match="datasets.train.patch_px: 48 px is below the 64 px"):
+        config_mod.validate(small)
     with pytest.raises(config_mod.ConfigError, match="--model: unknown model 'nafnett'"):
         config_mod.shipped("nafnett")
 
@@ -382,7 +391,7 @@ def test_resume_after_sigkill(tmp_path, dataset):
     cfg = tmp_path / "cfg.yml"
     config_mod.dump(config, cfg)
     run = tmp_path / "killed"
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), OMP_NUM_THREADS="1")
     command = [sys.executable, "-m", "unicac.train", "train", "--config", str(cfg), "--out", str(run), "--quiet"]
     process = subprocess.Popen(command, env=env)
     deadline = time.time() + 120
@@ -409,7 +418,7 @@ def test_resume_after_sigkill(tmp_path, dataset):
 
 # -- export ----------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("model", MODELS)
+@pytest.mark.parametrize("model", [m for m in MODELS if m != "nafnet-gan"])  # nafnet-gan exports a NAFNet
 def test_export_matches_pytorch_at_two_sizes(tmp_path, model):
     ort = pytest.importorskip("onnxruntime")
     import onnx

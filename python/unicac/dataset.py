@@ -13,10 +13,11 @@ run is reproducible and data-loader workers can share the work without coordinat
 :func:`torch_dataset` wraps it as a PyTorch dataset; torch is imported only when that function is
 called (install it with ``pip install "unicac[train]"``).
 
-One pair: pick a lens and a sharp frame (a random crop of an image from ``images``, or a generated
-chart), simulate the frame through the lens on the sensor (spatially varying PSFs, distortion,
-relative illumination, noise, ISP; ``Simulator.render_pair``), then cut the same random patch from
-the degraded frame and from the target (the sharp frame through the same output encoding). Patches
+One pair: pick a lens, a sharp frame (a random crop of an image from ``images``, or a generated
+chart) and a random patch of it, and simulate the patch through the lens on the sensor (spatially
+varying PSFs, distortion, relative illumination, noise, ISP; ``Simulator.render_pair_window``, which
+renders only the patch and the margin its pixels depend on; the traced PSFs of each lens are kept per
+process). The target is the sharp patch through the same output encoding. Patches
 are float32 H x W x 3, sRGB-encoded, in [0, 1]. Optional optical priors: the field map of the patch
 (sensor x and y divided by the half-diagonal, and the field angle in degrees) and the PSFs at the
 patch centre.
@@ -166,17 +167,17 @@ class PairGenerator:
         lens_index = int(rng.integers(len(self.lens_sources)))
         frame = self._sharp_frame(rng)
         simulator, field_map = self._simulator(lens_index)
-        degraded, sharp = simulator.render_pair(
-            frame, seed=int(rng.integers(_SEED_BOUND)), isp=self.isp, noise=self.noise
-        )
+        seed = int(rng.integers(_SEED_BOUND))
         width, height = self.frame_px
         p = self.patch_px
         y0 = int(rng.integers(height - p + 1))
         x0 = int(rng.integers(width - p + 1))
         window = (slice(y0, y0 + p), slice(x0, x0 + p))
+        # Only the patch and the margin its pixels depend on (PSF, distortion) are rendered.
+        degraded, sharp = simulator.render_pair_window(frame, x0, y0, p, p, seed=seed, isp=self.isp, noise=self.noise)
         out: dict[str, Any] = {
-            "degraded": np.ascontiguousarray(degraded[window]),
-            "sharp": np.ascontiguousarray(sharp[window]),
+            "degraded": degraded,
+            "sharp": sharp,
             "lens": self.lens_sources[lens_index],
             "index": int(index),
             "origin_px": (x0, y0),

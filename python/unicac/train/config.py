@@ -169,8 +169,8 @@ def _check_network(network: dict[str, Any]) -> None:
             raise ConfigError(f"network.{key}: unknown key for {kind} (known: {', '.join(sorted(known))})")
         default = known[key].default
         if default is None or default is inspect.Parameter.empty:
-            if key == "prior" and value is not None and not isinstance(value, str):
-                raise ConfigError(f"network.prior: expected str or null, got {type(value).__name__}")
+            if key == "prior" and value not in (None, "fov", "psf"):
+                raise ConfigError(f"network.prior: {value!r} is not one of null, 'fov', 'psf'")
             continue
         expected = (list, tuple) if isinstance(default, (list, tuple)) else (type(default),)
         if isinstance(default, float):
@@ -191,6 +191,15 @@ def validate(config: Any) -> dict[str, Any]:
         data = resolved["datasets"][split]
         if len(data["frame_px"]) != 2 or min(data["frame_px"]) < 16:
             raise ConfigError(f"datasets.{split}.frame_px: expected [width, height] of at least 16 px, got {data['frame_px']}")
+    perceptual = resolved["train"]["losses"]["perceptual"]
+    if perceptual["weight"] > 0:
+        from .losses import MIN_SIDE_PX
+
+        if resolved["datasets"]["train"]["patch_px"] < MIN_SIDE_PX[perceptual["net"]]:
+            raise ConfigError(
+                f"datasets.train.patch_px: {resolved['datasets']['train']['patch_px']} px is below the "
+                f"{MIN_SIDE_PX[perceptual['net']]} px that the {perceptual['net']} perceptual loss needs"
+            )
     if len(resolved["train"]["optim"]["betas"]) != 2:
         raise ConfigError("train.optim.betas: expected two numbers")
     return resolved

@@ -27,6 +27,8 @@ VGG16_LAYOUT = [(64, 3), (64, 64), "M", (128, 64), (128, 128), "M", (256, 128), 
                 (512, 256), (512, 512), (512, 512), "M", (512, 512), (512, 512), (512, 512)]
 # LPIPS taps VGG16 after relu1_2, relu2_2, relu3_3, relu4_3, relu5_3 = after convs 1, 3, 6, 9, 12.
 VGG16_TAPS = (1, 3, 6, 9, 12)
+#: Smallest image side each backbone accepts (its pooling stack reduces smaller inputs to nothing).
+MIN_SIDE_PX = {"vgg16": 32, "alexnet": 64}
 ALEXNET_CONVS = [(64, 3, 11, 4, 2), (192, 64, 5, 1, 2), (384, 192, 3, 1, 1), (256, 384, 3, 1, 1), (256, 256, 3, 1, 1)]
 
 
@@ -107,6 +109,8 @@ class LPIPS(nn.Module):
         return taps
 
     def forward(self, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
+        if min(x.shape[-2:]) < MIN_SIDE_PX[self.net]:
+            raise ValueError(f"LPIPS-{self.net} needs images of at least {MIN_SIDE_PX[self.net]} px, got {tuple(x.shape[-2:])}")
         total = x.new_zeros(())
         for fx, fy, lin in zip(self.features(x), self.features(y), self.lins):
             nx = fx / (fx.pow(2).sum(1, keepdim=True).sqrt() + 1e-10)
