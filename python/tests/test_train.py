@@ -347,6 +347,11 @@ def test_run_writes_logs_curves_and_checkpoints(tmp_path, dataset):
     assert (run / "checkpoints" / "latest.pt").is_file() and not list((run / "checkpoints").glob(".*"))
     info = json.loads((run / "run.json").read_text())
     assert info["inputs"] == ["lq", "fov"] and info["iterations"] == 6
+    from unicac.train.evaluate import evaluate
+
+    report = evaluate(str(run), str(dataset), split="val")
+    assert report["levels"]["all"]["pairs"] == 4 and report["iterations"] == 6
+    assert 0 < report["levels"]["all"]["input_psnr_db"] < 60
     try:
         import matplotlib  # noqa: F401
     except ImportError:
