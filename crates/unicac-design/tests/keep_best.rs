@@ -47,8 +47,9 @@ fn smallest_air_edge_gap_mm(lens: &Lens) -> f64 {
         }
         let height = a.semi_diameter_mm.unwrap().min(b.semi_diameter_mm.unwrap());
         for k in 0..=100 {
-            let rho = height * k as f64 / 100.0;
-            let gap = b.z_mm + b.profile.sag(rho) - (a.z_mm + a.profile.sag(rho));
+            let r = height * k as f64 / 100.0;
+            // `Profile::sag` takes r^2.
+            let gap = b.z_mm + b.profile.sag(r * r) - (a.z_mm + a.profile.sag(r * r));
             smallest = smallest.min(gap);
         }
     }

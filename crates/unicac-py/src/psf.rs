@@ -158,6 +158,7 @@ fn wave(
 /// the energy within 127 px. GIL released.
 #[pyfunction]
 #[pyo3(signature = (lens, field_deg, wavelengths_um=None, mode="geometric", pixel_um=None, object_distance_mm=None, max_kernel_px=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn psf(
     py: Python<'_>,
     lens: &PyLens,
