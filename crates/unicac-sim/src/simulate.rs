@@ -43,8 +43,9 @@ pub struct SimulationSettings {
     pub cache: Option<PsfCache>,
 }
 
-/// Most pixels of an image `LensSimulator` takes (2^27, 134 MP). Peak memory is linear in the pixel
-/// count (docs/reliability.md gives the measured formula): about 12 GB at this limit.
+/// Most pixels of an image `LensSimulator` takes (2^27, 134 MP). Peak memory of `unicac simulate` is
+/// linear in the pixel count, measured at about 98 MB + 70 B per pixel (docs/reliability.md): 9.5 GB
+/// at this limit.
 pub const MAX_SIMULATE_PIXELS: usize = 1 << 27;
 
 /// Node spacing floor (pixels): below it nodes cost more than they correct (docs/performance.md).
