@@ -282,7 +282,10 @@ impl<'a> Reader<'a> {
             "PWAV" => {
                 let primary = self.number(n, tokens.first().copied(), "PWAV")?;
                 if !((1.0..=1e6).contains(&primary) && primary.fract() == 0.0) {
-                    return Err(self.error(n, format!("PWAV {primary}: expected a wavelength number 1, 2, ...")));
+                    return Err(self.error(
+                        n,
+                        format!("PWAV {primary}: expected a wavelength number 1, 2, ..."),
+                    ));
                 }
                 self.primary = Some(primary as usize);
             }
