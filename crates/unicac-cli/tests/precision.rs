@@ -44,13 +44,28 @@ fn simulate_codes(input: &Planar, dir: &Path, extra: &[&str]) -> Vec<i64> {
         "--no-cache",
     ];
     args.extend_from_slice(extra);
-    let output = Command::new(env!("CARGO_BIN_EXE_unicac")).args(&args).output().unwrap();
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    let written: Vec<PathBuf> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().path()).collect();
+    let output = Command::new(env!("CARGO_BIN_EXE_unicac"))
+        .args(&args)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let written: Vec<PathBuf> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
     assert_eq!(written.len(), 1, "{written:?}");
     let loaded = read_image(&written[0]).unwrap();
     assert_eq!(loaded.bit_depth, 16);
-    loaded.image.data.iter().map(|v| (f64::from(*v) * 65535.0).round() as i64).collect()
+    loaded
+        .image
+        .data
+        .iter()
+        .map(|v| (f64::from(*v) * 65535.0).round() as i64)
+        .collect()
 }
 
 /// The same blur computed here in float: decode, `LensSimulator::apply`, encode, round to 16 bits.
@@ -83,12 +98,19 @@ fn a_16_bit_ramp_keeps_full_precision_with_the_sensor_chain_off() {
     let reference = float_codes(&ramp);
     let worst = worst_difference(&ours, &reference);
     println!("ramp: worst difference from the float blur {worst} codes");
-    assert!(worst <= 1, "{worst} codes from the float computation of the same blur");
+    assert!(
+        worst <= 1,
+        "{worst} codes from the float computation of the same blur"
+    );
     let mut distinct = ours[..WIDTH * HEIGHT].to_vec();
     distinct.sort_unstable();
     distinct.dedup();
     println!("ramp: {} distinct codes in the red plane", distinct.len());
-    assert!(distinct.len() >= WIDTH - 2, "only {} distinct codes", distinct.len());
+    assert!(
+        distinct.len() >= WIDTH - 2,
+        "only {} distinct codes",
+        distinct.len()
+    );
     // Row-wise second difference of the green plane, away from the borders: a linear ramp in code
     // values stays smooth (sRGB curvature and blur give a few codes at most; a 10-bit step is ~150).
     let green = &ours[WIDTH * HEIGHT..2 * WIDTH * HEIGHT];
@@ -101,7 +123,10 @@ fn a_16_bit_ramp_keeps_full_precision_with_the_sensor_chain_off() {
         }
     }
     println!("ramp: largest row-wise second difference {steepest} codes");
-    assert!(steepest <= 3, "second difference {steepest} codes: quantisation steps");
+    assert!(
+        steepest <= 3,
+        "second difference {steepest} codes: quantisation steps"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -127,21 +152,42 @@ fn the_sensor_bit_depth_is_a_flag_and_sets_the_read_out_quantisation() {
         let path = dir.join("input.tif");
         write_tiff(&path, &ramp, SampleDepth::Sixteen).unwrap();
         let out = dir.join(format!("out{}", extra.join("")));
-        let mut args = vec!["simulate", LENS, path.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        let mut args = vec![
+            "simulate",
+            LENS,
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
         args.extend_from_slice(&["--no-isp", "--no-cache", "--seed", "1"]);
         args.extend_from_slice(extra);
-        let output = Command::new(env!("CARGO_BIN_EXE_unicac")).args(&args).output().unwrap();
-        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        let output = Command::new(env!("CARGO_BIN_EXE_unicac"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
         let stderr = String::from_utf8_lossy(&output.stderr).to_string();
         let written = std::fs::read_dir(&out).unwrap().next().unwrap().unwrap().path();
         let loaded = read_image(&written).unwrap();
-        let mut codes: Vec<u32> = loaded.image.plane(1).iter().map(|v| (v * 65535.0).round() as u32).collect();
+        let mut codes: Vec<u32> = loaded
+            .image
+            .plane(1)
+            .iter()
+            .map(|v| (v * 65535.0).round() as u32)
+            .collect();
         codes.sort_unstable();
         codes.dedup();
         (codes.len(), stderr)
     };
     let (eight, stderr) = distinct(&["--sensor-bits", "8"]);
-    assert!(stderr.contains("8 bits"), "the read-out depth is announced: {stderr}");
+    assert!(
+        stderr.contains("8 bits"),
+        "the read-out depth is announced: {stderr}"
+    );
     let (fourteen, _) = distinct(&["--sensor-bits", "14"]);
     println!("distinct green codes with noise: 8-bit read-out {eight}, 14-bit {fourteen}");
     assert!(fourteen > eight, "{fourteen} vs {eight}");

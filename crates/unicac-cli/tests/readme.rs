@@ -52,7 +52,10 @@ fn every_command_of_the_readme_tour_runs() {
     assert!(commands.len() >= 10, "the tour lost its commands: {commands:?}");
     for line in &commands {
         let words: Vec<&str> = line.split_whitespace().collect();
-        assert_eq!(words[0], "unicac", "a tour line that is not a unicac command: {line}");
+        assert_eq!(
+            words[0], "unicac",
+            "a tour line that is not a unicac command: {line}"
+        );
         let args = shrink(&words[1..], &scratch);
         let output = Command::new(env!("CARGO_BIN_EXE_unicac"))
             .args(&args)

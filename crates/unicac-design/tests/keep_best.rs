@@ -31,7 +31,12 @@ fn spec() -> DesignSpec {
 
 /// Mean RMS of the kept spherical designs, best first.
 fn kept(library: &Library) -> Vec<f64> {
-    let mut rms: Vec<f64> = library.rows.iter().filter(|r| !r.aspheric).map(|r| r.rms_mean_um).collect();
+    let mut rms: Vec<f64> = library
+        .rows
+        .iter()
+        .filter(|r| !r.aspheric)
+        .map(|r| r.rms_mean_um)
+        .collect();
     rms.sort_by(f64::total_cmp);
     rms
 }
@@ -74,11 +79,20 @@ fn more_search_keeps_better_or_equal_designs_with_the_edge_gap_held() {
     // Same seed, so the longer search saw every design of the shorter one: it keeps the best two of a
     // superset.
     for (l, s) in rms_long.iter().zip(&rms_short) {
-        assert!(l <= s, "kept {rms_long:?} after 3 rounds vs {rms_short:?} after 1");
+        assert!(
+            l <= s,
+            "kept {rms_long:?} after 3 rounds vs {rms_short:?} after 1"
+        );
     }
-    assert!(matches!(long[0].stop_reason, StopReason::RoundsDone | StopReason::Converged));
+    assert!(matches!(
+        long[0].stop_reason,
+        StopReason::RoundsDone | StopReason::Converged
+    ));
     for (dir, library) in [(&one, &a), (&two, &b)] {
-        assert_eq!(std::fs::read_dir(dir.join("lenses")).unwrap().count(), 4 * library.rows.len());
+        assert_eq!(
+            std::fs::read_dir(dir.join("lenses")).unwrap().count(),
+            4 * library.rows.len()
+        );
         for row in &library.rows {
             let lens = unicac_optics::format::load_lens(&dir.join(&row.json)).unwrap().0;
             let gap = smallest_air_edge_gap_mm(&lens);

@@ -184,7 +184,10 @@ mod tests {
         }
         let auto = DeviceSelection::new(DeviceChoice::Auto, Precision::F32);
         assert!(auto.tracer_for(usize::MAX).is_none());
-        assert!(auto.tracer.get().is_none(), "no Vulkan instance without a GPU node");
+        assert!(
+            auto.tracer.get().is_none(),
+            "no Vulkan instance without a GPU node"
+        );
     }
 
     #[test]

@@ -46,7 +46,12 @@ impl Planar {
         let index = self.data.iter().position(|v| !v.is_finite())?;
         let n = self.pixels();
         let (channel, within) = (index / n, index % n);
-        Some((channel, within % self.width, within / self.width, self.data[index]))
+        Some((
+            channel,
+            within % self.width,
+            within / self.width,
+            self.data[index],
+        ))
     }
 
     pub fn pixels(&self) -> usize {

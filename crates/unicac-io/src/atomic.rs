@@ -156,7 +156,10 @@ mod tests {
     fn temporaries_keep_the_extension_and_are_dot_named() {
         let t = temporary_sibling(Path::new("out/plot.png"));
         let name = t.file_name().unwrap().to_string_lossy().into_owned();
-        assert!(name.starts_with(".plot.png.tmp-") && name.ends_with(".png"), "{name}");
+        assert!(
+            name.starts_with(".plot.png.tmp-") && name.ends_with(".png"),
+            "{name}"
+        );
         assert!(is_temporary_name(&name));
         assert!(!is_temporary_name("plot.png"));
         assert!(!is_temporary_name(".hidden"));

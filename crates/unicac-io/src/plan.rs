@@ -12,7 +12,9 @@ pub enum OutputError {
         output: PathBuf,
         input: PathBuf,
     },
-    #[error("{first_flag} {first} and {second_flag} {second} are the same file; each output needs its own path")]
+    #[error(
+        "{first_flag} {first} and {second_flag} {second} are the same file; each output needs its own path"
+    )]
     Collision {
         first_flag: String,
         first: PathBuf,
@@ -95,7 +97,10 @@ struct Identity {
 impl Identity {
     fn of(path: &Path) -> Identity {
         let normalised = std::fs::canonicalize(path).unwrap_or_else(|_| {
-            let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            let parent = path
+                .parent()
+                .filter(|p| !p.as_os_str().is_empty())
+                .unwrap_or(Path::new("."));
             let folder = std::fs::canonicalize(parent).unwrap_or_else(|_| absolute(parent));
             match path.file_name() {
                 Some(name) => folder.join(name),
@@ -161,7 +166,10 @@ mod tests {
         let mut plan = OutputPlan::new();
         plan.input(&input).output("--out", dir.join("sub/../a.png"));
         let message = plan.check().unwrap_err().to_string();
-        assert!(message.contains("--out") && message.contains("would overwrite the input"), "{message}");
+        assert!(
+            message.contains("--out") && message.contains("would overwrite the input"),
+            "{message}"
+        );
         #[cfg(unix)]
         {
             let link = dir.join("hard.png");
@@ -187,8 +195,16 @@ mod tests {
 
     #[test]
     fn extensions_must_name_the_format() {
-        assert_eq!(require_extension("--out", Path::new("k.EXR"), &["exr"]).unwrap(), "exr");
-        let message = require_extension("--out", Path::new("k.png"), &["exr"]).unwrap_err().to_string();
-        assert_eq!(message, "--out k.png: the extension must be .exr (the format written)");
+        assert_eq!(
+            require_extension("--out", Path::new("k.EXR"), &["exr"]).unwrap(),
+            "exr"
+        );
+        let message = require_extension("--out", Path::new("k.png"), &["exr"])
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            message,
+            "--out k.png: the extension must be .exr (the format written)"
+        );
     }
 }

@@ -52,7 +52,14 @@ fn psf_kernel(settings: PsfSettings) -> (Kernel, f64) {
 
 fn spot_rms_um(settings: &PsfSettings) -> f64 {
     let lens = examples::lens("cooke_triplet").unwrap();
-    spots(&lens, &[FIELD_DEG], &[D_LINE_UM], settings.aiming, &settings.pupil_sampling).unwrap()[0]
+    spots(
+        &lens,
+        &[FIELD_DEG],
+        &[D_LINE_UM],
+        settings.aiming,
+        &settings.pupil_sampling,
+    )
+    .unwrap()[0]
         .rms_radius_um
         .unwrap()
 }
@@ -74,9 +81,17 @@ fn with_the_cap_lifted_the_psf_second_moment_is_the_rms_spot_radius() {
         m2.sqrt() - rms,
         m2 - rms * rms
     );
-    assert!(kernel.size > 127, "the kernel grew past the default cap: {}", kernel.size);
+    assert!(
+        kernel.size > 127,
+        "the kernel grew past the default cap: {}",
+        kernel.size
+    );
     assert!(cut < 1e-6, "energy cut {cut}");
-    assert!((m2.sqrt() - rms).abs() <= bound, "{} vs {rms} (bound {bound})", m2.sqrt());
+    assert!(
+        (m2.sqrt() - rms).abs() <= bound,
+        "{} vs {rms} (bound {bound})",
+        m2.sqrt()
+    );
 }
 
 #[test]
@@ -85,7 +100,11 @@ fn the_default_cap_still_cuts_and_says_so() {
     let settings = PsfSettings::new(PIXEL_UM);
     let (kernel, cut) = psf_kernel(settings);
     let rms = spot_rms_um(&settings);
-    println!("default cap: {} px, energy cut {cut:.4}, PSF RMS {:.4} um vs spot {rms:.4}", kernel.size, second_moment(&kernel).sqrt());
+    println!(
+        "default cap: {} px, energy cut {cut:.4}, PSF RMS {:.4} um vs spot {rms:.4}",
+        kernel.size,
+        second_moment(&kernel).sqrt()
+    );
     assert_eq!(kernel.size, 127);
     assert!(cut > 0.01);
     // The cut moves the PSF's RMS radius below the spot's by more than the rasterisation bound.

@@ -212,7 +212,15 @@ pub fn psf(
     };
     let (field_psf, undersampled) = crate::pool::detach(py, || match mode {
         "wave" => wave(lens_ref, weights.clone(), pixel_um, field_deg, mono),
-        _ => geometric(lens_ref, weights.clone(), pixel_um, field_deg, mono, max_kernel_px).map(|p| (p, false)),
+        _ => geometric(
+            lens_ref,
+            weights.clone(),
+            pixel_um,
+            field_deg,
+            mono,
+            max_kernel_px,
+        )
+        .map(|p| (p, false)),
     })?;
     from_field_psf(py, &field_psf, mode, pixel_um, &weights, undersampled)
 }

@@ -204,7 +204,10 @@ mod tests {
         for position in 0..bytes.len() {
             let mut changed = bytes.clone();
             changed[position] ^= 0x01;
-            assert!(decode(&changed).is_none(), "byte {position} changed and still loaded");
+            assert!(
+                decode(&changed).is_none(),
+                "byte {position} changed and still loaded"
+            );
         }
         // A kernel size that the samples do not back (with a valid checksum) never allocates it.
         let mut psfs = vec![psf(3, 0.5)];

@@ -43,8 +43,9 @@ pub struct SimulationSettings {
     pub cache: Option<PsfCache>,
 }
 
-/// Most pixels of an image `LensSimulator` takes (2^27, 134 MP). Peak memory is linear in the pixel
-/// count (docs/reliability.md gives the measured formula): about 12 GB at this limit.
+/// Most pixels of an image `LensSimulator` takes (2^27, 134 MP). Peak memory of `unicac simulate` is
+/// linear in the pixel count, measured at about 98 MB + 70 B per pixel (docs/reliability.md): 9.5 GB
+/// at this limit.
 pub const MAX_SIMULATE_PIXELS: usize = 1 << 27;
 
 /// Node spacing floor (pixels): below it nodes cost more than they correct (docs/performance.md).
@@ -351,7 +352,13 @@ impl LensSimulator {
 
     /// `degrade` for the output pixels of `window` only (`apply_window` between the ISP steps; the
     /// Bayer pattern starts at the window's top-left pixel).
-    pub fn degrade_window(&self, pipeline: &Pipeline, image: &Planar, seed: u64, window: PixelWindow) -> SimResult<Planar> {
+    pub fn degrade_window(
+        &self,
+        pipeline: &Pipeline,
+        image: &Planar,
+        seed: u64,
+        window: PixelWindow,
+    ) -> SimResult<Planar> {
         self.check_frame(image)?;
         let source = self.source_window(window)?;
         let draw = pipeline.draw(seed)?;
@@ -464,7 +471,8 @@ pub fn crop(image: &Planar, window: PixelWindow) -> Planar {
         let target = out.plane_mut(c);
         for row in 0..window.height {
             let start = (window.y0 + row) * image.width + window.x0;
-            target[row * window.width..(row + 1) * window.width].copy_from_slice(&plane[start..start + window.width]);
+            target[row * window.width..(row + 1) * window.width]
+                .copy_from_slice(&plane[start..start + window.width]);
         }
     }
     out

@@ -72,7 +72,9 @@ impl PupilSampling {
         match *self {
             PupilSampling::Hexapolar { rings } => {
                 let r = rings as u64;
-                r.saturating_mul(r.saturating_add(1)).saturating_mul(3).saturating_add(1)
+                r.saturating_mul(r.saturating_add(1))
+                    .saturating_mul(3)
+                    .saturating_add(1)
             }
             PupilSampling::Grid { n } => (n as u64).saturating_mul(n as u64),
             PupilSampling::Fibonacci { n } | PupilSampling::Random { n, .. } => n as u64,

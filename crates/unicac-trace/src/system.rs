@@ -190,7 +190,12 @@ impl TraceSystem {
             let delta = [0, 1, 2].map(|k| after.position_mm[k] - before.position_mm[k]);
             let d = before.direction;
             let along = delta[0] * d[0] + delta[1] * d[1] + delta[2] * d[2];
-            let scale = 1.0 + before.position_mm.iter().chain(&after.position_mm).fold(0.0f64, |m, v| m.max(v.abs()));
+            let scale = 1.0
+                + before
+                    .position_mm
+                    .iter()
+                    .chain(&after.position_mm)
+                    .fold(0.0f64, |m, v| m.max(v.abs()));
             let negative_gap = surface > 0 && self.surfaces[surface].z_mm < self.surfaces[surface - 1].z_mm;
             if backwards_at.is_none() && !negative_gap && along < -BACKWARDS_TOLERANCE * scale {
                 backwards_at = Some(surface as u32);

@@ -14,11 +14,17 @@ fn rays_that_never_reach_the_lens_are_missed() {
     let system = TraceSystem::new(&lens, D_LINE, Clipping::Apertures).unwrap();
     // Pointing away from the lens (used to report `ok` with the forward ray's image point).
     let away = Ray::new([0.0, 1.0, -5.0], [0.0, 0.0, -1.0]);
-    assert_eq!(system.trace_path_from_start(away).1, RayStatus::Missed { surface: 0 });
+    assert_eq!(
+        system.trace_path_from_start(away).1,
+        RayStatus::Missed { surface: 0 }
+    );
     // Starting past the image surface, pointing along +z.
     let z_image = lens.surfaces[lens.image_index()].z_mm;
     let past = Ray::new([0.0, 1.0, z_image + 10.0], [0.0, 0.0, 1.0]);
-    assert_eq!(system.trace_path_from_start(past).1, RayStatus::Missed { surface: 0 });
+    assert_eq!(
+        system.trace_path_from_start(past).1,
+        RayStatus::Missed { surface: 0 }
+    );
     // Starting past the image surface, pointing back at the lens: it reaches surface 1 from behind,
     // then would have to travel backwards to surface 2.
     let back = Ray::new([0.0, 1.0, z_image + 10.0], [0.0, 0.0, -1.0]);
@@ -46,8 +52,17 @@ fn random_lens(seed: u64) -> Option<Lens> {
         let glass = i % 2 == 0;
         surfaces.push(SurfaceSpec {
             curvature_per_mm: Some(uniform(-2.5, 2.5) / focal_scale),
-            thickness_mm: focal_scale * if glass { uniform(0.02, 0.3) } else { uniform(0.0, 0.4) },
-            conic: if uniform(0.0, 1.0) < 0.2 { uniform(-3.0, 1.0) } else { 0.0 },
+            thickness_mm: focal_scale
+                * if glass {
+                    uniform(0.02, 0.3)
+                } else {
+                    uniform(0.0, 0.4)
+                },
+            conic: if uniform(0.0, 1.0) < 0.2 {
+                uniform(-3.0, 1.0)
+            } else {
+                0.0
+            },
             material: glass.then(|| MaterialSpec::Model {
                 nd: uniform(1.45, 1.95),
                 vd: uniform(20.0, 80.0),
@@ -116,18 +131,33 @@ fn sweep(lenses: u64, rays: usize) -> Sweep {
             let statuses = unicac_trace::trace_rays(&system, &mut traced);
             for (ray, status) in traced.iter().zip(&statuses) {
                 result.counts.add(*status);
-                assert!(ray.is_finite(), "lens seed {seed}, field {field}: non-finite ray {ray:?} ({status})");
+                assert!(
+                    ray.is_finite(),
+                    "lens seed {seed}, field {field}: non-finite ray {ray:?} ({status})"
+                );
                 if status.is_ok() {
                     let norm: f64 = ray.direction.iter().map(|d| d * d).sum();
-                    assert!((norm - 1.0).abs() < 1e-9, "lens seed {seed}: direction norm {norm}");
+                    assert!(
+                        (norm - 1.0).abs() < 1e-9,
+                        "lens seed {seed}: direction norm {norm}"
+                    );
                 }
             }
         }
         // The spot summary of the same lens reports only finite numbers.
-        let summary = spots(&lens, &first.field_angles_deg, &[D_LINE], Aiming::Paraxial, &PupilSampling::Hexapolar { rings: 3 })
-            .unwrap();
+        let summary = spots(
+            &lens,
+            &first.field_angles_deg,
+            &[D_LINE],
+            Aiming::Paraxial,
+            &PupilSampling::Hexapolar { rings: 3 },
+        )
+        .unwrap();
         for spot in summary {
-            for value in [spot.rms_radius_um, spot.centroid_x_mm, spot.centroid_y_mm].into_iter().flatten() {
+            for value in [spot.rms_radius_um, spot.centroid_x_mm, spot.centroid_y_mm]
+                .into_iter()
+                .flatten()
+            {
                 assert!(value.is_finite(), "lens seed {seed}: spot value {value}");
             }
         }
@@ -140,7 +170,10 @@ fn random_valid_lenses_never_report_non_finite_rays() {
     let result = sweep(200, 1000);
     eprintln!("{result:?}");
     assert!(result.lenses >= 100, "{result:?}");
-    assert!(result.counts.ok > 0 && result.counts.total() >= 100 * 999, "{result:?}");
+    assert!(
+        result.counts.ok > 0 && result.counts.total() >= 100 * 999,
+        "{result:?}"
+    );
 }
 
 /// The full size: 10,000 lenses x 10,000 rays (1e8 rays). Run by hand:

@@ -76,7 +76,12 @@ fn real_aimed_rays_match_the_stop_aimed_references() {
         assert!(system.trace(&mut ours).is_ok());
         for (axis, key) in ["x_mm", "y_mm"].iter().enumerate() {
             let d = (ours.position_mm[axis] - f(&ray[*key])).abs();
-            assert!(d < 1e-9, "{key}: {} vs {} ({ray})", ours.position_mm[axis], ray[*key]);
+            assert!(
+                d < 1e-9,
+                "{key}: {} vs {} ({ray})",
+                ours.position_mm[axis],
+                ray[*key]
+            );
         }
         checked += 1;
     }

@@ -236,7 +236,9 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         Event::Rejected { .. } => *rejected.lock().unwrap_or_else(|e| e.into_inner()) += 1,
         Event::Replaced { id, rms_mean_um, .. } => {
             bar.dec(1);
-            bar.println(format!("replaced {id} (mean RMS spot {rms_mean_um:.2} um) by a better design"));
+            bar.println(format!(
+                "replaced {id} (mean RMS spot {rms_mean_um:.2} um) by a better design"
+            ));
         }
         Event::SpecDone { .. } => {}
     };

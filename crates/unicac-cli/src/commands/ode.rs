@@ -18,7 +18,11 @@ struct LensOde {
 
 pub fn run(args: &OdeArgs) -> Result<()> {
     let mut plan = crate::outputs::plan(None);
-    for lens in args.lenses.iter().filter(|l| !l.starts_with(crate::lens_input::BUILTIN_PREFIX)) {
+    for lens in args
+        .lenses
+        .iter()
+        .filter(|l| !l.starts_with(crate::lens_input::BUILTIN_PREFIX))
+    {
         plan.input(lens);
     }
     if let Some(csv) = &args.csv {
@@ -106,10 +110,22 @@ fn plot_labels(lenses: &[&str]) -> Vec<String> {
     let unique = |labels: &[String], i: usize| labels.iter().filter(|l| **l == labels[i]).count() == 1;
     let stems: Vec<String> = lenses.iter().map(|n| stem(n)).collect();
     let parents: Vec<String> = (0..lenses.len())
-        .map(|i| if unique(&stems, i) { stems[i].clone() } else { with_parent(lenses[i]) })
+        .map(|i| {
+            if unique(&stems, i) {
+                stems[i].clone()
+            } else {
+                with_parent(lenses[i])
+            }
+        })
         .collect();
     (0..lenses.len())
-        .map(|i| if unique(&parents, i) { parents[i].clone() } else { lenses[i].to_string() })
+        .map(|i| {
+            if unique(&parents, i) {
+                parents[i].clone()
+            } else {
+                lenses[i].to_string()
+            }
+        })
         .collect()
 }
 

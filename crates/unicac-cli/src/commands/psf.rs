@@ -142,7 +142,10 @@ pub fn run(args: &PsfArgs) -> Result<()> {
 /// EXR under an .exr name, its JSON sidecar and the picture never over the lens file or each other).
 fn check_request(args: &PsfArgs) -> Result<()> {
     if !(args.field_deg.is_finite() && args.field_deg.abs() < 90.0) {
-        bail!("--field-deg {}: must lie strictly between -90 and 90", args.field_deg);
+        bail!(
+            "--field-deg {}: must lie strictly between -90 and 90",
+            args.field_deg
+        );
     }
     if let Some(bad) = args.wavelengths_um.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
         bail!("--wavelength-um {bad}: must be positive");
@@ -170,7 +173,11 @@ fn compute(
     Ok(match args.mode.as_str() {
         "wave" => wave_psf(lens, weights.clone(), pixel_um, args.field_deg, monochromatic)?,
         _ => {
-            let tracer = PsfTracer::new(lens, weights.clone(), PsfSettings::new(pixel_um).with_kernel_cap(args.max_kernel_px))?;
+            let tracer = PsfTracer::new(
+                lens,
+                weights.clone(),
+                PsfSettings::new(pixel_um).with_kernel_cap(args.max_kernel_px),
+            )?;
             let reference = tracer.reference_point_mm(args.field_deg)?;
             let hits = tracer.hits(args.field_deg, reference);
             tracer.require_arrivals(args.field_deg, &hits)?;

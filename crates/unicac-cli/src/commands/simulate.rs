@@ -17,7 +17,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     let created = !args.out.exists();
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     if let Err(error) = unicac_io::clean_stale_temporaries(&args.out) {
-        eprintln!("warning: {}: cleaning temporaries of killed runs: {error}", args.out.display());
+        eprintln!(
+            "warning: {}: cleaning temporaries of killed runs: {error}",
+            args.out.display()
+        );
     }
     let result = simulate_all(args, &lens, &outputs);
     // A run that failed before writing anything leaves no empty folder behind.
@@ -27,7 +30,11 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     result
 }
 
-fn simulate_all(args: &SimulateArgs, lens: &unicac_optics::Lens, outputs: &[(PathBuf, FileFormat)]) -> Result<()> {
+fn simulate_all(
+    args: &SimulateArgs,
+    lens: &unicac_optics::Lens,
+    outputs: &[(PathBuf, FileFormat)],
+) -> Result<()> {
     let bar = progress(args.images.len(), "simulate");
     let mut simulator: Option<LensSimulator> = None;
     for (index, (path, (out, format))) in args.images.iter().zip(outputs).enumerate() {
@@ -120,7 +127,9 @@ fn plan_outputs(args: &SimulateArgs) -> Result<Vec<(PathBuf, FileFormat)>> {
         let out = match named {
             Some(n) if n == format => args.out.join(name),
             Some(_) => args.out.join(name).with_extension(format.extension()),
-            None => args.out.join(format!("{}.{}", name.to_string_lossy(), format.extension())),
+            None => args
+                .out
+                .join(format!("{}.{}", name.to_string_lossy(), format.extension())),
         };
         plan.output("--out", &out);
         outputs.push((out, format));
@@ -224,7 +233,6 @@ fn format_from_name(name: &str) -> FileFormat {
         _ => FileFormat::Png,
     }
 }
-
 
 /// Writes an sRGB-encoded image (the ISP's output): PNG/TIFF at the input's depth (8 or 16 bit),
 /// EXR decoded back to linear float.

@@ -29,7 +29,8 @@ pub(crate) fn write_atomically(
     format: &'static str,
     encode: impl FnOnce(&mut Sink) -> std::result::Result<(), String>,
 ) -> Result<()> {
-    unicac_io::write_with(path, |sink| encode(sink).map_err(Failure::Encode)).map_err(|failure| match failure {
+    unicac_io::write_with(path, |sink| encode(sink).map_err(Failure::Encode)).map_err(|failure| match failure
+    {
         Failure::Encode(message) => ImageError::Encode {
             path: path.to_path_buf(),
             format,

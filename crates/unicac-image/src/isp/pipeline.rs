@@ -252,7 +252,11 @@ mod tests {
             let mut levels: Vec<u32> = pair.degraded.data.iter().map(|v| v.to_bits()).collect();
             levels.sort_unstable();
             levels.dedup();
-            assert!(levels.len() >= 512, "{bit_depth} bits: only {} levels", levels.len());
+            assert!(
+                levels.len() >= 512,
+                "{bit_depth} bits: only {} levels",
+                levels.len()
+            );
         }
     }
 

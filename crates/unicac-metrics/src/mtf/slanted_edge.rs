@@ -454,7 +454,10 @@ mod tests {
         assert!(
             error.contains("one straight edge")
                 && error.contains("slanted-edge")
-                && !error.as_bytes().windows(2).any(|w| w[0] == b'-' && w[1].is_ascii_digit()),
+                && !error
+                    .as_bytes()
+                    .windows(2)
+                    .any(|w| w[0] == b'-' && w[1].is_ascii_digit()),
             "{error}"
         );
     }

@@ -282,7 +282,10 @@ impl<'a> Reader<'a> {
             "PWAV" => {
                 let primary = self.number(n, tokens.first().copied(), "PWAV")?;
                 if !((1.0..=1e6).contains(&primary) && primary.fract() == 0.0) {
-                    return Err(self.error(n, format!("PWAV {primary}: expected a wavelength number 1, 2, ...")));
+                    return Err(self.error(
+                        n,
+                        format!("PWAV {primary}: expected a wavelength number 1, 2, ..."),
+                    ));
                 }
                 self.primary = Some(primary as usize);
             }
@@ -541,8 +544,14 @@ pub fn to_string(spec: &LensSpec) -> String {
         Some(d) => line(format!("  DISZ {d:?}")),
         None => line("  DISZ INFINITY".into()),
     }
+    // A spec without a stop has its stop at surface 1 (as `Lens::from_spec` reads it); the file says so,
+    // since the reader requires one STOP.
+    let implicit_stop = !spec.surfaces.iter().any(|s| s.stop);
     for (i, s) in spec.surfaces.iter().enumerate() {
         line(format!("SURF {}", i + 1));
+        if i == 0 && implicit_stop {
+            line("  STOP".into());
+        }
         write_surface(s, &mut line);
     }
     out
