@@ -1,4 +1,11 @@
-"""(degraded, sharp) training pairs generated on the fly, for restoration models.
+"""Restoration-model data: the pairs of a built ``unicac dataset`` folder (:class:`DatasetFolder`),
+and (degraded, sharp) training pairs generated on the fly (:class:`PairGenerator`).
+
+:class:`DatasetFolder` reads a folder written by ``unicac dataset build`` (layout in the repository's
+``docs/dataset.md``): its manifests, and each pair's LQ/GT images as float32 H x W x 3 sRGB in [0, 1]
+with the model inputs of docs/models.md for any window of the pair: the FoV map (float32 [2, h, w])
+and the PSF-feature map (float32 [15, h, w]), both computed by the one Rust implementation
+(``unicac.fov_map``, ``unicac.psf_features``). :func:`folder_torch_dataset` wraps it for PyTorch.
 
 :class:`PairGenerator` is the numpy core: every pair is a pure function of ``(seed, index)``, so a
 run is reproducible and data-loader workers can share the work without coordination
@@ -6,10 +13,11 @@ run is reproducible and data-loader workers can share the work without coordinat
 :func:`torch_dataset` wraps it as a PyTorch dataset; torch is imported only when that function is
 called (install it with ``pip install "unicac[train]"``).
 
-One pair: pick a lens and a sharp frame (a random crop of an image from ``images``, or a generated
-chart), simulate the frame through the lens on the sensor (spatially varying PSFs, distortion,
-relative illumination, noise, ISP; ``Simulator.render_pair``), then cut the same random patch from
-the degraded frame and from the target (the sharp frame through the same output encoding). Patches
+One pair: pick a lens, a sharp frame (a random crop of an image from ``images``, or a generated
+chart) and a random patch of it, and simulate the patch through the lens on the sensor (spatially
+varying PSFs, distortion, relative illumination, noise, ISP; ``Simulator.render_pair_window``, which
+renders only the patch and the margin its pixels depend on; the traced PSFs of each lens are kept per
+process). The target is the sharp patch through the same output encoding. Patches
 are float32 H x W x 3, sRGB-encoded, in [0, 1]. Optional optical priors: the field map of the patch
 (sensor x and y divided by the half-diagonal, and the field angle in degrees) and the PSFs at the
 patch centre.
@@ -17,6 +25,7 @@ patch centre.
 
 from __future__ import annotations
 
+import json
 import os
 from collections import OrderedDict
 from pathlib import Path
@@ -158,17 +167,17 @@ class PairGenerator:
         lens_index = int(rng.integers(len(self.lens_sources)))
         frame = self._sharp_frame(rng)
         simulator, field_map = self._simulator(lens_index)
-        degraded, sharp = simulator.render_pair(
-            frame, seed=int(rng.integers(_SEED_BOUND)), isp=self.isp, noise=self.noise
-        )
+        seed = int(rng.integers(_SEED_BOUND))
         width, height = self.frame_px
         p = self.patch_px
         y0 = int(rng.integers(height - p + 1))
         x0 = int(rng.integers(width - p + 1))
         window = (slice(y0, y0 + p), slice(x0, x0 + p))
+        # Only the patch and the margin its pixels depend on (PSF, distortion) are rendered.
+        degraded, sharp = simulator.render_pair_window(frame, x0, y0, p, p, seed=seed, isp=self.isp, noise=self.noise)
         out: dict[str, Any] = {
-            "degraded": np.ascontiguousarray(degraded[window]),
-            "sharp": np.ascontiguousarray(sharp[window]),
+            "degraded": degraded,
+            "sharp": sharp,
             "lens": self.lens_sources[lens_index],
             "index": int(index),
             "origin_px": (x0, y0),
@@ -266,3 +275,196 @@ def torch_dataset(generator: PairGenerator, length: Optional[int] = None) -> Any
             return (tensors(pair) for pair in generator.iter_pairs(worker, workers))
 
     return PairStream()
+
+
+# ----------------------------------------------------------------------------------------------
+# Built datasets (`unicac dataset build`, docs/dataset.md)
+
+DATASET_FORMAT = "unicac-dataset"
+#: The newest `dataset.json` format_version this reader knows.
+DATASET_FORMAT_VERSION = 1
+
+
+class DatasetFolderError(ValueError):
+    """A folder that is not a readable unicac dataset, or a request it cannot serve (the message names
+    the folder and what is missing)."""
+
+
+def _read_jsonl(path: Path) -> list[dict[str, Any]]:
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as error:
+        raise DatasetFolderError(f"{path}: cannot read ({error.strerror})") from error
+    rows = []
+    for number, line in enumerate(lines, 1):
+        if line.strip():
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError as error:
+                raise DatasetFolderError(f"{path}:{number}: not valid JSON ({error.msg})") from error
+    return rows
+
+
+def _image_float(path: Path) -> np.ndarray:
+    """A dataset PNG as float32 H x W x 3, sRGB-encoded, in [0, 1] (the codes divided by their maximum)."""
+    codes = _native.read_image(path)
+    if codes.dtype == np.uint8:
+        return codes.astype(np.float32) / np.float32(255)
+    if codes.dtype == np.uint16:
+        return codes.astype(np.float32) / np.float32(65535)
+    raise DatasetFolderError(f"{path}: expected an 8- or 16-bit sRGB image, got {codes.dtype}")
+
+
+class DatasetFolder:
+    """A built dataset folder, read as numpy.
+
+    Args:
+        root: the folder given to ``unicac dataset build --out``.
+
+    Raises :class:`DatasetFolderError` when ``root`` holds no ``dataset.json`` of the unicac format
+    (naming the folder as not a unicac dataset), when the format is newer than this reader, and when
+    a pair's ``gt`` and ``lq`` are the same file or the same pixels (a GT folder pointed at the
+    degraded one).
+    """
+
+    def __init__(self, root: Union[str, "os.PathLike[str]"]) -> None:
+        self.root = Path(root)
+        manifest_path = self.root / "dataset.json"
+        if not self.root.is_dir():
+            raise DatasetFolderError(f"{self.root}: no such folder (expected a unicac dataset)")
+        try:
+            manifest = json.loads(manifest_path.read_text())
+        except FileNotFoundError:
+            raise DatasetFolderError(
+                f"{self.root}: not a unicac dataset (no dataset.json; build one with `unicac dataset build`)"
+            ) from None
+        except (OSError, json.JSONDecodeError) as error:
+            raise DatasetFolderError(f"{manifest_path}: cannot read the dataset manifest ({error})") from error
+        if not isinstance(manifest, dict) or manifest.get("format") != DATASET_FORMAT:
+            raise DatasetFolderError(f"{self.root}: not a unicac dataset (dataset.json has no format '{DATASET_FORMAT}')")
+        version = manifest.get("format_version")
+        if not isinstance(version, int) or version > DATASET_FORMAT_VERSION:
+            raise DatasetFolderError(
+                f"{manifest_path}: format_version {version!r} is newer than this reader ({DATASET_FORMAT_VERSION}); update unicac"
+            )
+        self.manifest: dict[str, Any] = manifest
+        self._pairs = _read_jsonl(self.root / "pairs.jsonl")
+        lenses_path = self.root / "lenses.jsonl"
+        self._lenses = _read_jsonl(lenses_path) if lenses_path.exists() else []
+
+    def lenses(self) -> list[dict[str, Any]]:
+        """Rows of ``lenses.jsonl`` (lens_id, split, level, ode, ...)."""
+        return list(self._lenses)
+
+    def pairs(self, split: Optional[str] = None) -> list[dict[str, Any]]:
+        """Rows of ``pairs.jsonl``, in manifest order, optionally of one split."""
+        return [row for row in self._pairs if split is None or row.get("split") == split]
+
+    def path(self, relative: str) -> Path:
+        """A manifest path resolved against the folder (absolute paths and ``..`` refused)."""
+        parts = Path(relative)
+        if parts.is_absolute() or any(part in ("..", "") for part in parts.parts) or not relative:
+            raise DatasetFolderError(f"{self.root}: manifest path {relative!r} must be relative to the dataset folder")
+        return self.root / parts
+
+    def has_psf(self, row: dict[str, Any]) -> bool:
+        """Whether the pair's lens has a PSF table (needed for the ``psf`` input)."""
+        table = row.get("psf")
+        return bool(table) and (self.path(table) / "table.json").is_file()
+
+    def check_split(self, split: str, need_psf: bool = False) -> list[dict[str, Any]]:
+        """The pairs of ``split``, after checking that there are some, that their GT is not their LQ
+        and (``need_psf``) that every lens has its PSF table."""
+        rows = self.pairs(split)
+        if not rows:
+            splits = sorted({str(r.get("split")) for r in self._pairs})
+            raise DatasetFolderError(f"{self.root}: no '{split}' pairs (splits present: {', '.join(splits) or 'none'})")
+        first = rows[0]
+        lq, gt = self.path(first["lq"]), self.path(first["gt"])
+        if lq.resolve() == gt.resolve() or (lq.is_file() and gt.is_file() and lq.read_bytes() == gt.read_bytes()):
+            raise DatasetFolderError(
+                f"{self.root}: pair {first['pair_id']}: gt ({first['gt']}) holds the same image as lq ({first['lq']}); "
+                "the ground-truth folder points at the degraded images"
+            )
+        if need_psf:
+            missing = sorted({r["lens_id"] for r in rows if not self.has_psf(r)})
+            if missing:
+                raise DatasetFolderError(
+                    f"{self.root}: this model needs PSF maps, but the dataset has no PSF table for lens "
+                    f"{', '.join(missing[:5])}{' ...' if len(missing) > 5 else ''} (expected psf/LENS_ID/table.json)"
+                )
+        return rows
+
+    def load(
+        self,
+        row: dict[str, Any],
+        window: Optional[tuple[int, int, int, int]] = None,
+        fov: bool = False,
+        psf: bool = False,
+    ) -> dict[str, Any]:
+        """One pair: ``lq`` and ``gt`` (float32 h x w x 3, sRGB in [0, 1]) of ``window`` (x, y, w, h
+        in the pair's image; None = all of it), and if asked its ``fov`` [2, h, w] and ``psf``
+        [15, h, w] maps: the pair's frame position comes from its ``crop`` and ``frame_px`` entries,
+        so every frame size and crop is placed correctly (nothing assumes one frame size)."""
+        lq = _image_float(self.path(row["lq"]))
+        gt = _image_float(self.path(row["gt"]))
+        if lq.shape != gt.shape:
+            raise DatasetFolderError(f"{self.root}: pair {row['pair_id']}: lq is {lq.shape[:2]} px but gt is {gt.shape[:2]} px")
+        height, width = lq.shape[:2]
+        x, y, w, h = window if window is not None else (0, 0, width, height)
+        if not (0 <= x and 0 <= y and w > 0 and h > 0 and x + w <= width and y + h <= height):
+            raise ValueError(f"window: {window} does not fit in pair {row['pair_id']} ({width} x {height} px)")
+        out: dict[str, Any] = {
+            "lq": np.ascontiguousarray(lq[y : y + h, x : x + w]),
+            "gt": np.ascontiguousarray(gt[y : y + h, x : x + w]),
+            "pair_id": row["pair_id"],
+            "lens_id": row.get("lens_id"),
+        }
+        frame_w, frame_h = (int(v) for v in row["frame_px"])
+        cx, cy, cw, ch = (int(v) for v in row["crop"])
+        if (cw, ch) != (width, height):
+            raise DatasetFolderError(
+                f"{self.root}: pair {row['pair_id']}: its image is {width} x {height} px but its crop entry says {cw} x {ch}"
+            )
+        if fov:
+            out["fov"] = _native.fov_map(frame_w, frame_h, cx + x, cy + y, w, h)
+        if psf:
+            if not self.has_psf(row):
+                raise DatasetFolderError(f"{self.root}: pair {row['pair_id']}: lens {row.get('lens_id')} has no PSF table")
+            out["psf"] = _native.psf_features(self.path(row["psf"]), frame_w, frame_h, cx + x, cy + y, w, h)
+        return out
+
+
+def folder_torch_dataset(
+    folder: Union[DatasetFolder, str, "os.PathLike[str]"],
+    split: str,
+    fov: bool = False,
+    psf: bool = False,
+) -> Any:
+    """A map-style PyTorch ``Dataset`` over one split of a built dataset (whole pairs). Items are dicts
+    of tensors: ``lq``, ``gt`` (float32 3 x H x W), and ``fov`` / ``psf`` when asked, plus ``pair_id``.
+    Imports torch (``pip install "unicac[train]"``). For training patches with augmentation see
+    ``unicac.train.data``."""
+    import torch
+    from torch.utils.data import Dataset
+
+    folder = folder if isinstance(folder, DatasetFolder) else DatasetFolder(folder)
+    rows = folder.check_split(split, need_psf=psf)
+
+    class PairFolderDataset(Dataset):  # type: ignore[type-arg]
+        def __len__(self) -> int:
+            return len(rows)
+
+        def __getitem__(self, index: int) -> dict[str, Any]:
+            pair = folder.load(rows[index], fov=fov, psf=psf)
+            item = {
+                "lq": torch.from_numpy(to_chw(pair["lq"])),
+                "gt": torch.from_numpy(to_chw(pair["gt"])),
+                "pair_id": pair["pair_id"],
+            }
+            for key in ("fov", "psf"):
+                if key in pair:
+                    item[key] = torch.from_numpy(pair[key])
+            return item
+
+    return PairFolderDataset()

@@ -13,7 +13,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use unicac_image::isp::Pipeline;
 use unicac_image::Planar;
-use unicac_sim::{LensSimulator, SimulationSettings};
+use unicac_sim::{crop, LensSimulator, PixelWindow, SimulationSettings};
 
 /// A lens prepared for images of one size: PSF map, distortion and relative illumination.
 #[pyclass(module = "unicac", name = "Simulator", frozen)]
@@ -151,6 +151,55 @@ impl PySimulator {
             Ok((degraded, pipeline.finish_reference(&linear).or_raise()?))
         })?;
         Ok((planar_out(py, &degraded, false)?, planar_out(py, &target, false)?))
+    }
+
+    /// A training pair for the window (`x0`, `y0`, `width_px`, `height_px`) of the frame `image`:
+    /// `(degraded, target)` as `render_pair` returns them cut to the window, but computed over the
+    /// window plus the PSF and distortion margin only (`source_window`), not over the whole frame. The
+    /// sensor/ISP chain runs on the window (its Bayer pattern starts at the window's corner). GIL
+    /// released.
+    #[pyo3(signature = (image, x0, y0, width_px, height_px, seed=0, isp=true, noise=true))]
+    #[allow(clippy::too_many_arguments)]
+    fn render_pair_window<'py>(
+        &self,
+        py: Python<'py>,
+        image: &Bound<'py, PyAny>,
+        x0: usize,
+        y0: usize,
+        width_px: usize,
+        height_px: usize,
+        seed: u64,
+        isp: bool,
+        noise: bool,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let (linear, _) = image_linear(image, "image")?;
+        self.check_dims(&linear, "image")?;
+        let window = PixelWindow {
+            x0,
+            y0,
+            width: width_px,
+            height: height_px,
+        };
+        let pipeline = pipeline(isp, noise);
+        let (degraded, target) = crate::pool::detach(py, || -> PyResult<(Planar, Planar)> {
+            let degraded = self.sim.degrade_window(&pipeline, &linear, seed, window).or_raise()?;
+            Ok((degraded, pipeline.finish_reference(&crop(&linear, window)).or_raise()?))
+        })?;
+        Ok((planar_out(py, &degraded, false)?, planar_out(py, &target, false)?))
+    }
+
+    /// The frame region (x0, y0, width_px, height_px) that `render_pair_window` computes for a window.
+    fn source_window(&self, x0: usize, y0: usize, width_px: usize, height_px: usize) -> PyResult<(usize, usize, usize, usize)> {
+        let source = self
+            .sim
+            .source_window(PixelWindow {
+                x0,
+                y0,
+                width: width_px,
+                height: height_px,
+            })
+            .or_raise()?;
+        Ok((source.x0, source.y0, source.width, source.height))
     }
 
     /// The PSF kernels (float32, (3, K, K)) that blur the output image at pixel (`x_px`, `y_px`)

@@ -43,6 +43,10 @@ pub struct SimulationSettings {
     pub cache: Option<PsfCache>,
 }
 
+/// Most pixels of an image `LensSimulator` takes (2^27, 134 MP). Peak memory is linear in the pixel
+/// count (docs/reliability.md gives the measured formula): about 12 GB at this limit.
+pub const MAX_SIMULATE_PIXELS: usize = 1 << 27;
+
 /// Node spacing floor (pixels): below it nodes cost more than they correct (docs/performance.md).
 pub const MIN_NODE_SPACING_PX: usize = 8;
 
@@ -89,6 +93,12 @@ impl LensSimulator {
         if width < 2 || height < 2 {
             return Err(SimError::InvalidRequest(format!(
                 "image of {width} x {height} pixels is too small"
+            )));
+        }
+        if width.saturating_mul(height) > MAX_SIMULATE_PIXELS {
+            return Err(SimError::InvalidRequest(format!(
+                "image of {width} x {height} pixels exceeds the limit of {MAX_SIMULATE_PIXELS} pixels \
+                 (MAX_SIMULATE_PIXELS; peak memory grows with the pixel count, see docs/reliability.md)"
             )));
         }
         let chief = ChiefRayMap::new(lens)?;
@@ -163,7 +173,8 @@ impl LensSimulator {
             cache_warning,
             kernels: Vec::new(),
         };
-        simulator.kernels = (0..3).map(|c| simulator.kernel_grid(c)).collect();
+        let frame = simulator.frame();
+        simulator.kernels = (0..3).map(|c| simulator.kernel_grid(c, frame)).collect();
         Ok(simulator)
     }
 
@@ -183,17 +194,20 @@ impl LensSimulator {
         [ideal_mm[0] * scale, ideal_mm[1] * scale]
     }
 
-    fn kernel_grid(&self, channel: usize) -> KernelGrid {
+    /// Kernel nodes over `window` (frame pixels), spaced as for the whole frame; the kernel of each node
+    /// is the PSF of the field imaged at that frame position.
+    fn kernel_grid(&self, channel: usize, window: PixelWindow) -> KernelGrid {
         let spacing = self.node_spacing_px();
         let nodes = |length: usize| ((length - 1).div_ceil(spacing) + 1).max(2);
-        let (nodes_x, nodes_y) = (nodes(self.grid.width_px), nodes(self.grid.height_px));
-        let xs = node_positions(self.grid.width_px, nodes_x);
-        let ys = node_positions(self.grid.height_px, nodes_y);
+        let (nodes_x, nodes_y) = (nodes(window.width), nodes(window.height));
+        let xs = node_positions(window.width, nodes_x);
+        let ys = node_positions(window.height, nodes_y);
+        let (x0, y0) = (window.x0 as f64, window.y0 as f64);
         let kernels = ys
             .par_iter()
             .flat_map_iter(|&row| xs.iter().map(move |&column| (column, row)))
             .map(|(column, row)| {
-                let [x, y] = self.real_position(self.grid.to_mm(column, row));
+                let [x, y] = self.real_position(self.grid.to_mm(x0 + column, y0 + row));
                 self.radial.kernel_at(x, y, channel)
             })
             .collect();
@@ -201,6 +215,15 @@ impl LensSimulator {
             nodes_x,
             nodes_y,
             kernels,
+        }
+    }
+
+    fn frame(&self) -> PixelWindow {
+        PixelWindow {
+            x0: 0,
+            y0: 0,
+            width: self.grid.width_px,
+            height: self.grid.height_px,
         }
     }
 
@@ -212,13 +235,8 @@ impl LensSimulator {
 
     /// Simulates the lens on a linear RGB image of the prepared size.
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
+        self.check_frame(image)?;
         let (w, h) = (self.grid.width_px, self.grid.height_px);
-        if image.width != w || image.height != h || image.channels != 3 {
-            return Err(SimError::InvalidRequest(format!(
-                "expected a {w} x {h} RGB image, got {} x {} with {} channels",
-                image.width, image.height, image.channels
-            )));
-        }
         let mut out = Planar::new(w, h, 3);
         for c in 0..3 {
             let blurred = convolve_varying_with(
@@ -249,26 +267,41 @@ impl LensSimulator {
         Ok(pipeline.process(&self.apply(&raw)?, &draw)?)
     }
 
+    /// The ideal (undistorted) frame position that output pixel (column, row) shows: the warp samples
+    /// the blurred ideal image there.
+    fn ideal_source(&self, column: usize, row: usize) -> [f64; 2] {
+        if !self.settings.distortion {
+            return [column as f64, row as f64];
+        }
+        let real = self.grid.to_mm(column as f64, row as f64);
+        let radius = real[0].hypot(real[1]);
+        if radius == 0.0 {
+            return [column as f64, row as f64];
+        }
+        let scale = self.chief.ideal_height(radius) / radius;
+        self.grid.to_px([real[0] * scale, real[1] * scale])
+    }
+
     /// Moves content from ideal to real positions: output pixel at real position r samples the
     /// blurred ideal image at the ideal position of the field landing at r (bilinear).
     fn warp(&self, image: &Planar) -> Planar {
-        let (w, h) = (image.width, image.height);
-        let mut out = Planar::new(w, h, image.channels);
-        let sources: Vec<[f64; 2]> = (0..h)
+        self.warp_window(image, self.frame(), self.frame())
+    }
+
+    /// The warp for the output pixels of `window`, from `blurred`, which covers `source` of the frame.
+    fn warp_window(&self, blurred: &Planar, source: PixelWindow, window: PixelWindow) -> Planar {
+        let (w, h) = (blurred.width, blurred.height);
+        let mut out = Planar::new(window.width, window.height, blurred.channels);
+        let sources: Vec<[f64; 2]> = (0..window.height)
             .into_par_iter()
-            .flat_map_iter(|row| (0..w).map(move |column| (column, row)))
+            .flat_map_iter(|row| (0..window.width).map(move |column| (column, row)))
             .map(|(column, row)| {
-                let real = self.grid.to_mm(column as f64, row as f64);
-                let radius = real[0].hypot(real[1]);
-                if radius == 0.0 {
-                    return [column as f64, row as f64];
-                }
-                let scale = self.chief.ideal_height(radius) / radius;
-                self.grid.to_px([real[0] * scale, real[1] * scale])
+                let [x, y] = self.ideal_source(window.x0 + column, window.y0 + row);
+                [x - source.x0 as f64, y - source.y0 as f64]
             })
             .collect();
-        for c in 0..image.channels {
-            let plane = image.plane(c);
+        for c in 0..blurred.channels {
+            let plane = blurred.plane(c);
             let target = out.plane_mut(c);
             target
                 .par_iter_mut()
@@ -278,14 +311,112 @@ impl LensSimulator {
         out
     }
 
+    /// The frame pixels that the output pixels of `window` depend on: the ideal positions they sample
+    /// (distortion), grown by the kernel radius and one pixel for the bilinear sample, clipped to the
+    /// frame. Inside the frame, a render of this region alone equals the whole frame's there.
+    pub fn source_window(&self, window: PixelWindow) -> SimResult<PixelWindow> {
+        window.check_inside(self.grid.width_px, self.grid.height_px)?;
+        let (mut lo_x, mut lo_y, mut hi_x, mut hi_y) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+        let border = (0..window.width)
+            .flat_map(|c| [(c, 0), (c, window.height - 1)])
+            .chain((0..window.height).flat_map(|r| [(0, r), (window.width - 1, r)]));
+        // The ideal-position map is a monotonic radial scaling (one-to-one and continuous), so the
+        // window's border bounds the sources of all its pixels.
+        for (column, row) in border {
+            let [x, y] = self.ideal_source(window.x0 + column, window.y0 + row);
+            (lo_x, lo_y, hi_x, hi_y) = (lo_x.min(x), lo_y.min(y), hi_x.max(x), hi_y.max(y));
+        }
+        let margin = (self.radial.kernel_size / 2 + 2) as f64;
+        let (w, h) = (self.grid.width_px as f64, self.grid.height_px as f64);
+        let x0 = (lo_x - margin).floor().clamp(0.0, w - 1.0) as usize;
+        let y0 = (lo_y - margin).floor().clamp(0.0, h - 1.0) as usize;
+        let x1 = (hi_x + margin).ceil().clamp(0.0, w - 1.0) as usize;
+        let y1 = (hi_y + margin).ceil().clamp(0.0, h - 1.0) as usize;
+        Ok(PixelWindow {
+            x0,
+            y0,
+            width: x1 - x0 + 1,
+            height: y1 - y0 + 1,
+        })
+    }
+
+    /// `apply` for the output pixels of `window` only: the optics on `image` (the whole frame, linear
+    /// RGB) computed over `source_window(window)` instead of the frame. Equal to the window of `apply`
+    /// up to the placement of kernel nodes (the nodes are laid over the region, at the frame's spacing).
+    pub fn apply_window(&self, image: &Planar, window: PixelWindow) -> SimResult<Planar> {
+        self.check_frame(image)?;
+        let source = self.source_window(window)?;
+        self.apply_region(&crop(image, source), source, window)
+    }
+
+    /// `degrade` for the output pixels of `window` only (`apply_window` between the ISP steps; the
+    /// Bayer pattern starts at the window's top-left pixel).
+    pub fn degrade_window(&self, pipeline: &Pipeline, image: &Planar, seed: u64, window: PixelWindow) -> SimResult<Planar> {
+        self.check_frame(image)?;
+        let source = self.source_window(window)?;
+        let draw = pipeline.draw(seed)?;
+        let raw = pipeline.unprocess(&crop(image, source), &draw)?;
+        Ok(pipeline.process(&self.apply_region(&raw, source, window)?, &draw)?)
+    }
+
+    fn apply_region(&self, region: &Planar, source: PixelWindow, window: PixelWindow) -> SimResult<Planar> {
+        let mut blurred = Planar::new(source.width, source.height, 3);
+        for c in 0..3 {
+            let grid = self.kernel_grid(c, source);
+            let plane = convolve_varying_with(
+                region.plane(c),
+                source.width,
+                source.height,
+                &grid,
+                self.settings.method,
+                self.settings.blend,
+            );
+            blurred.plane_mut(c).copy_from_slice(&plane);
+        }
+        let mut out = if self.settings.distortion {
+            self.warp_window(&blurred, source, window)
+        } else {
+            crop(
+                &blurred,
+                PixelWindow {
+                    x0: window.x0 - source.x0,
+                    y0: window.y0 - source.y0,
+                    ..window
+                },
+            )
+        };
+        if self.settings.illumination {
+            self.shade_window(&mut out, window);
+        }
+        Ok(out)
+    }
+
+    fn check_frame(&self, image: &Planar) -> SimResult<()> {
+        let (w, h) = (self.grid.width_px, self.grid.height_px);
+        if image.width != w || image.height != h || image.channels != 3 {
+            return Err(SimError::InvalidRequest(format!(
+                "expected a {w} x {h} RGB image, got {} x {} with {} channels",
+                image.width, image.height, image.channels
+            )));
+        }
+        Ok(())
+    }
+
     /// Relative illumination: chief-ray mapping times vignetting, normalised by the peak transmission.
     fn shade(&self, image: &mut Planar) {
-        let (w, h) = (image.width, image.height);
+        self.shade_window(image, self.frame());
+    }
+
+    /// `shade` for an image holding the pixels of `window`.
+    fn shade_window(&self, image: &mut Planar, window: PixelWindow) {
+        let w = image.width;
         let axis = self.radial.peak_transmission().max(1e-12);
-        let factors: Vec<f32> = (0..w * h)
+        let factors: Vec<f32> = (0..w * image.height)
             .into_par_iter()
             .map(|i| {
-                let [x, y] = self.grid.to_mm((i % w) as f64, (i / w) as f64);
+                let column = (window.x0 + i % w) as f64;
+                let row = (window.y0 + i / w) as f64;
+                let [x, y] = self.grid.to_mm(column, row);
                 let radius = x.hypot(y);
                 (self.chief.illumination_factor(radius) * self.radial.transmission_at(radius) / axis) as f32
             })
@@ -298,6 +429,45 @@ impl LensSimulator {
                 .for_each(|(v, f)| *v *= f);
         }
     }
+}
+
+/// A rectangle of frame pixels: columns `x0 .. x0 + width`, rows `y0 .. y0 + height`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PixelWindow {
+    pub x0: usize,
+    pub y0: usize,
+    pub width: usize,
+    pub height: usize,
+}
+
+impl PixelWindow {
+    fn check_inside(&self, width: usize, height: usize) -> SimResult<()> {
+        let fits = self.width >= 2
+            && self.height >= 2
+            && self.x0.checked_add(self.width).is_some_and(|end| end <= width)
+            && self.y0.checked_add(self.height).is_some_and(|end| end <= height);
+        if !fits {
+            return Err(SimError::InvalidRequest(format!(
+                "window {} x {} px at ({}, {}) does not fit in the {width} x {height} px frame (at least 2 x 2 px)",
+                self.width, self.height, self.x0, self.y0
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// The pixels of `window` of `image`.
+pub fn crop(image: &Planar, window: PixelWindow) -> Planar {
+    let mut out = Planar::new(window.width, window.height, image.channels);
+    for c in 0..image.channels {
+        let plane = image.plane(c);
+        let target = out.plane_mut(c);
+        for row in 0..window.height {
+            let start = (window.y0 + row) * image.width + window.x0;
+            target[row * window.width..(row + 1) * window.width].copy_from_slice(&plane[start..start + window.width]);
+        }
+    }
+    out
 }
 
 /// Bilinear sample with replicated borders.

@@ -1,0 +1,471 @@
+"""unicac.train: architectures, losses, data pitfalls, trainer (determinism, resume), config
+validation, ONNX export parity. Tiny tensors and a few iterations: the file runs in well under three
+minutes on 2 cores. Skipped only when torch is not importable."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch", reason="torch is not installed (pip install './python[train]')")
+yaml = pytest.importorskip("yaml", reason="pyyaml is not installed (pip install './python[train]')")
+
+import unicac  # noqa: E402
+from fake_dataset import make_dataset  # noqa: E402
+from unicac.dataset import DatasetFolder, DatasetFolderError  # noqa: E402
+from unicac.train import config as config_mod  # noqa: E402
+from unicac.train.archs import build_network, count_parameters  # noqa: E402
+from unicac.train.cli import main as cli_main  # noqa: E402
+from unicac.train.data import augment as augment_mod  # noqa: E402
+from unicac.train.losses import LPIPS, LPIPS_SCALE_RGB, LPIPS_SHIFT_RGB, VGG16_LAYOUT  # noqa: E402
+from unicac.train.metrics import psnr, ssim  # noqa: E402
+from unicac.train.models import RunError, Trainer  # noqa: E402
+
+# One thread: tiny tensors gain nothing from more, and on a shared 2-core machine a second thread
+# spin-waiting makes every step ten times slower. (Determinism holds at any fixed thread count.)
+torch.set_num_threads(1)
+
+MODELS = ["nafnet", "nafnet-fov", "nafnet-psf", "nafnet-psf-blind", "restormer", "nafnet-gan"]
+INPUTS = {"nafnet": ["lq"], "nafnet-fov": ["lq", "fov"], "nafnet-psf": ["lq", "psf"], "nafnet-psf-blind": ["lq"],
+          "restormer": ["lq"], "nafnet-gan": ["lq"]}
+CHANNELS = {"lq": 3, "fov": 2, "psf": 15}
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    return make_dataset(tmp_path_factory.mktemp("data") / "ds")
+
+
+@pytest.fixture()
+def lpips_cache(tmp_path, monkeypatch):
+    """Random LPIPS-AlexNet weights of the real shapes in a private unicac cache."""
+    from unicac.train.losses import ALEXNET_CONVS
+
+    rng = np.random.default_rng(0)
+    arrays = {}
+    for i, (o, c, k, _, _) in enumerate(ALEXNET_CONVS):
+        arrays[f"conv{i}.weight"] = (rng.normal(0, 0.05, (o, c, k, k))).astype(np.float32)
+        arrays[f"conv{i}.bias"] = np.zeros(o, np.float32)
+        arrays[f"lin{i}.weight"] = np.abs(rng.normal(0, 0.1, (1, o, 1, 1))).astype(np.float32)
+    folder = tmp_path / "cache" / "weights" / "lpips"
+    folder.mkdir(parents=True)
+    np.savez(folder / "alexnet.npz", **arrays)
+    monkeypatch.setenv("UNICAC_CACHE_DIR", str(tmp_path / "cache"))
+    return folder
+
+
+def tiny_config(model: str, dataset: Path, iters: int = 6, **train_overrides) -> dict:
+    config = config_mod.load(config_mod.shipped(model))
+    for split in ("train", "val"):
+        config["datasets"][split]["dataroot"] = str(dataset)
+    config["datasets"]["train"].update(patch_px=24, batch_size=2, **train_overrides)
+    config["datasets"]["val"].update(max_pairs=2, crop_px=32)
+    config["train"]["total_iter"] = iters
+    config["val"]["val_freq"] = 3
+    config["logger"].update(print_freq=1, save_checkpoint_freq=2)
+    if model == "nafnet-gan":
+        config["train"]["losses"]["perceptual"]["net"] = "alexnet"
+        config["datasets"]["train"]["patch_px"] = 64
+        config["train"]["losses"]["gan"].update(start_iter=1, width=8)
+    return config_mod.validate(config)
+
+
+def inputs_for(names, n, h, w, seed=0):
+    g = torch.Generator().manual_seed(seed)
+    return {name: torch.rand(n, CHANNELS[name], h, w, generator=g) for name in names}
+
+
+# -- architectures -------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("model", MODELS)
+def test_architecture_forward_backward_at_two_sizes(model):
+    config = config_mod.load(config_mod.shipped(model))
+    net = build_network(config["network"])
+    assert net.inputs == INPUTS[model]
+    assert 100_000 <= count_parameters(net) <= 2_000_000, count_parameters(net)
+    for h, w in ((24, 32), (19, 29)):  # the second is no multiple of 8: padding happens in the graph
+        x = inputs_for(net.inputs, 2, h, w)
+        out = net.training_outputs(x["lq"], x.get("fov"), x.get("psf"))
+        assert out["restored"].shape == (2, 3, h, w)
+        loss = out["restored"].mean() + (out["psf_pred"].mean() if "psf_pred" in out else 0)
+        loss.backward()
+        grads = [p.grad for p in net.parameters() if p.grad is not None]
+        assert grads and all(torch.isfinite(g).all() for g in grads)
+        net.zero_grad()
+
+
+def test_no_layer_caches_a_shape():
+    """NAFNet's TLC pooling (a window sized from the training patch) is absent: every channel
+    attention pools globally, so results at any size follow the same graph."""
+    for model in MODELS:
+        net = build_network(config_mod.load(config_mod.shipped(model))["network"])
+        for module in net.modules():
+            if isinstance(module, torch.nn.AdaptiveAvgPool2d):
+                assert module.output_size in (1, (1, 1))
+            assert not isinstance(module, torch.nn.AvgPool2d)
+
+
+def test_models_command(capsys):
+    assert cli_main(["models", "--json"]) == 0
+    rows = {row["name"]: row for row in json.loads(capsys.readouterr().out)}
+    assert set(MODELS) <= set(rows) and rows["wiener"]["learned"] is False
+    for model in MODELS:
+        assert rows[model]["inputs"] == INPUTS[model] and rows[model]["learned"] is True
+        assert Path(rows[model]["config"]).is_file() and rows[model]["params"] > 100_000
+
+
+# -- config validation ----------------------------------------------------------------------------
+
+def test_config_errors_name_the_key(tmp_path):
+    base = yaml.safe_load(config_mod.shipped("nafnet").read_text())
+    cases = [
+        (("train", "optim", "lrr"), 1e-3, r"train\.optim\.lrr: unknown key"),
+        (("train", "total_iter"), "1000", r"train\.total_iter: expected int, got str"),
+        (("train", "total_iter"), True, r"train\.total_iter: expected int, got bool"),
+        (("datasets", "train", "batch_size"), 0, r"datasets\.train\.batch_size: 0 is below the limit"),
+        (("network", "widht"), 16, r"network\.widht: unknown key for NAFNet"),
+        (("network", "width"), "16", r"network\.width: expected int"),
+        (("network", "prior"), "lens", r"network\.prior: 'lens' is not one of"),
+        (("datasets", "train", "frame_px"), [64, "x"], r"datasets\.train\.frame_px\[1\]"),
+    ]
+    for path, value, pattern in cases:
+        config = json.loads(json.dumps(base))
+        node = config
+        for key in path[:-1]:
+            node = node[key]
+        node[path[-1]] = value
+        target = tmp_path / "c.yml"
+        target.write_text(yaml.safe_dump(config))
+        with pytest.raises(config_mod.ConfigError, match=pattern):
+            config_mod.load(target)
+    small = json.loads(json.dumps(base))
+    small["datasets"] = {"train": {"patch_px": 48}}
+    small["train"]["losses"]["perceptual"] = {"weight": 1.0, "net": "alexnet"}
+    with pytest.raises(config_mod.ConfigError, match="datasets.train.patch_px: 48 px is below the 64 px"):
+        config_mod.validate(small)
+    with pytest.raises(config_mod.ConfigError, match="--model: unknown model 'nafnett'"):
+        config_mod.shipped("nafnett")
+
+
+def test_cli_refuses_bad_input_before_training(tmp_path, dataset, capsys):
+    config = yaml.safe_load(config_mod.shipped("nafnet").read_text())
+    config["train"]["optim"]["learning_rate"] = 1.0
+    (tmp_path / "bad.yml").write_text(yaml.safe_dump(config))
+    assert cli_main(["train", "--config", str(tmp_path / "bad.yml"), "--out", str(tmp_path / "run")]) == 2
+    assert "train.optim.learning_rate: unknown key" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+    (tmp_path / "notdata").mkdir()
+    (tmp_path / "notdata" / "x.png").write_bytes(b"")
+    assert cli_main(["train", "--model", "nafnet", "--dataset", str(tmp_path / "notdata"), "--iters", "2",
+                     "--out", str(tmp_path / "run")]) == 2
+    assert "notdata: not a unicac dataset" in capsys.readouterr().err
+    no_psf = make_dataset(tmp_path / "nopsf", psf=False, pairs_per_split=1)
+    for model in ("nafnet-psf", "nafnet-psf-blind"):
+        assert cli_main(["train", "--model", model, "--dataset", str(no_psf), "--iters", "2", "--out", str(tmp_path / "r2")]) == 2
+        assert "needs PSF maps" in capsys.readouterr().err
+    assert cli_main(["train", "--model", "nafnet", "--dataset", str(dataset), "--iters", "0", "--out", str(tmp_path / "r3")]) == 2
+    assert "--iters" in capsys.readouterr().err
+
+
+def test_gan_config_without_lpips_weights_names_the_fetch_command(tmp_path, dataset, monkeypatch, capsys):
+    monkeypatch.setenv("UNICAC_CACHE_DIR", str(tmp_path / "empty-cache"))
+    assert cli_main(["train", "--model", "nafnet-gan", "--dataset", str(dataset), "--iters", "2", "--out", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert "unicac weights fetch lpips" in err and "vgg16.npz" in err
+
+
+# -- data pitfalls --------------------------------------------------------------------------------
+
+def test_gt_folder_pointing_at_lq_is_refused(tmp_path):
+    folder = DatasetFolder(make_dataset(tmp_path / "same", gt_is_lq=True, pairs_per_split=1))
+    with pytest.raises(DatasetFolderError, match="ground-truth folder points at the degraded images"):
+        folder.check_split("train")
+
+
+def test_flips_and_rotations_move_the_maps_with_the_image(dataset):
+    """Each of the 8 flips/rotations of a crop equals the maps computed directly at the mirrored /
+    transposed position of a mirrored lens: for the FoV map exactly, for the PSF features of a
+    rotationally symmetric table up to float rounding."""
+    folder = DatasetFolder(dataset)
+    row = folder.pairs("train")[0]
+    table = folder.path(row["psf"])
+    fw, fh = row["frame_px"]
+    x0, y0, w, h = 10, 6, 20, 14
+    fov = unicac.fov_map(fw, fh, x0, y0, w, h)
+    psf = unicac.psf_features(table, fw, fh, x0, y0, w, h)
+    # Horizontal flip = the crop mirrored about the frame centre, x -> -x.
+    mirrored_x0 = fw - x0 - w
+    np.testing.assert_allclose(augment_mod.hflip_fov(fov), unicac.fov_map(fw, fh, mirrored_x0, y0, w, h), atol=1e-6)
+    np.testing.assert_allclose(augment_mod.hflip_psf(psf), unicac.psf_features(table, fw, fh, mirrored_x0, y0, w, h), atol=1e-4)
+    mirrored_y0 = fh - y0 - h
+    np.testing.assert_allclose(augment_mod.vflip_fov(fov), unicac.fov_map(fw, fh, x0, mirrored_y0, w, h), atol=1e-6)
+    np.testing.assert_allclose(augment_mod.vflip_psf(psf), unicac.psf_features(table, fw, fh, x0, mirrored_y0, w, h), atol=1e-4)
+    # Transpose: a square frame keeps the crop inside it; the transposed crop sits at (y0, x0).
+    sq = 64
+    fov_sq = unicac.fov_map(sq, sq, x0, y0, w, h)
+    psf_sq = unicac.psf_features(table, sq, sq, x0, y0, w, h)
+    np.testing.assert_allclose(augment_mod.transpose_fov(fov_sq), unicac.fov_map(sq, sq, y0, x0, h, w), atol=1e-6)
+    np.testing.assert_allclose(augment_mod.transpose_psf(psf_sq), unicac.psf_features(table, sq, sq, y0, x0, h, w), atol=1e-4)
+    # And `augment` moves image and maps by the same draw: a pixel's FoV value follows it.
+    image = np.stack([fov_sq[0], fov_sq[1], fov_sq[0]]).astype(np.float32)  # an image that shows its own map
+    seen = set()
+    for s in range(24):
+        sample = augment_mod.augment({"lq": image, "gt": image, "fov": fov_sq, "psf": psf_sq},
+                                     np.random.default_rng(s), True, True)
+        moved = sample["lq"][:2]  # where the original pixels went
+        # the map's magnitudes move with the pixels; the signs/channels change with the geometry
+        np.testing.assert_allclose(np.sort(np.abs(moved), axis=0), np.sort(np.abs(sample["fov"]), axis=0), atol=1e-6)
+        seen.add(sample["lq"].shape)
+    assert seen == {(3, h, w), (3, w, h)}
+
+
+def test_each_frame_size_places_its_maps(dataset):
+    """Pairs of two frame sizes: every FoV map is the slice of its own frame's map (never one
+    hard-coded frame), in normalised units (|(x, y)| <= 1, a frame corner at 1, never mm)."""
+    folder = DatasetFolder(dataset)
+    sizes = set()
+    for row in folder.pairs():
+        fw, fh = row["frame_px"]
+        sizes.add((fw, fh))
+        x0, y0, w, h = row["crop"]
+        pair = folder.load(row, window=(3, 5, 16, 12), fov=True, psf=True)
+        full = unicac.fov_map(fw, fh)
+        np.testing.assert_array_equal(pair["fov"], full[:, y0 + 5 : y0 + 17, x0 + 3 : x0 + 19])
+        assert pair["psf"].shape == (15, 12, 16) and np.isfinite(pair["psf"]).all()
+        corner = np.hypot(full[0, 0, 0], full[1, 0, 0])
+        assert abs(corner - np.hypot(fw - 1, fh - 1) / np.hypot(fw, fh)) < 1e-5
+        assert np.hypot(full[0], full[1]).max() <= 1.0
+    assert len(sizes) == 2
+
+
+def test_onthefly_fov_is_normalised_not_mm():
+    from unicac.train.data.datasets import build_train_set
+
+    options = config_mod.validate({"name": "x", "network": {"type": "NAFNet"},
+                                   "datasets": {"train": {"type": "onthefly", "lenses": ["builtin:cooke_triplet"],
+                                                          "frame_px": [96, 64], "patch_px": 32}}})["datasets"]["train"]
+    data = build_train_set(options, seed=3, fov=True, psf=False)
+    item = data[5]
+    assert item["lq"].shape == (3, 32, 32) and item["fov"].shape == (2, 32, 32)
+    assert float(item["fov"].abs().max()) <= 1.0
+    radius = torch.hypot(item["fov"][0], item["fov"][1])
+    assert float(radius.max() - radius.min()) > 0.05  # it varies over the patch: a field position, not a constant
+    with pytest.raises(DatasetFolderError, match="needs PSF maps"):
+        build_train_set(options, seed=3, fov=False, psf=True)
+
+
+def test_validation_is_deterministic(tmp_path, dataset):
+    trainer = Trainer(tiny_config("nafnet", dataset), tmp_path / "run", quiet=True)
+    first, second = trainer.validate(), trainer.validate()
+    assert first == second
+    a, b = trainer.val_set[0], trainer.val_set[0]
+    assert torch.equal(a["lq"], b["lq"])
+    # On-the-fly validation draws its noise and positions from fixed per-index seeds as well.
+    from unicac.train.data.datasets import build_val_set
+
+    options = config_mod.validate({"name": "x", "network": {"type": "NAFNet"},
+                                   "datasets": {"val": {"type": "onthefly", "lenses": ["builtin:cooke_triplet"],
+                                                        "frame_px": [96, 64], "crop_px": 32, "max_pairs": 2}}})
+    val = build_val_set(options["datasets"]["val"], fov=True, psf=False)
+    assert len(val) == 2 and torch.equal(val[1]["lq"], build_val_set(options["datasets"]["val"], True, False)[1]["lq"])
+
+
+# -- losses and metrics ---------------------------------------------------------------------------
+
+def test_lpips_takes_rgb_in_lpips_order(lpips_cache):
+    """An image whose [-1, 1] value equals LPIPS's shift in R, G, B order normalises to exactly zero:
+    a BGR input would not."""
+    lpips = LPIPS("alexnet")
+    rgb = (torch.tensor(LPIPS_SHIFT_RGB) + 1) / 2
+    image = rgb.view(1, 3, 1, 1).expand(1, 3, 8, 8)
+    assert torch.allclose(lpips.normalise(image), torch.zeros(1, 3, 8, 8), atol=1e-6)
+    assert not torch.allclose(lpips.normalise(image.flip(1)), torch.zeros(1, 3, 8, 8), atol=1e-3)
+    assert LPIPS_SCALE_RGB[0] != LPIPS_SCALE_RGB[2] or LPIPS_SHIFT_RGB[0] != LPIPS_SHIFT_RGB[2]
+    x = torch.rand(1, 3, 64, 64, generator=torch.Generator().manual_seed(0))
+    assert float(lpips(x, x)) == 0.0 and float(lpips(x, x.flip(1))) > 0
+
+
+def test_lpips_vgg16_weights_of_the_documented_layout(tmp_path):
+    rng = np.random.default_rng(0)
+    arrays, i = {}, 0
+    for entry in VGG16_LAYOUT:
+        if entry == "M":
+            continue
+        o, c = entry
+        arrays[f"conv{i}.weight"] = rng.normal(0, 0.02, (o, c, 3, 3)).astype(np.float32)
+        arrays[f"conv{i}.bias"] = np.zeros(o, np.float32)
+        i += 1
+    for k, c in enumerate((64, 128, 256, 512, 512)):
+        arrays[f"lin{k}.weight"] = np.full((1, c, 1, 1), 0.1, np.float32)
+    np.savez(tmp_path / "vgg16.npz", **arrays)
+    from unicac.train.losses import load_lpips_weights
+
+    lpips = LPIPS("vgg16", load_lpips_weights("vgg16", tmp_path / "vgg16.npz"))
+    x = torch.rand(1, 3, 32, 32)
+    assert float(lpips(x, (x + 0.1).clamp(0, 1))) > 0
+    del arrays["lin4.weight"]
+    with pytest.raises(KeyError, match="lin4.weight"):
+        LPIPS("vgg16", arrays)
+
+
+def test_psnr_and_ssim():
+    x = torch.rand(2, 3, 32, 32, generator=torch.Generator().manual_seed(0))
+    y = (x + 0.01).clamp(0, 1)
+    mse = float((x.double() - y.double()).pow(2).mean(dim=(1, 2, 3))[0])
+    assert abs(float(psnr(x, y)[0]) - 10 * np.log10(1 / mse)) < 1e-9
+    assert torch.allclose(ssim(x, x), torch.ones(2, dtype=torch.float64))
+    assert float(ssim(x, torch.rand_like(x))[0]) < 0.2
+
+
+# -- training ----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("model", ["nafnet", "nafnet-psf-blind", "nafnet-gan"])
+def test_a_few_steps_reduce_the_loss(tmp_path, dataset, lpips_cache, model):
+    trainer = Trainer(tiny_config(model, dataset), tmp_path / model, quiet=True)
+    batch = next(iter(torch.utils.data.DataLoader(trainer.train_set, batch_size=2, sampler=range(2),
+                                                  collate_fn=__import__("unicac.train.data", fromlist=["collate"]).collate)))
+    losses = [trainer._step(batch, 0) for _ in range(12)]
+    assert losses[-1] < 0.8 * losses[0], losses
+
+
+def test_run_writes_logs_curves_and_checkpoints(tmp_path, dataset):
+    run = tmp_path / "run"
+    scores = Trainer(tiny_config("nafnet-fov", dataset), run, quiet=True).train()
+    assert set(scores) >= {"psnr_db", "ssim", "input_psnr_db"}
+    rows = [json.loads(line) for line in (run / "log.jsonl").read_text().splitlines()]
+    assert [r["iter"] for r in rows if r["kind"] == "val"] == [3, 6]
+    assert all(r["loss"] > 0 and r["it_per_s"] > 0 for r in rows if r["kind"] == "train")
+    assert (run / "log.csv").read_text().startswith("iter,kind,loss")
+    assert (run / "checkpoints" / "latest.pt").is_file() and not list((run / "checkpoints").glob(".*"))
+    info = json.loads((run / "run.json").read_text())
+    assert info["inputs"] == ["lq", "fov"] and info["iterations"] == 6
+    from unicac.train.evaluate import evaluate
+
+    report = evaluate(str(run), str(dataset), split="val")
+    assert report["levels"]["all"]["pairs"] == 4 and report["iterations"] == 6
+    assert 0 < report["levels"]["all"]["input_psnr_db"] < 60
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return
+    assert (run / "curves.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(RunError, match="already holds a run"):
+        Trainer(tiny_config("nafnet-fov", dataset), run, quiet=True)
+
+
+def _weights(run: Path) -> dict:
+    return torch.load(run / "checkpoints" / "latest.pt", weights_only=True)
+
+
+def test_resume_after_an_interruption_gives_the_same_weights(tmp_path, dataset, lpips_cache):
+    """Tolerance 0: same machine and thread count, deterministic algorithms -> bit-identical."""
+    for model in ("nafnet", "nafnet-gan"):
+        config = tiny_config(model, dataset)
+        Trainer(config, tmp_path / f"{model}-straight", quiet=True).train()
+        Trainer(config, tmp_path / f"{model}-killed", quiet=True).train(stop_after=5)  # checkpoint at 4, then "killed"
+        assert _weights(tmp_path / f"{model}-killed")["iteration"] == 4
+        (tmp_path / f"{model}-killed" / "checkpoints" / ".latest.pt.leftover.tmp").write_bytes(b"partial")
+        Trainer(config, tmp_path / f"{model}-killed", resume=True, quiet=True).train()
+        a, b = _weights(tmp_path / f"{model}-straight"), _weights(tmp_path / f"{model}-killed")
+        assert a["iteration"] == b["iteration"] == 6
+        for key in ("net", "discriminator"):
+            for name in a.get(key, {}):
+                assert torch.equal(a[key][name], b[key][name]), f"{model}: {key}.{name}"
+        log = [json.loads(x) for x in (tmp_path / f"{model}-killed" / "log.jsonl").read_text().splitlines()]
+        assert [r["iter"] for r in log if r["kind"] == "train"] == [1, 2, 3, 4, 5, 6]
+    other = tiny_config("nafnet", dataset)
+    other["train"]["optim"]["lr"] = 0.5
+    with pytest.raises(RunError, match="config differs"):
+        Trainer(config_mod.validate(other), tmp_path / "nafnet-killed", resume=True, quiet=True)
+
+
+def test_resume_after_sigkill(tmp_path, dataset):
+    """The command line, killed with SIGKILL mid-run and resumed, ends with the weights of an
+    uninterrupted run (tolerance 0)."""
+    config = tiny_config("nafnet", dataset, iters=40)
+    config["logger"]["save_checkpoint_freq"] = 1
+    config["val"]["val_freq"] = 1000
+    cfg = tmp_path / "cfg.yml"
+    config_mod.dump(config, cfg)
+    run = tmp_path / "killed"
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path), OMP_NUM_THREADS="1")
+    command = [sys.executable, "-m", "unicac.train", "train", "--config", str(cfg), "--out", str(run), "--quiet"]
+    process = subprocess.Popen(command, env=env)
+    deadline = time.time() + 120
+    checkpoint = run / "checkpoints" / "latest.pt"
+    while time.time() < deadline and process.poll() is None:
+        if checkpoint.exists():
+            try:
+                if torch.load(checkpoint, weights_only=True)["iteration"] >= 3:
+                    break
+            except Exception:  # noqa: BLE001 - never a partial file (atomic), but be lenient on races
+                pass
+        time.sleep(0.05)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    killed_at = torch.load(checkpoint, weights_only=True)["iteration"]
+    assert 3 <= killed_at < 40, "the run was not interrupted"
+    done = subprocess.run(command + ["--resume"], env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    Trainer(config, tmp_path / "straight", quiet=True).train()
+    a, b = _weights(tmp_path / "straight"), _weights(run)
+    for name in a["net"]:
+        assert torch.equal(a["net"][name], b["net"][name]), name
+
+
+# -- export ----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("model", [m for m in MODELS if m != "nafnet-gan"])  # nafnet-gan exports a NAFNet
+def test_export_matches_pytorch_at_two_sizes(tmp_path, model):
+    ort = pytest.importorskip("onnxruntime")
+    import onnx
+
+    from unicac.train.export import export_network
+
+    torch.manual_seed(0)
+    net = build_network(config_mod.load(config_mod.shipped(model))["network"]).eval()
+    with torch.no_grad():  # non-trivial residual weights (NAFNet's beta/gamma start at zero)
+        for name, p in net.named_parameters():
+            if name.endswith(("beta", "gamma")):
+                p.normal_(0, 0.5)
+    out = tmp_path / f"{model}.onnx"
+    meta = {"unicac_contract": "1", "architecture": net.architecture, "inputs": ",".join(net.inputs),
+            "config_sha256": "x", "unicac_version": unicac.__version__}
+    report = export_network(net, out, meta)
+    assert set(report["parity"]) == {"40x56", "37x61"} and max(report["parity"].values()) <= 1e-4
+    model_proto = onnx.load(str(out))
+    assert [i.name for i in model_proto.graph.input] == INPUTS[model]
+    assert [o.name for o in model_proto.graph.output] == ["restored"]
+    assert model_proto.opset_import[0].version >= 17
+    assert {p.key: p.value for p in model_proto.metadata_props} == meta
+    session = ort.InferenceSession(str(out), providers=["CPUExecutionProvider"])
+    for n, h, w in ((1, 16, 16), (3, 33, 20)):  # any N, H, W (the sizes differ from the export's)
+        x = inputs_for(INPUTS[model], n, h, w, seed=h)
+        got = session.run(["restored"], {k: v.numpy() for k, v in x.items()})[0]
+        with torch.no_grad():
+            want = net(x["lq"], x.get("fov"), x.get("psf")).numpy()
+        assert got.shape == (n, 3, h, w) and np.abs(got - want).max() <= 1e-4
+
+
+def test_export_command(tmp_path, dataset, capsys):
+    pytest.importorskip("onnxruntime")
+    from unicac.train.export import read_metadata
+
+    run = tmp_path / "run"
+    Trainer(tiny_config("nafnet-fov", dataset, iters=2), run, quiet=True).train()
+    assert cli_main(["export", str(run), "--out", str(tmp_path / "m.onnx"), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["inputs"] == ["lq", "fov"] and max(report["parity"].values()) <= 1e-4
+    meta = read_metadata(tmp_path / "m.onnx")
+    assert meta["unicac_contract"] == "1" and meta["architecture"] == "nafnet-fov" and meta["inputs"] == "lq,fov"
+    assert meta["config_sha256"] == json.loads((run / "run.json").read_text())["config_sha256"]
+    assert cli_main(["export", str(tmp_path / "nothing"), "--out", str(tmp_path / "x.onnx")]) == 2
+    assert "not a unicac-train run folder" in capsys.readouterr().err

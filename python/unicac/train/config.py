@@ -1,0 +1,244 @@
+"""Training configs: BasicSR-shaped YAML (name, manual_seed, network, datasets.train/val,
+train.optim/scheduler/losses/total_iter, val, logger), validated before anything trains.
+
+Every key is checked against the schema below: an unknown key, a wrong type or a value out of its
+stated range raises `ConfigError` naming the key (`train.optim.lr: ...`). Missing optional keys take
+the defaults written here, so a run's `config.yml` (the resolved config, saved in the run folder)
+lists every setting that shaped it.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import inspect
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Optional
+
+CONFIG_DIR = Path(__file__).with_name("configs")
+
+
+class ConfigError(ValueError):
+    """A config key that is unknown, of the wrong type or out of range (the message names the key)."""
+
+
+@dataclass(frozen=True)
+class Field:
+    types: tuple[type, ...]
+    default: Any = None
+    low: Optional[float] = None  # inclusive limits for numbers (and list lengths: see `items`)
+    high: Optional[float] = None
+    choices: Optional[tuple[Any, ...]] = None
+    items: Optional[tuple[type, ...]] = None  # element types of a list
+    required: bool = False
+
+
+def _f(types: Any, default: Any = None, **kw: Any) -> Field:
+    return Field(types if isinstance(types, tuple) else (types,), default, **kw)
+
+
+_DATA = {
+    "type": _f(str, "unicac", choices=("unicac", "onthefly")),
+    # unicac: a built dataset folder (`unicac dataset build`).
+    "dataroot": _f((str, type(None))),
+    "split": _f(str, "train", choices=("train", "val", "test")),
+    # onthefly: the lenses (paths or builtin:NAME) and sharp images (a folder, or None for charts).
+    "lenses": _f(list, [], items=(str,)),
+    "images": _f((str, type(None))),
+    "charts": _f(list, ["dead-leaves"], items=(str,)),
+    "frame_px": _f(list, [256, 192], items=(int,)),
+    "isp": _f(bool, True),
+    "noise": _f(bool, True),
+    "seed": _f(int, 0, low=0),
+    "patch_px": _f(int, 64, low=16, high=4096),
+    "batch_size": _f(int, 4, low=1, high=1024),
+    "num_workers": _f(int, 0, low=0, high=64),
+    "use_flip": _f(bool, True),
+    "use_rot": _f(bool, True),
+    # validation: the first `max_pairs` pairs of the split, centre crops of `crop_px` (None: whole image).
+    "max_pairs": _f(int, 8, low=1, high=100_000),
+    "crop_px": _f((int, type(None)), 128, low=16, high=8192),
+}
+
+SCHEMA: dict[str, Any] = {
+    "name": _f(str, required=True),
+    "manual_seed": _f(int, 0, low=0, high=2**63 - 1),
+    "network": _f(dict, required=True),  # checked against the architecture's signature
+    "datasets": {"train": dict(_DATA), "val": dict(_DATA)},
+    "path": {
+        # A run folder or checkpoint whose generator weights initialise this run (GAN fine-tuning).
+        "pretrain_network_g": _f((str, type(None))),
+    },
+    "train": {
+        "total_iter": _f(int, 1000, low=1, high=100_000_000),
+        "grad_clip": _f((float, int, type(None)), None, low=0),
+        "optim": {
+            "type": _f(str, "AdamW", choices=("Adam", "AdamW")),
+            "lr": _f((float, int), 1e-3, low=0, high=1),
+            "weight_decay": _f((float, int), 0.0, low=0),
+            "betas": _f(list, [0.9, 0.9], items=(float, int)),
+        },
+        "scheduler": {
+            "type": _f(str, "CosineAnnealingLR", choices=("CosineAnnealingLR", "constant")),
+            "eta_min": _f((float, int), 1e-6, low=0),
+        },
+        "losses": {
+            "pixel": {"type": _f(str, "L1Loss", choices=("L1Loss", "CharbonnierLoss")), "weight": _f((float, int), 1.0, low=0)},
+            # Blind PSF prior: L1 between predicted and true PSF-feature maps.
+            "psf": {"weight": _f((float, int), 0.0, low=0)},
+            # LPIPS (VGG16 or AlexNet weights from `unicac weights fetch lpips`).
+            "perceptual": {"weight": _f((float, int), 0.0, low=0), "net": _f(str, "vgg16", choices=("vgg16", "alexnet"))},
+            "gan": {
+                "weight": _f((float, int), 0.0, low=0),
+                "start_iter": _f(int, 0, low=0),
+                "lr": _f((float, int), 1e-4, low=0, high=1),
+                "width": _f(int, 32, low=4, high=512),
+            },
+        },
+    },
+    "val": {"val_freq": _f(int, 500, low=1, high=100_000_000)},
+    "logger": {
+        "print_freq": _f(int, 10, low=1, high=100_000_000),
+        "save_checkpoint_freq": _f(int, 500, low=1, high=100_000_000),
+    },
+}
+
+
+def _check_value(key: str, field: Field, value: Any) -> Any:
+    # bool is an int in Python: refuse it where a number is expected, and ints where a bool is.
+    ok = isinstance(value, field.types) and not (isinstance(value, bool) and bool not in field.types)
+    if not ok:
+        names = " or ".join("null" if t is type(None) else t.__name__ for t in field.types)
+        raise ConfigError(f"{key}: expected {names}, got {type(value).__name__} ({value!r})")
+    if field.choices is not None and value not in field.choices:
+        raise ConfigError(f"{key}: '{value}' is not one of {list(field.choices)}")
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        if field.low is not None and value < field.low:
+            raise ConfigError(f"{key}: {value} is below the limit {field.low}")
+        if field.high is not None and value > field.high:
+            raise ConfigError(f"{key}: {value} is above the limit {field.high}")
+    if field.items is not None:
+        for i, item in enumerate(value):
+            if not isinstance(item, field.items) or isinstance(item, bool):
+                names = " or ".join(t.__name__ for t in field.items)
+                raise ConfigError(f"{key}[{i}]: expected {names}, got {type(item).__name__} ({item!r})")
+    return copy.deepcopy(value)
+
+
+def _resolve(schema: dict[str, Any], given: Any, prefix: str) -> dict[str, Any]:
+    if not isinstance(given, dict):
+        raise ConfigError(f"{prefix or 'config'}: expected a mapping, got {type(given).__name__}")
+    for key in given:
+        if key not in schema:
+            where = f"{prefix}.{key}" if prefix else str(key)
+            raise ConfigError(f"{where}: unknown key (known here: {', '.join(sorted(schema))})")
+    out: dict[str, Any] = {}
+    for key, spec in schema.items():
+        where = f"{prefix}.{key}" if prefix else key
+        if isinstance(spec, dict):
+            out[key] = _resolve(spec, given.get(key, {}) if given.get(key) is not None else {}, where)
+        elif key in given:
+            out[key] = _check_value(where, spec, given[key])
+        elif spec.required:
+            raise ConfigError(f"{where}: required key is missing")
+        else:
+            out[key] = copy.deepcopy(spec.default)
+    return out
+
+
+def _check_network(network: dict[str, Any]) -> None:
+    from .archs import NETWORKS
+
+    kind = network.get("type")
+    if kind not in NETWORKS:
+        raise ConfigError(f"network.type: '{kind}' is not one of {sorted(NETWORKS)}")
+    parameters = inspect.signature(NETWORKS[kind].__init__).parameters
+    accepts_more = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values())
+    known = {name: p for name, p in parameters.items() if name != "self" and p.kind is not inspect.Parameter.VAR_KEYWORD}
+    if accepts_more:  # BlindPsfNAFNet forwards the rest to its NAFNet restorer
+        from .archs.nafnet import NAFNet
+
+        known.update({n: p for n, p in inspect.signature(NAFNet.__init__).parameters.items() if n not in ("self", "prior")})
+    for key, value in network.items():
+        if key == "type":
+            continue
+        if key not in known:
+            raise ConfigError(f"network.{key}: unknown key for {kind} (known: {', '.join(sorted(known))})")
+        default = known[key].default
+        if default is None or default is inspect.Parameter.empty:
+            if key == "prior" and value not in (None, "fov", "psf"):
+                raise ConfigError(f"network.prior: {value!r} is not one of null, 'fov', 'psf'")
+            continue
+        expected = (list, tuple) if isinstance(default, (list, tuple)) else (type(default),)
+        if isinstance(default, float):
+            expected = (float, int)
+        if not isinstance(value, expected) or isinstance(value, bool) != isinstance(default, bool):
+            raise ConfigError(f"network.{key}: expected {type(default).__name__}, got {type(value).__name__} ({value!r})")
+        if isinstance(value, (list, tuple)) and not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 64 for v in value):
+            raise ConfigError(f"network.{key}: expected a list of block counts (integers 0..64), got {value!r}")
+        if isinstance(value, int) and not isinstance(value, bool) and not 0 <= value <= 4096:
+            raise ConfigError(f"network.{key}: {value} is outside 0..4096")
+
+
+def validate(config: Any) -> dict[str, Any]:
+    """The resolved config (defaults filled in), or `ConfigError` naming the first bad key."""
+    resolved = _resolve(SCHEMA, config, "")
+    _check_network(resolved["network"])
+    for split in ("train", "val"):
+        data = resolved["datasets"][split]
+        if len(data["frame_px"]) != 2 or min(data["frame_px"]) < 16:
+            raise ConfigError(f"datasets.{split}.frame_px: expected [width, height] of at least 16 px, got {data['frame_px']}")
+    perceptual = resolved["train"]["losses"]["perceptual"]
+    if perceptual["weight"] > 0:
+        from .losses import MIN_SIDE_PX
+
+        if resolved["datasets"]["train"]["patch_px"] < MIN_SIDE_PX[perceptual["net"]]:
+            raise ConfigError(
+                f"datasets.train.patch_px: {resolved['datasets']['train']['patch_px']} px is below the "
+                f"{MIN_SIDE_PX[perceptual['net']]} px that the {perceptual['net']} perceptual loss needs"
+            )
+    if len(resolved["train"]["optim"]["betas"]) != 2:
+        raise ConfigError("train.optim.betas: expected two numbers")
+    return resolved
+
+
+def load(path: "os.PathLike[str] | str") -> dict[str, Any]:
+    """Reads and validates a YAML config file (errors name the file and the key)."""
+    import yaml
+
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read the config ({error.strerror})") from error
+    except yaml.YAMLError as error:
+        raise ConfigError(f"{path}: not valid YAML ({error})") from error
+    try:
+        return validate(raw)
+    except ConfigError as error:
+        raise ConfigError(f"{path}: {error}") from error
+
+
+def shipped(model: str) -> Path:
+    """The shipped config of a model name (`unicac-train models` lists them)."""
+    path = CONFIG_DIR / f"{model}.yml"
+    if not path.is_file():
+        names = ", ".join(sorted(p.stem for p in CONFIG_DIR.glob("*.yml")))
+        raise ConfigError(f"--model: unknown model '{model}' (shipped: {names})")
+    return path
+
+
+def sha256(config: dict[str, Any]) -> str:
+    """Hash of the resolved config (canonical JSON), recorded in checkpoints and ONNX metadata."""
+    return hashlib.sha256(json.dumps(config, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def dump(config: dict[str, Any], path: Path) -> None:
+    import yaml
+
+    from .files import atomic_write_bytes
+
+    atomic_write_bytes(path, yaml.safe_dump(config, sort_keys=False).encode())

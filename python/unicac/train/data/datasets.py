@@ -1,0 +1,194 @@
+"""Datasets the trainer draws from.
+
+Training items are addressed by a global sample number `k` (iteration x batch + slot): the pair,
+patch position and augmentation of sample k come from `numpy.random.default_rng([seed, k])`, never
+from a shared random state, so data-loader workers, process counts and resumption do not change what
+a run sees. Validation items are fixed (the first `max_pairs` pairs, centre crops, no augmentation,
+noise drawn from fixed per-index seeds), so validation is deterministic.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Iterator, Optional
+
+import numpy as np
+import torch
+from torch.utils.data import Dataset, Sampler
+
+from unicac import _native
+from unicac.dataset import DatasetFolder, DatasetFolderError, PairGenerator, to_chw
+
+from .augment import augment
+
+_SEED_BOUND = 2**63
+
+
+class IterationSampler(Sampler):  # type: ignore[type-arg]
+    """Yields the global sample numbers of iterations `start_iter` .. `total_iter - 1`, this rank's
+    share: iteration i on rank r of `world` takes samples (i * world + r) * batch + 0 .. batch - 1."""
+
+    def __init__(self, start_iter: int, total_iter: int, batch_size: int, rank: int = 0, world: int = 1) -> None:
+        self.start_iter, self.total_iter = start_iter, total_iter
+        self.batch_size, self.rank, self.world = batch_size, rank, world
+
+    def __iter__(self) -> Iterator[int]:
+        for iteration in range(self.start_iter, self.total_iter):
+            first = (iteration * self.world + self.rank) * self.batch_size
+            yield from range(first, first + self.batch_size)
+
+    def __len__(self) -> int:
+        return max(0, self.total_iter - self.start_iter) * self.batch_size
+
+
+def _epoch_index(seed: int, k: int, count: int) -> int:
+    """Pair index of sample k: each epoch of `count` samples is a fresh seeded permutation."""
+    epoch, position = divmod(k, count)
+    return int(np.random.default_rng([seed, 0x5EED, epoch]).permutation(count)[position])
+
+
+def _tensors(sample: dict[str, Any]) -> dict[str, Any]:
+    out = {key: torch.from_numpy(np.ascontiguousarray(sample[key])) for key in ("lq", "gt", "fov", "psf") if key in sample}
+    out["index"] = int(sample.get("index", 0))
+    return out
+
+
+def collate(items: list[dict[str, Any]]) -> dict[str, Any]:
+    batch = {key: torch.stack([item[key] for item in items]) for key in ("lq", "gt", "fov", "psf") if key in items[0]}
+    batch["index"] = torch.tensor([item["index"] for item in items])
+    return batch
+
+
+class FolderPatches(Dataset):  # type: ignore[type-arg]
+    """Random patches of a built dataset's pairs (sample number k -> one augmented patch)."""
+
+    def __init__(self, folder: DatasetFolder, rows: list[dict[str, Any]], options: dict[str, Any], seed: int,
+                 fov: bool, psf: bool) -> None:
+        self.folder, self.rows, self.seed = folder, rows, seed
+        self.patch = options["patch_px"]
+        self.flip, self.rotate = options["use_flip"], options["use_rot"]
+        self.fov, self.psf = fov, psf
+
+    def __len__(self) -> int:  # samples are addressed by number; any k is valid
+        return 2**62
+
+    def __getitem__(self, k: int) -> dict[str, Any]:
+        rng = np.random.default_rng([self.seed, int(k)])
+        row = self.rows[_epoch_index(self.seed, int(k), len(self.rows))]
+        _, _, width, height = (int(v) for v in row["crop"])
+        p = self.patch
+        if p > min(width, height):
+            raise DatasetFolderError(f"datasets.train.patch_px: {p} px is larger than pair {row['pair_id']} ({width} x {height} px)")
+        x, y = int(rng.integers(width - p + 1)), int(rng.integers(height - p + 1))
+        pair = self.folder.load(row, window=(x, y, p, p), fov=self.fov, psf=self.psf)
+        sample = {"lq": to_chw(pair["lq"]), "gt": to_chw(pair["gt"]), "index": k}
+        for key in ("fov", "psf"):
+            if key in pair:
+                sample[key] = pair[key]
+        return _tensors(augment(sample, rng, self.flip, self.rotate))
+
+
+class FolderValidation(Dataset):  # type: ignore[type-arg]
+    """The first `max_pairs` pairs of a split, centre-cropped to `crop_px` (no randomness)."""
+
+    def __init__(self, folder: DatasetFolder, rows: list[dict[str, Any]], options: dict[str, Any], fov: bool, psf: bool) -> None:
+        self.folder, self.rows = folder, rows[: options["max_pairs"]]
+        self.crop, self.fov, self.psf = options["crop_px"], fov, psf
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __getitem__(self, i: int) -> dict[str, Any]:
+        row = self.rows[i]
+        _, _, width, height = (int(v) for v in row["crop"])
+        window = None
+        if self.crop is not None and self.crop < min(width, height):
+            window = ((width - self.crop) // 2, (height - self.crop) // 2, self.crop, self.crop)
+        pair = self.folder.load(row, window=window, fov=self.fov, psf=self.psf)
+        sample = {"lq": to_chw(pair["lq"]), "gt": to_chw(pair["gt"]), "index": i}
+        for key in ("fov", "psf"):
+            if key in pair:
+                sample[key] = pair[key]
+        return _tensors(sample)
+
+
+class OnTheFly(Dataset):  # type: ignore[type-arg]
+    """Pairs simulated by `unicac.dataset.PairGenerator` (pair k is a pure function of (seed, k)); the FoV
+    map of each patch from its position in the frame. With `augment_rng`, patches are flipped/rotated."""
+
+    def __init__(self, generator: PairGenerator, fov: bool, flip: bool, rotate: bool, seed: Optional[int]) -> None:
+        self.generator, self.fov = generator, fov
+        self.flip, self.rotate, self.seed = flip, rotate, seed
+
+    def __len__(self) -> int:
+        return 2**62
+
+    def __getitem__(self, k: int) -> dict[str, Any]:
+        pair = self.generator.pair(int(k))
+        sample = {"lq": to_chw(pair["degraded"]), "gt": to_chw(pair["sharp"]), "index": int(k)}
+        if self.fov:
+            x0, y0 = pair["origin_px"]
+            w, h = self.generator.frame_px
+            p = self.generator.patch_px
+            sample["fov"] = _native.fov_map(w, h, x0, y0, p, p)
+        if self.seed is not None:
+            sample = augment(sample, np.random.default_rng([self.seed, 0xA06, int(k)]), self.flip, self.rotate)
+        return _tensors(sample)
+
+
+class Fixed(Dataset):  # type: ignore[type-arg]
+    """A finite view 0..length-1 of a sample-numbered dataset (on-the-fly validation)."""
+
+    def __init__(self, inner: Dataset, length: int) -> None:  # type: ignore[type-arg]
+        self.inner, self.length = inner, length
+
+    def __len__(self) -> int:
+        return self.length
+
+    def __getitem__(self, i: int) -> dict[str, Any]:
+        if not 0 <= i < self.length:
+            raise IndexError(i)
+        return self.inner[i]
+
+
+def _generator(options: dict[str, Any], seed: int, patch: int) -> PairGenerator:
+    if not options["lenses"]:
+        raise DatasetFolderError("datasets: type onthefly needs `lenses` (lens files or builtin:NAME)")
+    return PairGenerator(
+        options["lenses"], options["images"], patch_px=patch, frame_px=tuple(options["frame_px"]), seed=seed,
+        charts=options["charts"], isp=options["isp"], noise=options["noise"],
+    )
+
+
+def _folder(options: dict[str, Any], split_key: str) -> DatasetFolder:
+    if not options["dataroot"]:
+        raise DatasetFolderError(f"datasets.{split_key}.dataroot: give a dataset folder (or --dataset DIR)")
+    return DatasetFolder(options["dataroot"])
+
+
+def _refuse_onthefly_psf(split_key: str, psf: bool) -> None:
+    if psf:
+        raise DatasetFolderError(
+            f"datasets.{split_key}: this model needs PSF maps, which on-the-fly data does not provide; "
+            "train it on a built dataset (unicac dataset build) that stores PSF tables"
+        )
+
+
+def build_train_set(options: dict[str, Any], seed: int, fov: bool, psf: bool) -> Dataset:  # type: ignore[type-arg]
+    if options["type"] == "onthefly":
+        _refuse_onthefly_psf("train", psf)
+        generator = _generator(options, (seed ^ options["seed"]) % _SEED_BOUND, options["patch_px"])
+        return OnTheFly(generator, fov, options["use_flip"], options["use_rot"], seed)
+    folder = _folder(options, "train")
+    rows = folder.check_split(options["split"], need_psf=psf)
+    return FolderPatches(folder, rows, options, seed, fov, psf)
+
+
+def build_val_set(options: dict[str, Any], fov: bool, psf: bool) -> Dataset:  # type: ignore[type-arg]
+    if options["type"] == "onthefly":
+        _refuse_onthefly_psf("val", psf)
+        # Its own seed, distinct from any training stream; crop_px sets the patch (None: 128).
+        generator = _generator(options, (options["seed"] + 0x7A1) % _SEED_BOUND, options["crop_px"] or 128)
+        return Fixed(OnTheFly(generator, fov, False, False, None), options["max_pairs"])
+    folder = _folder(options, "val")
+    rows = folder.check_split(options["split"], need_psf=psf)
+    return FolderValidation(folder, rows, options, fov, psf)

@@ -1,0 +1,150 @@
+"""ONNX export of a run's latest checkpoint, following docs/models.md (contract 1):
+
+inputs `lq` [N,3,H,W] (+ `fov` [N,2,H,W], `psf` [N,15,H,W] as the network uses them), output
+`restored` [N,3,H,W]; N, H and W dynamic; opset 17; metadata `unicac_contract`, `architecture`,
+`inputs`, `config_sha256`, `unicac_version`. The exported file is checked in onnxruntime against
+PyTorch at two image sizes before it is moved into place (atomic), when onnxruntime is installed.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import warnings
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+import torch
+from torch import nn
+
+from .archs import Restorer, build_network
+from .files import atomic_write_bytes
+from .models.trainer import RunFolder, _unicac_version
+
+CONTRACT_VERSION = "1"
+OPSET = 17
+INPUT_CHANNELS = {"lq": 3, "fov": 2, "psf": 15}
+#: Parity sizes checked after export (H, W): unlike each other and not multiples of 8.
+CHECK_SIZES = ((40, 56), (37, 61))
+PARITY_TOLERANCE = 1e-4
+
+
+class ExportError(RuntimeError):
+    pass
+
+
+class _OnnxModule(nn.Module):
+    """Positional inputs in the order of `restorer.inputs`."""
+
+    def __init__(self, restorer: Restorer) -> None:
+        super().__init__()
+        self.restorer = restorer
+
+    def forward(self, *tensors: torch.Tensor) -> torch.Tensor:
+        named = dict(zip(self.restorer.inputs, tensors))
+        return self.restorer(named["lq"], named.get("fov"), named.get("psf"))
+
+
+def load_run(run_dir: "os.PathLike[str] | str") -> tuple[Restorer, dict[str, Any], dict[str, Any]]:
+    """The run's network with its latest weights (eval mode), its config and checkpoint."""
+    run = RunFolder(run_dir)
+    config = run.load_config()
+    state = run.load_checkpoint()
+    net = build_network(config["network"])
+    net.load_state_dict(state["net"])
+    net.eval()
+    return net, config, state
+
+
+def example_inputs(inputs: list[str], height: int, width: int, batch: int = 1, seed: int = 0) -> list[torch.Tensor]:
+    generator = torch.Generator().manual_seed(seed)
+    tensors = []
+    for name in inputs:
+        t = torch.rand(batch, INPUT_CHANNELS[name], height, width, generator=generator)
+        if name == "fov":
+            t = t * 2 - 1
+        elif name == "psf":
+            t = (t - 0.5) * 6
+        tensors.append(t)
+    return tensors
+
+
+def export_network(net: Restorer, out: Path, metadata: dict[str, str], check: bool = True) -> dict[str, Any]:
+    """Writes `net` to `out` (ONNX, contract 1); returns {"path", "max_abs_diff" per checked size}."""
+    import onnx
+
+    module = _OnnxModule(net).eval()
+    names = list(net.inputs)
+    dynamic = {name: {0: "N", 2: "H", 3: "W"} for name in names + ["restored"]}
+    args = tuple(example_inputs(names, 48, 64))
+    out = Path(out)
+    with tempfile.TemporaryDirectory() as scratch:
+        raw = Path(scratch) / "model.onnx"
+        # The TorchScript exporter: exact here and fast (seconds). torch >= 2.9 deprecates it for the
+        # torch.export-based one (dynamo=True), which on torch 2.15 takes ~50 s per NAFNet and
+        # specialises the Restormer's H/W; revisit when the legacy path is removed.
+        with torch.no_grad(), warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            torch.onnx.export(module, args, str(raw), input_names=names, output_names=["restored"],
+                              dynamic_axes=dynamic, opset_version=OPSET, dynamo=False)
+        model = onnx.load(str(raw))
+        del model.metadata_props[:]
+        for key, value in metadata.items():
+            entry = model.metadata_props.add()
+            entry.key, entry.value = key, value
+        onnx.checker.check_model(model)
+        data = model.SerializeToString()
+    report: dict[str, Any] = {"path": str(out), "bytes": len(data), "parity": {}}
+    if check:
+        report["parity"] = check_parity(net, data)
+    atomic_write_bytes(out, data)
+    return report
+
+
+def check_parity(net: Restorer, onnx_bytes: bytes, sizes: tuple[tuple[int, int], ...] = CHECK_SIZES) -> dict[str, float]:
+    """Max |onnxruntime - PyTorch| at each size; raises ExportError above PARITY_TOLERANCE."""
+    try:
+        import onnxruntime as ort
+    except ImportError:
+        return {}
+    session = ort.InferenceSession(onnx_bytes, providers=["CPUExecutionProvider"])
+    results = {}
+    for height, width in sizes:
+        tensors = example_inputs(net.inputs, height, width, batch=2, seed=height)
+        with torch.no_grad():
+            expected = _OnnxModule(net)(*tensors).numpy()
+        got = session.run(["restored"], {name: t.numpy() for name, t in zip(net.inputs, tensors)})[0]
+        if got.shape != expected.shape:
+            raise ExportError(f"onnxruntime returned {got.shape} at {height} x {width}, PyTorch {expected.shape}")
+        diff = float(np.abs(got - expected).max())
+        if not diff <= PARITY_TOLERANCE:
+            raise ExportError(f"onnxruntime differs from PyTorch by {diff:.2e} at {height} x {width} (limit {PARITY_TOLERANCE})")
+        results[f"{height}x{width}"] = diff
+    return results
+
+
+def export_run(run_dir: "os.PathLike[str] | str", out: "os.PathLike[str] | str", check: bool = True) -> dict[str, Any]:
+    """`unicac-train export RUN_DIR --out MODEL.onnx`."""
+    net, config, state = load_run(run_dir)
+    metadata = {
+        "unicac_contract": CONTRACT_VERSION,
+        "architecture": net.architecture,
+        "inputs": ",".join(net.inputs),
+        "config_sha256": str(state.get("config_sha256", "")),
+        "unicac_version": _unicac_version(),
+        "name": str(config["name"]),
+        "iterations": str(state.get("iteration", "")),
+    }
+    report = export_network(net, Path(out), metadata, check=check)
+    report.update({"architecture": net.architecture, "inputs": net.inputs, "iterations": state.get("iteration")})
+    return report
+
+
+def read_metadata(path: "os.PathLike[str] | str") -> dict[str, str]:
+    import onnx
+
+    model = onnx.load(str(path))
+    return {entry.key: entry.value for entry in model.metadata_props}
+
+

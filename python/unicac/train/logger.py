@@ -1,0 +1,113 @@
+"""What a run writes besides checkpoints: `log.csv` / `log.jsonl` (one row per logged iteration or
+validation), `curves.png` (loss and validation PSNR/SSIM over iterations) and a progress bar with
+loss and it/s (on a terminal; plain lines every `print_freq` iterations otherwise)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any, Optional
+
+from .files import atomic_write, atomic_write_bytes
+
+LOG_FIELDS = ["iter", "kind", "loss", "lr", "it_per_s", "psnr_db", "ssim", "seconds"]
+
+
+class RunLog:
+    """Rows kept in memory and rewritten atomically (the log of a resumed run continues the old one,
+    truncated to the resumed iteration so that no row is counted twice)."""
+
+    def __init__(self, folder: Path, resume_iter: Optional[int] = None) -> None:
+        self.folder = folder
+        self.rows: list[dict[str, Any]] = []
+        jsonl = folder / "log.jsonl"
+        if resume_iter is not None and jsonl.exists():
+            for line in jsonl.read_text().splitlines():
+                if line.strip():
+                    row = json.loads(line)
+                    if row["iter"] <= resume_iter:
+                        self.rows.append(row)
+
+    def add(self, **row: Any) -> None:
+        self.rows.append({key: row.get(key) for key in LOG_FIELDS})
+
+    def flush(self) -> None:
+        text = "".join(json.dumps(row) + "\n" for row in self.rows)
+        atomic_write_bytes(self.folder / "log.jsonl", text.encode())
+        buffer = io.StringIO()
+        writer = csv.DictWriter(buffer, fieldnames=LOG_FIELDS)
+        writer.writeheader()
+        for row in self.rows:
+            writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
+        atomic_write_bytes(self.folder / "log.csv", buffer.getvalue().encode())
+
+    def plot(self) -> Optional[Path]:
+        """`curves.png`: training loss (left) and validation PSNR / SSIM (right) against iteration.
+        Needs matplotlib (in the `train` extra); returns None without it."""
+        try:
+            import matplotlib
+
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+        except ImportError:
+            return None
+        train = [r for r in self.rows if r["kind"] == "train"]
+        val = [r for r in self.rows if r["kind"] == "val"]
+        figure, (left, right) = plt.subplots(1, 2, figsize=(10, 3.6))
+        left.plot([r["iter"] for r in train], [r["loss"] for r in train], lw=1)
+        left.set_xlabel("iteration")
+        left.set_ylabel("training loss")
+        left.set_yscale("log")
+        left.grid(alpha=0.3)
+        if val:
+            right.plot([r["iter"] for r in val], [r["psnr_db"] for r in val], "o-", color="C1", label="PSNR")
+            right.set_ylabel("validation PSNR (dB)")
+            twin = right.twinx()
+            twin.plot([r["iter"] for r in val], [r["ssim"] for r in val], "s--", color="C2", label="SSIM")
+            twin.set_ylabel("validation SSIM")
+        right.set_xlabel("iteration")
+        right.grid(alpha=0.3)
+        figure.tight_layout()
+        path = self.folder / "curves.png"
+        atomic_write(path, lambda handle: figure.savefig(handle, format="png", dpi=100))
+        plt.close(figure)
+        return path
+
+
+class Progress:
+    """`iter/total loss it/s` on one refreshed line when stderr is a terminal, else a line every
+    `every` iterations."""
+
+    def __init__(self, start: int, total: int, every: int, enabled: bool = True) -> None:
+        self.total, self.every, self.enabled = total, every, enabled
+        self.tty = sys.stderr.isatty()
+        self.t0 = time.perf_counter()
+        self.start = start
+
+    def rate(self, iteration: int) -> float:
+        done = iteration - self.start
+        return done / max(time.perf_counter() - self.t0, 1e-9)
+
+    def update(self, iteration: int, loss: float) -> None:
+        if not self.enabled:
+            return
+        if not self.tty and iteration % self.every and iteration != self.total:
+            return
+        width = 30
+        filled = int(width * iteration / max(self.total, 1))
+        bar = "#" * filled + "-" * (width - filled)
+        line = f"[{bar}] {iteration}/{self.total} loss {loss:.4f} {self.rate(iteration):.2f} it/s"
+        if self.tty:
+            sys.stderr.write("\r" + line + ("\n" if iteration == self.total else ""))
+        else:
+            sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+    def message(self, text: str) -> None:
+        if self.enabled:
+            sys.stderr.write(("\n" if self.tty else "") + text + "\n")
+            sys.stderr.flush()
