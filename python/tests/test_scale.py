@@ -5,6 +5,7 @@ One local Ray (2 CPUs) serves the whole module: its start-up is the slow part on
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 from pathlib import Path
@@ -18,13 +19,8 @@ from unicac.scale.tasks import FAULT_ENV  # noqa: E402
 
 from conftest import REPO, _cli_path  # noqa: E402
 
-ODE_LENSES = [
-    "builtin:cooke_triplet",
-    "lenses/double_gauss.json",
-    "builtin:petzval",
-    "lenses/singlet.json",
-    "builtin:phone_asphere",
-]
+# Three lenses, two batches: the ODE takes 0.3-0.4 s a lens on an idle core (docs/performance.md).
+ODE_LENSES = ["builtin:cooke_triplet", "lenses/double_gauss.json", "lenses/singlet.json"]
 # A two-spec grid of singlets: each spec designs in a few seconds without a time budget, so the run is
 # deterministic (same seed, same lenses) and can be compared byte for byte.
 DESIGN_GRID = [
@@ -70,16 +66,27 @@ def test_ray_ode_equals_the_cli_with_every_task_killed_once(binary, local_ray, t
     got_json = run_driver(
         binary, capsys, monkeypatch, "ode", *ODE_LENSES, "--json", "--csv", str(tmp_path / "ray.csv"), "--batch-size", "2"
     )
-    # Three batches (2 + 2 + 1 lenses), each killed once after its work and retried by Ray.
-    assert len(list(faults.iterdir())) == 3
+    # Two batches (2 + 1 lenses), each killed once after its work and retried by Ray.
+    assert len(list(faults.iterdir())) == 2
     # Equal but for the per-stage wall-clock seconds (`times`), which differ between any two runs.
     assert mask_times(got_json) == mask_times(expected_json)
     assert got_json.count('"times"') == len(ODE_LENSES)
     assert (tmp_path / "ray.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
 
-    monkeypatch.delenv(FAULT_ENV)
-    expected_table = run_cli(binary, "ode", *ODE_LENSES)
-    assert run_driver(binary, capsys, monkeypatch, "ode", *ODE_LENSES, "--batch-size", "3") == expected_table
+
+def test_ode_outputs_splice_as_the_cli_prints_them():
+    from unicac.scale.ode import splice_json, splice_rows
+
+    table = "lens   ODE\na  0.7\nb  0.6\nc  0.5\n"
+    head, *rows = table.splitlines(keepends=True)
+    assert splice_rows([head + rows[0] + rows[1], head + rows[2]]) == table
+    one = '{\n  "lenses": [\n    {\n      "lens": "a"\n    }\n  ]\n}\n'
+    two = '{\n  "lenses": [\n    {\n      "lens": "b"\n    },\n    {\n      "lens": "c"\n    }\n  ]\n}\n'
+    merged = splice_json([one, two])
+    assert [l["lens"] for l in json.loads(merged)["lenses"]] == ["a", "b", "c"]
+    assert merged == json.dumps({"lenses": [{"lens": x} for x in "abc"]}, indent=2) + "\n"
+    with pytest.raises(ValueError, match="unexpected layout"):
+        splice_json(['{"lenses": []}'])
 
 
 def mask_times(text: str) -> str:
