@@ -14,6 +14,7 @@ shared filesystem); the `unicac` binary too (--unicac-bin, $UNICAC_BIN or PATH).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import sys
@@ -55,8 +56,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         stage_module = importlib.import_module(f"{__package__}.{stage}")
         plan = stage_module.prepare(binary, stage_args)  # argument errors before Ray starts
         fault_dir = os.environ.get(FAULT_ENV)
-        with session_module.Session(options.address, options.workers, options.cpus_per_task) as session:
-            return stage_module.run(session, plan, fault_dir)
+        # Ray prints its own notices (a worker that died, ...) on stdout: while it runs, stdout is stderr,
+        # and the stage writes its results to the real stdout.
+        results = sys.stdout
+        with contextlib.redirect_stdout(sys.stderr):
+            with session_module.Session(options.address, options.workers, options.cpus_per_task) as session:
+                return stage_module.run(session, plan, fault_dir, results)
     except (CliError, ValueError) as error:
         print(f"unicac-ray {stage}: {error}", file=sys.stderr)
         return 1

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Optional, Sequence
+from typing import Optional, Sequence, TextIO
 
 from .tasks import fail_once, run_cli
 
@@ -55,7 +55,7 @@ def shard_task(binary: str, args: list[str], index: int, shards: int, threads: i
     return index
 
 
-def run(session, plan: Plan, fault_dir: Optional[str]) -> int:
+def run(session, plan: Plan, fault_dir: Optional[str], stdout: TextIO) -> int:
     shards = plan.shards or min(MAX_SHARDS, 4 * session.workers)
     threads = session.cpus_per_task
     print(f"dataset build: {shards} shards; shard 1 grades the library first", file=sys.stderr)
@@ -63,6 +63,6 @@ def run(session, plan: Plan, fault_dir: Optional[str]) -> int:
     calls = [(plan.binary, plan.rest, i, shards, threads, fault_dir) for i in range(2, shards + 1)]
     session.map(shard_task, calls, "dataset shards")
     # The unsharded CLI: checks that every file is present and writes dataset.json and the summary.
-    sys.stdout.write(run_cli(plan.binary, ["dataset", "build", *plan.rest], session.cpus_per_task))
-    sys.stdout.flush()
+    stdout.write(run_cli(plan.binary, ["dataset", "build", *plan.rest], session.cpus_per_task))
+    stdout.flush()
     return 0

@@ -22,7 +22,7 @@ import shutil
 import sys
 import tempfile
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Optional, Sequence, TextIO
 
 from .files import copy_atomically, write_text_atomically
 from .tasks import fail_once, run_cli
@@ -170,7 +170,7 @@ def prepare(binary: str, argv: Sequence[str]) -> Plan:
     return Plan(binary, argv)
 
 
-def run(session, plan: Plan, fault_dir: Optional[str]) -> int:
+def run(session, plan: Plan, fault_dir: Optional[str], stdout: TextIO) -> int:
     binary, known, rest, specs = plan.binary, plan.known, plan.rest, plan.specs
     out: Path = known.out
     for sub in ("lenses", "state", PARTS):
@@ -193,5 +193,5 @@ def run(session, plan: Plan, fault_dir: Optional[str]) -> int:
     merged = merge(out, specs)
     print(f"{len(merged.rows)} lenses in {out}; manifest: {out / 'manifest.csv'}", file=sys.stderr)
     if known.json:
-        print(json.dumps({"specs": [s["slug"] for s in specs], "lenses": merged.rows}, indent=2))
+        stdout.write(json.dumps({"specs": [s["slug"] for s in specs], "lenses": merged.rows}, indent=2) + "\n")
     return 0

@@ -16,7 +16,7 @@ import os
 import sys
 import tempfile
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Optional, Sequence, TextIO
 
 from .files import write_text_atomically
 from .tasks import fail_once, run_cli
@@ -91,7 +91,7 @@ def prepare(binary: str, argv: Sequence[str]) -> tuple[str, argparse.Namespace]:
     return binary, parse(argv)
 
 
-def run(session, plan: tuple[str, argparse.Namespace], fault_dir: Optional[str]) -> int:
+def run(session, plan: tuple[str, argparse.Namespace], fault_dir: Optional[str], stdout: TextIO) -> int:
     binary, args = plan
     options = []
     if args.device:
@@ -126,6 +126,6 @@ def run(session, plan: tuple[str, argparse.Namespace], fault_dir: Optional[str])
     if args.csv is not None:
         write_text_atomically(args.csv, splice_rows([r[1] for r in results]))
         print(f"wrote {args.csv}", file=sys.stderr)
-    sys.stdout.write(splice_json(stdouts) if args.json else splice_rows(stdouts))
-    sys.stdout.flush()
+    stdout.write(splice_json(stdouts) if args.json else splice_rows(stdouts))
+    stdout.flush()
     return 0
