@@ -22,7 +22,7 @@ from unicac.train.archs import build_network  # noqa: E402
 
 ITERATIONS = 3
 # Weights after 3 Adam steps (lr 1e-3): DDP averages the two ranks' mean-loss gradients in float32, one
-# process averages the same four samples in one mean; the summation order differs, so the weights may
+# process averages the same two samples in one mean; the summation order differs, so the weights may
 # differ by float32 rounding carried through Adam's update (observed: max |difference| 2.8e-7, largest
 # weight change from the start 2.0e-3; 2026-12-01, 2 shared cores).
 WEIGHT_ATOL = 1e-5
