@@ -135,25 +135,36 @@ def seed_part(out: Path, library: Manifest, slug: str, part: Path) -> None:
 
 
 def merge(out: Path, specs: list[dict]) -> Manifest:
-    """Copies every part's lenses and checkpoints into OUT and appends their new manifest rows in order."""
+    """Copies every part's lenses and checkpoints into OUT and writes the manifest as the CLI would have:
+    OUT's rows in their order, less the ones a part dropped (the CLI keeps the `count` best and removes a
+    replaced lens), then each part's new rows in specification order."""
     library = Manifest(out)
-    known = {row["id"] for row in library.rows}
-    json_lines, csv_lines, header = list(library.json_lines), list(library.csv_lines), library.header
-    for spec in specs:
-        part = out / PARTS / spec["slug"]
+    parts = [Manifest(out / PARTS / spec["slug"]) for spec in specs]
+    slugs = {spec["slug"] for spec in specs}
+    listed = {row["id"] for part in parts for row in part.rows}
+    dropped = [r["id"] for r in library.rows if r["spec"] in slugs and r["id"] not in listed]
+    kept = [i for i, r in enumerate(library.rows) if r["id"] not in dropped]
+    json_lines = [library.json_lines[i] for i in kept]
+    csv_lines = [library.csv_lines[i] for i in kept]
+    known = {library.rows[i]["id"] for i in kept}
+    header = library.header
+    for spec, part in zip(specs, parts):
         for sub in ("lenses", "state"):
-            for file in sorted((part / sub).glob("*")):
+            for file in sorted((part.directory / sub).glob("*")):
                 if not file.name.startswith("."):
                     copy_atomically(file, out / sub / file.name)
-        part_manifest = Manifest(part)
-        header = header or part_manifest.header
-        for i, row in enumerate(part_manifest.rows):
+        header = header or part.header
+        for i, row in enumerate(part.rows):
             if row["id"] not in known:
-                json_lines.append(part_manifest.json_lines[i])
-                csv_lines.append(part_manifest.csv_lines[i])
+                json_lines.append(part.json_lines[i])
+                csv_lines.append(part.csv_lines[i])
                 known.add(row["id"])
     if header is not None and (library.exists or json_lines):
         library.write(json_lines, csv_lines, header)
+    # Files of dropped lenses go after the manifest no longer lists them (as the CLI removes them).
+    for lens_id in dropped:
+        for extension in ("json", "zmx", "png", "report.json"):
+            (out / "lenses" / f"{lens_id}.{extension}").unlink(missing_ok=True)
     return Manifest(out)
 
 
