@@ -26,6 +26,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "reference"))
 import make_references as mr  # noqa: E402  (shared lens reader and optiland builder)
+import stop_aiming  # noqa: E402  (explicitly stop-aimed rays, for the 100-degree wide angle)
 
 WAVELENGTHS = [mr.LAMBDA_F, mr.LAMBDA_D, mr.LAMBDA_C]
 UNICAC_CATALOGS = ("schott", "cdgm", "ohara")
@@ -180,10 +181,13 @@ def lens_skeleton(name, provenance, aperture, max_field, surfaces, catalogs) -> 
 
 
 def from_sample(stem: str) -> dict:
-    module, cls_name, source = SAMPLES[stem]
+    return from_sample_class(*SAMPLES[stem])
+
+
+def from_sample_class(module: str, cls_name: str, source: str, scale: float = 1.0) -> dict:
     optic = getattr(importlib.import_module(module), cls_name)()
     surfs = list(optic.surfaces)[1:]
-    surfaces = [surface_dict(s, i == len(surfs) - 1) for i, s in enumerate(surfs)]
+    surfaces = [scaled(surface_dict(s, i == len(surfs) - 1), scale) for i, s in enumerate(surfs)]
     cats = sorted({m.split(":")[0] for m in (s.get("material") for s in surfaces)
                    if isinstance(m, str)}) or ["SCHOTT"]
     max_field = float(max(abs(f.y) for f in optic.fields.fields))
@@ -191,8 +195,23 @@ def from_sample(stem: str) -> dict:
                   f"{LICENCE}. Converted by lenses/tools/from_optiland.py: wavelengths set to F,d,C, "
                   f"fields to 0/0.7/1.0 of the sample's maximum, semi-diameters sized from a "
                   f"full-pupil trace (+2 %).")
-    return lens_skeleton(f"{cls_name} (optiland sample)", provenance, aperture_dict(optic),
+    aperture = aperture_dict(optic)
+    if "entrance_pupil_diameter_mm" in aperture:
+        aperture["entrance_pupil_diameter_mm"] *= scale
+    return lens_skeleton(f"{cls_name} (optiland sample)", provenance, aperture,
                          max_field, surfaces, cats)
+
+
+def scaled(surface: dict, scale: float) -> dict:
+    """A surface with every length multiplied by `scale` (1 leaves the values untouched)."""
+    if scale == 1.0:
+        return surface
+    surface["curvature_per_mm"] /= scale
+    surface["thickness_mm"] = round(surface["thickness_mm"] * scale, 9)
+    if "aspheric_coefficients" in surface:
+        surface["aspheric_coefficients"] = [a / scale ** (2 * i + 1) for i, a in
+                                            enumerate(surface["aspheric_coefficients"])]
+    return surface
 
 
 def phone_lens() -> dict:
@@ -275,11 +294,61 @@ def write_lens(stem: str, lens: dict) -> None:
         raise SystemExit(f"{stem}: {failed} rays failed in optiland")
 
 
-def main() -> None:
+# ---------------------------------------------------------------- 100-degree wide angle
+INCH_MM = 25.4
+WIDE_100_SOURCE = ("Milton Laikin, Lens Design, 4th ed., CRC Press 2007, p. 108 "
+                   "(100-degree retrofocus wide angle, 50 deg half field, F/4)")
+
+
+def wide_angle_100() -> dict:
+    """optiland's WideAngle100FOV scaled from inches to mm (EFL 16.67 mm, F/4, 50 deg
+    half field; stop surface 9 of 20). Its pupil moves far off the paraxial one at
+    wide fields, so its semi-diameters are sized from explicitly stop-aimed rays
+    (tests/reference/stop_aiming.py), not from paraxially aimed ones."""
+    lens = from_sample_class("optiland.samples.objectives", "WideAngle100FOV", WIDE_100_SOURCE,
+                             scale=INCH_MM)
+    lens["provenance"] = lens["provenance"].replace(
+        "semi-diameters sized from a full-pupil trace (+2 %).",
+        "all lengths scaled by 25.4 (the sample is in inches), semi-diameters sized from a "
+        "full-pupil trace of rays aimed at the stop (real ray aiming, +2 %).")
+    return lens
+
+
+def add_stop_aimed_semi_diameters(lens: dict) -> int:
+    """Semi-diameters from rays aimed at the stop (hexapolar + 72 rim rays, every field
+    and wavelength), +2 % rounded up to 0.001 mm; returns the number of rays that failed."""
+    lens = dict(lens, name_stem="sizing")
+    idx = mr.lens_indices(lens)
+    aim = mr.common_aiming(lens)
+    pupil = mr.hexapolar_pupil() + [(math.cos(a), math.sin(a))
+                                    for a in np.linspace(0, 2 * math.pi, 72, endpoint=False)]
+    heights, failed = np.zeros(len(lens["surfaces"])), 0
+    for i, wl in enumerate(mr.wavelengths(lens)):
+        model = mr.OptilandModel(lens, idx[i], wl)
+        for f in mr.field_angles(lens):
+            rays = stop_aiming.aim_rays(model, lens, aim, f, pupil)
+            ok, pts = rays["ok"], rays["points"]
+            failed += int((~ok).sum())
+            heights = np.maximum(heights, np.nanmax(np.hypot(pts[ok, :, 0], pts[ok, :, 1]), axis=0))
+    for s, h in zip(lens["surfaces"], heights):
+        s["semi_diameter_mm"] = math.ceil(h * 1.02 * 1000.0) / 1000.0
+    return failed
+
+
+def main(stems: list[str]) -> None:
+    if stems == ["wide_angle_100"]:
+        lens = wide_angle_100()
+        failed = add_stop_aimed_semi_diameters(lens)
+        if failed:
+            raise SystemExit(f"wide_angle_100: {failed} stop-aimed rays failed in optiland")
+        path = ROOT / "lenses" / "wide_angle_100.json"
+        path.write_text(json.dumps(lens, indent=2) + "\n")
+        print(f"wide_angle_100 {len(lens['surfaces']):2d} surfaces -> {path}")
+        return
     for stem in SAMPLES:
         write_lens(stem, from_sample(stem))
     write_lens("phone_asphere", phone_lens())
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])

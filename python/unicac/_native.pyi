@@ -92,9 +92,11 @@ class Simulator:
     @property
     def half_diagonal_mm(self) -> float: ...
     def optics(self, raw: _F32) -> _F32: ...
-    def simulate(self, image: _Image, seed: int = 0, isp: bool = True, noise: bool = True) -> _Image: ...
+    def simulate(
+        self, image: _Image, seed: int = 0, isp: bool = True, noise: bool = True, sensor_bits: int = 10
+    ) -> _Image: ...
     def render_pair(
-        self, image: _Image, seed: int = 0, isp: bool = True, noise: bool = True
+        self, image: _Image, seed: int = 0, isp: bool = True, noise: bool = True, sensor_bits: int = 10
     ) -> tuple[_F32, _F32]: ...
     def render_pair_window(
         self,
@@ -125,13 +127,13 @@ def aim_rays(
     field_deg: float,
     pupil: _F64,
     wavelength_um: Optional[float] = None,
-    aiming: str = "paraxial",
+    aiming: str = "auto",
 ) -> tuple[_F64, _F64]: ...
 def spots(
     lens: Lens,
     fields_deg: Optional[list[float]] = None,
     wavelengths_um: Optional[list[float]] = None,
-    aiming: str = "paraxial",
+    aiming: str = "auto",
     pupil_sampling: str = "hexapolar:10",
 ) -> list[dict[str, Any]]: ...
 def psf(
@@ -141,6 +143,7 @@ def psf(
     mode: str = "geometric",
     pixel_um: Optional[float] = None,
     object_distance_mm: Optional[float] = None,
+    max_kernel_px: Optional[int] = None,
 ) -> Psf: ...
 def psf_grid(
     lens: Lens,
@@ -159,6 +162,7 @@ def simulate(
     noise: bool = True,
     illumination: bool = True,
     distortion: bool = True,
+    sensor_bits: int = 10,
 ) -> _Image: ...
 def read_image(path: _Path, linear: bool = False) -> _Image: ...
 def write_image(path: _Path, image: _Image) -> None: ...

@@ -64,6 +64,10 @@ pub struct PsfArgs {
     /// Object distance (mm) replacing the file's (finite conjugates, depth-dependent PSFs).
     #[arg(long)]
     pub object_distance_mm: Option<f64>,
+    /// Largest kernel (odd, 1-4095 px). Given, the kernel is sized to hold every ray (the whole PSF) up
+    /// to this size; by default it holds 99.5% of the energy, at most 127 px.
+    #[arg(long, value_parser = parse_kernel_px)]
+    pub max_kernel_px: Option<usize>,
     /// Compute the PSF even when the cache holds it (the cache: $UNICAC_CACHE_DIR, else ~/.cache/unicac).
     #[arg(long)]
     pub no_cache: bool,
@@ -93,10 +97,16 @@ pub struct SimulateArgs {
     pub pixel_um: Option<f64>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// No colour filter array, demosaicing or white-balance jitter. With --no-noise as well, no sensor
+    /// read-out at all: the optics at full precision.
     #[arg(long)]
     pub no_isp: bool,
     #[arg(long)]
     pub no_noise: bool,
+    /// Sensor read-out bit depth (1-16): white level 2^N - 1 DN (docs/conventions.md, "Sensor and ISP").
+    #[arg(long, default_value_t = unicac_image::isp::DEFAULT_BIT_DEPTH,
+          value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub sensor_bits: u8,
     #[arg(long)]
     pub no_illumination: bool,
     #[arg(long)]
@@ -110,6 +120,10 @@ pub struct SimulateArgs {
     /// Picture of the PSF map used (a 7 x 5 grid over the sensor), .png or .svg.
     #[arg(long)]
     pub psf_plot: Option<PathBuf>,
+    /// PNG of 1:1 crops of the first image, sharp above simulated, at the centre and at the edge of the
+    /// field (top-right corner).
+    #[arg(long)]
+    pub crops: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -201,8 +215,9 @@ pub struct TraceArgs {
     /// Normalised pupil coordinates PX,PY in [-1, 1].
     #[arg(long, value_parser = parse_pupil, allow_hyphen_values = true)]
     pub pupil: Option<[f64; 2]>,
-    /// Ray aiming for --field-deg rays.
-    #[arg(long, default_value = "paraxial", value_parser = parse_aiming)]
+    /// Ray aiming for --field-deg rays: auto (real where the lens's pupil is aberrated), paraxial or real
+    /// (docs/conventions.md).
+    #[arg(long, default_value = "auto", value_parser = parse_aiming)]
     pub aim: Aiming,
     /// Wavelength (um); default: the lens's primary wavelength.
     #[arg(long, allow_hyphen_values = true)]
@@ -223,7 +238,8 @@ pub struct RaySelection {
     /// Wavelengths (um); default: the lens's wavelengths.
     #[arg(long = "wavelength-um", allow_hyphen_values = true)]
     pub wavelengths_um: Vec<f64>,
-    #[arg(long, default_value = "paraxial", value_parser = parse_aiming)]
+    /// auto (real where the lens's pupil is aberrated), paraxial or real (docs/conventions.md).
+    #[arg(long, default_value = "auto", value_parser = parse_aiming)]
     pub aim: Aiming,
 }
 
@@ -332,6 +348,14 @@ fn parse_size(text: &str) -> Result<[usize; 2], String> {
         (Some(w), Some(h)) => Ok([w, h]),
         _ => Err(format!("'{text}': width and height must be positive integers")),
     }
+}
+
+fn parse_kernel_px(text: &str) -> Result<usize, String> {
+    let n: usize = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{text}' is not a whole number"))?;
+    unicac_psf::check_kernel_cap(n)
 }
 
 fn parse_aiming(text: &str) -> Result<Aiming, String> {

@@ -16,6 +16,7 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    give_vulkan_a_runtime_dir();
     let cli = args::Cli::parse();
     match commands::run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
@@ -40,4 +41,24 @@ fn message(error: &anyhow::Error) -> String {
         }
     }
     text
+}
+
+/// Mesa's Vulkan drivers print "error: XDG_RUNTIME_DIR is invalid or not set in the environment" when a
+/// device is opened from a shell without that variable (su, ssh without a session, cron, CI): not an
+/// error of this run. Point it at a private directory (mode 0700, as the XDG spec requires) before any
+/// thread starts; a set variable is left alone.
+fn give_vulkan_a_runtime_dir() {
+    use std::os::unix::fs::DirBuilderExt;
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    // SAFETY: getuid has no preconditions and cannot fail.
+    let uid = unsafe { libc::getuid() };
+    let dir = std::env::temp_dir().join(format!("unicac-runtime-{uid}"));
+    let made = std::fs::DirBuilder::new().mode(0o700).create(&dir);
+    let usable = made.is_ok() || std::fs::metadata(&dir).is_ok_and(|m| m.is_dir());
+    if usable {
+        // SAFETY: single-threaded here (first thing in main), so no other thread reads the environment.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
+    }
 }

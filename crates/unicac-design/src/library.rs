@@ -165,10 +165,13 @@ impl Library {
     pub fn add(&mut self, entry: &Entry<'_>) -> Result<String> {
         let slug = entry.spec.slug();
         let kind = if entry.aspheric { "a" } else { "s" };
+        // One past the highest number in use: ids stay unique when replaced lenses have been removed.
+        let prefix = format!("{slug}_{kind}");
         let number = self
             .rows_for(&slug)
-            .filter(|r| r.aspheric == entry.aspheric)
-            .count()
+            .filter_map(|r| r.id.strip_prefix(&prefix)?.parse::<usize>().ok())
+            .max()
+            .unwrap_or(0)
             + 1;
         let id = format!("{slug}_{kind}{number:03}");
         let base = self.dir.join("lenses").join(&id);
@@ -223,6 +226,31 @@ impl Library {
         Ok(id)
     }
 
+    /// Removes a lens and the aspheric designs made from it: first from the manifest (so an interrupted
+    /// run never lists a missing file), then its files.
+    pub fn remove(&mut self, id: &str) -> Result<()> {
+        let gone: Vec<String> = self
+            .rows
+            .iter()
+            .filter(|r| r.id == id || r.parent == id)
+            .map(|r| r.id.clone())
+            .collect();
+        self.rows.retain(|r| !gone.contains(&r.id));
+        self.write_manifest()?;
+        for gone_id in &gone {
+            let base = self.dir.join("lenses").join(gone_id);
+            for extension in ["json", "zmx", "png", "report.json"] {
+                let path = base.with_extension(extension);
+                match std::fs::remove_file(&path) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                    Err(e) => return Err(io_error(&path)(e)),
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn write_manifest(&self) -> Result<()> {
         let mut jsonl = String::new();
         let mut csv = format!("{CSV_COLUMNS}\n");
@@ -271,6 +299,11 @@ pub struct Checkpoint {
     pub candidates: Vec<Vec<f64>>,
     pub merits: Vec<f64>,
     pub finished: Vec<usize>,
+    /// The `count` of the run of this spec and seed that ended (converged, rounds done, count reached or
+    /// budget used): a rerun asking for at most as many lenses keeps the library as it is; a larger count
+    /// continues. A run that was killed leaves it unset and resumes.
+    #[serde(default)]
+    pub done_count: Option<usize>,
 }
 
 impl Checkpoint {

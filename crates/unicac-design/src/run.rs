@@ -25,10 +25,18 @@ use std::time::{Duration, Instant};
 /// its RMS spot smaller): an asphere that buys nothing is not a new lens.
 pub const MIN_ASPHERE_GAIN: f64 = 0.005;
 
+/// Search rounds in a row that must bring no better design before a full set of `count` counts as
+/// converged (each round is a new global search with its own seed stream).
+pub const IDLE_ROUNDS_TO_CONVERGE: usize = 2;
+
 #[derive(Debug, Clone)]
 pub struct RunSettings {
-    /// Accepted lenses wanted per spec (spherical ones; with `aspheric`, each also gets its asphere).
+    /// Lenses kept per spec (spherical ones; with `aspheric`, each also gets its asphere): the `count`
+    /// best distinct designs found (smallest mean RMS spot radius), or with `first_acceptable` the first
+    /// `count` acceptable ones.
     pub count: usize,
+    /// Stop at the first `count` acceptable designs (fast) instead of keeping the best within the budget.
+    pub first_acceptable: bool,
     pub seed: u64,
     /// Wall-clock budget for the whole run (all specs), seconds.
     pub time_budget_s: Option<f64>,
@@ -47,6 +55,7 @@ impl RunSettings {
     pub fn new(count: usize, seed: u64) -> Self {
         RunSettings {
             count,
+            first_acceptable: false,
             seed,
             time_budget_s: None,
             gradient: Gradient::Exact,
@@ -80,6 +89,12 @@ pub enum Event {
     Rejected {
         slug: String,
         reasons: Vec<String>,
+    },
+    /// A kept design dropped for a better one (`count` best are kept).
+    Replaced {
+        slug: String,
+        id: String,
+        rms_mean_um: f64,
     },
     SpecDone {
         slug: String,
@@ -210,6 +225,22 @@ fn refine_within_limits(
     x
 }
 
+/// Why the work on a spec stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// `first_acceptable`: the first `count` acceptable designs were found.
+    CountReached,
+    /// The best `count` designs did not change for `IDLE_ROUNDS_TO_CONVERGE` search rounds.
+    Converged,
+    /// The time budget ran out.
+    Budget,
+    /// The search rounds (`RunSettings::rounds`, without a budget) were used up.
+    RoundsDone,
+    /// An earlier run of this spec with this seed into the same library had finished: nothing was redone.
+    AlreadyDone,
+}
+
 /// Summary of one spec.
 #[derive(Debug, Clone)]
 pub struct SpecSummary {
@@ -217,10 +248,14 @@ pub struct SpecSummary {
     pub accepted: usize,
     pub first_accepted_s: Option<f64>,
     pub elapsed_s: f64,
+    pub stop_reason: StopReason,
+    /// Search rounds run (global search and finishing of its candidates).
+    pub rounds: usize,
 }
 
-/// Designs `spec` into `library` until `settings.count` lenses are accepted, the rounds are used up, or
-/// `deadline` passes.
+/// Designs `spec` into `library`: keeps the `settings.count` best distinct acceptable designs until the
+/// search converges, the rounds are used up or `deadline` passes (with `first_acceptable`: stops at the
+/// first `count` acceptable ones).
 pub fn run_spec(
     spec: &DesignSpec,
     settings: &RunSettings,
@@ -235,9 +270,28 @@ pub fn run_spec(
     let mut first_accepted_s = None;
     let checkpoint_path = library.checkpoint_path(&slug);
     let mut checkpoint = Checkpoint::load(&checkpoint_path)?.filter(|c| c.seed == settings.seed);
+    let done_before = checkpoint
+        .as_ref()
+        .and_then(|c| c.done_count)
+        .is_some_and(|done| settings.count <= done);
+    if let Some(c) = checkpoint.as_mut() {
+        c.done_count = None;
+    }
     let mut round = checkpoint.as_ref().map_or(0, |c| c.round);
     let out_of_time = || deadline.is_some_and(|d| Instant::now() >= d);
-    while accepted_now(library) < settings.count && round < settings.rounds && !out_of_time() {
+    let enough = |library: &Library| settings.first_acceptable && accepted_now(library) >= settings.count;
+    let mut idle_rounds = 0;
+    let mut converged = false;
+    let first_round = round;
+    // Keeping the best, each run gets its own rounds (a resumed run with a larger count searches anew);
+    // first-acceptable runs count rounds from the start, as they always did.
+    let round_limit = if settings.first_acceptable {
+        settings.rounds
+    } else {
+        first_round.saturating_add(settings.rounds)
+    };
+    while !done_before && !enough(library) && round < round_limit && !out_of_time() && !converged {
+        let mut improved = false;
         // The global stage of this round, unless a checkpoint of it exists.
         let state = match checkpoint.take().filter(|c| c.round == round) {
             Some(state) => state,
@@ -268,6 +322,7 @@ pub fn run_spec(
                     merits: archive.iter().map(|c| c.merit).collect(),
                     candidates: archive.into_iter().map(|c| c.x).collect(),
                     finished: Vec::new(),
+                    done_count: None,
                 };
                 state.save(&checkpoint_path)?;
                 state
@@ -279,7 +334,7 @@ pub fn run_spec(
             .filter(|i| !state.finished.contains(i))
             .collect();
         for batch in pending.chunks(rayon::current_num_threads().max(1)) {
-            if accepted_now(library) >= settings.count || out_of_time() {
+            if enough(library) || out_of_time() {
                 break;
             }
             let results: Vec<(usize, Option<FinishedPair>)> = batch
@@ -296,7 +351,7 @@ pub fn run_spec(
                     continue;
                 }
                 if let Some((spherical, aspheric)) = result {
-                    if accepted_now(library) < settings.count {
+                    if !enough(library) {
                         let written = accept(
                             spec,
                             settings,
@@ -306,6 +361,7 @@ pub fn run_spec(
                             start,
                             events,
                         )?;
+                        improved |= written;
                         if written && first_accepted_s.is_none() {
                             first_accepted_s = Some(start.elapsed().as_secs_f64());
                         }
@@ -318,9 +374,35 @@ pub fn run_spec(
         if state.finished.len() == state.candidates.len() {
             round += 1;
             checkpoint = None;
+            // A full round that changed nothing in a full set of the best designs: one step towards
+            // convergence.
+            let full = accepted_now(library) >= settings.count;
+            idle_rounds = if full && !improved { idle_rounds + 1 } else { 0 };
+            converged = idle_rounds >= IDLE_ROUNDS_TO_CONVERGE;
         } else {
             checkpoint = Some(state);
         }
+    }
+    let stop_reason = if done_before {
+        StopReason::AlreadyDone
+    } else if enough(library) {
+        StopReason::CountReached
+    } else if converged {
+        StopReason::Converged
+    } else if out_of_time() {
+        StopReason::Budget
+    } else {
+        StopReason::RoundsDone
+    };
+    if !done_before {
+        let mut finished = checkpoint.unwrap_or_else(|| Checkpoint {
+            slug: slug.clone(),
+            seed: settings.seed,
+            round,
+            ..Checkpoint::default()
+        });
+        finished.done_count = Some(settings.count);
+        finished.save(&checkpoint_path)?;
     }
     let accepted = accepted_now(library);
     events(Event::SpecDone {
@@ -332,11 +414,14 @@ pub fn run_spec(
         accepted,
         first_accepted_s,
         elapsed_s: start.elapsed().as_secs_f64(),
+        stop_reason,
+        rounds: round - first_round,
     })
 }
 
-/// Writes the spherical design (and its aspheric child, if it improves on it and passes) when acceptable
-/// and new. Returns whether the spherical design was written.
+/// Writes the spherical design (and its aspheric child, if it improves on it and passes) when acceptable,
+/// new and, once `count` designs are kept, better (smaller mean RMS spot radius) than the worst kept one,
+/// which it then replaces. Returns whether the spherical design was written.
 fn accept(
     spec: &DesignSpec,
     settings: &RunSettings,
@@ -358,6 +443,28 @@ fn accept(
     if library.is_duplicate(&slug, false, rms, spherical.terms.total_track_mm) {
         return Ok(false);
     }
+    let kept: Vec<(f64, String)> = library
+        .rows_for(&slug)
+        .filter(|r| !r.aspheric)
+        .map(|r| (r.rms_mean_um, r.id.clone()))
+        .collect();
+    let worst = kept
+        .iter()
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .filter(|_| kept.len() >= settings.count)
+        .cloned();
+    if let Some((worst_rms, _)) = &worst {
+        if rms >= *worst_rms {
+            events(Event::Rejected {
+                slug,
+                reasons: vec![format!(
+                    "rms_mean_um: {rms:.3} is no better than the {} kept designs (worst {worst_rms:.3})",
+                    settings.count
+                )],
+            });
+            return Ok(false);
+        }
+    }
     let elapsed_s = start.elapsed().as_secs_f64();
     let id = library.add(&entry(spec, settings.seed, elapsed_s, spherical, None, None))?;
     events(Event::Accepted {
@@ -366,6 +473,14 @@ fn accept(
         aspheric: false,
         rms_mean_um: rms,
     });
+    if let Some((worst_rms, worst_id)) = worst {
+        library.remove(&worst_id)?;
+        events(Event::Replaced {
+            slug: slug.clone(),
+            id: worst_id,
+            rms_mean_um: worst_rms,
+        });
+    }
     if let Some(a) = aspheric {
         let improves = a.terms.merit < spherical.terms.merit * (1.0 - MIN_ASPHERE_GAIN)
             && a.verification.rms_mean_um < rms;

@@ -77,7 +77,7 @@ impl Constraints {
             glass_center_mm: [1.0 * s, 10.0 * s],
             air_center_mm: [0.1 * s, 20.0 * s],
             glass_edge_min_mm: 0.7 * s,
-            air_edge_min_mm: 0.05 * s,
+            air_edge_min_mm: 0.1 * s,
             back_focal_min_mm: 5.0 * s,
             // Room for the elements and the back focus: about f, plus about f/4 per element.
             total_track_max_mm: f_mm * (1.6 + 0.25 * elements as f64),

@@ -24,7 +24,8 @@ pub struct Verification {
     pub rays_ok: usize,
 }
 
-/// Polychromatic RMS radius (um) per field of `lens` at `fields_deg`, paraxial aiming, and ray counts.
+/// Polychromatic RMS radius (um) per field of `lens` at `fields_deg`, default (auto) aiming, and ray
+/// counts.
 pub fn polychromatic_rms(
     lens: &Lens,
     fields_deg: &[f64],
@@ -32,7 +33,7 @@ pub fn polychromatic_rms(
     let mut points: Vec<Vec<[f64; 2]>> = vec![Vec::new(); fields_deg.len()];
     let (mut traced, mut ok) = (0, 0);
     for wavelength in lens.wavelengths_um() {
-        let tracer = SpotTracer::new(lens, wavelength, Aiming::Paraxial)?;
+        let tracer = SpotTracer::new(lens, wavelength, Aiming::Auto)?;
         for (fi, &field) in fields_deg.iter().enumerate() {
             let spot = tracer.spot(field, &REPORT_SAMPLING);
             traced += spot.rays_traced;

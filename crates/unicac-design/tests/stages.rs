@@ -18,8 +18,11 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// Small settings in the first-acceptable mode (these tests are about the stages, resume and
+/// reproducibility; keeping the best designs is tested in tests/keep_best.rs).
 fn small(count: usize, seed: u64) -> RunSettings {
     let mut settings = RunSettings::new(count, seed);
+    settings.first_acceptable = true;
     settings.global.population = 24;
     settings.global.generations = 5;
     settings.global.parents = 6;

@@ -175,9 +175,10 @@ pub fn field_psf(
         .iter()
         .map(|&w| TraceSystem::new(lens, w, Clipping::Apertures))
         .collect::<Result<Vec<_>, _>>()?;
-    let host_rays: Vec<Vec<unicac_trace::Ray>> = match settings.aiming {
+    let aiming = settings.aiming.resolve(lens)?;
+    let host_rays: Vec<Vec<unicac_trace::Ray>> = match aiming {
         Aiming::Paraxial => Vec::new(),
-        Aiming::Real => {
+        Aiming::Real | Aiming::Auto => {
             let points = settings.pupil_sampling.points();
             systems
                 .iter()
@@ -198,9 +199,9 @@ pub fn field_psf(
         .enumerate()
         .map(|(i, system)| PsfPass {
             system,
-            source: match settings.aiming {
+            source: match aiming {
                 Aiming::Paraxial => RaySource::Pupil(pupil),
-                Aiming::Real => RaySource::Host(&host_rays[i]),
+                Aiming::Real | Aiming::Auto => RaySource::Host(&host_rays[i]),
             },
             weights: weights.weights[i].map(|w| w / traced),
         })

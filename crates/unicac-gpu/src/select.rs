@@ -4,7 +4,8 @@
 //!
 //! `auto` takes the GPU only when (a) an adapter exists, (b) it is a real GPU, not a CPU implementation
 //! such as lavapipe (measured slower than the CPU path at every batch size on the same cores, see
-//! docs/gpu.md), and (c) the batch holds at least `AUTO_MIN_RAYS` rays.
+//! docs/gpu.md), and (c) the batch holds at least `AUTO_MIN_RAYS` rays. (a) and (b) are first decided
+//! without Vulkan: no GPU device node, no hardware GPU (`hardware_gpu_node_present`).
 
 use crate::device::GpuContext;
 use crate::real::Precision;
@@ -68,6 +69,8 @@ impl DeviceSelection {
         match self.choice {
             DeviceChoice::Cpu => None,
             DeviceChoice::Auto if rays < AUTO_MIN_RAYS => None,
+            // Only a hardware GPU pays; without a device node for one, Vulkan is never touched.
+            DeviceChoice::Auto if !hardware_gpu_node_present() => None,
             DeviceChoice::Auto => self.open().filter(|t| !t.context().adapter.software),
             DeviceChoice::Gpu => self.open(),
         }
@@ -120,6 +123,28 @@ impl HitTracer for DeviceSelection {
     }
 }
 
+/// Whether this machine shows a device node a hardware Vulkan driver could use: a DRM render node
+/// (`/dev/dri/renderD*`: AMD, Intel, Nouveau, Apple, virtio GPUs) or an NVIDIA node (`/dev/nvidia0..`).
+/// Without one, the only Vulkan adapters are CPU implementations (lavapipe, SwiftShader), which `auto`
+/// never uses, so it can decide "CPU" without creating a Vulkan instance (which costs ~0.5-1 s with
+/// lavapipe and may print Mesa warnings). Looked up once per process: device nodes do not come and go
+/// during a run.
+pub fn hardware_gpu_node_present() -> bool {
+    static PRESENT: OnceLock<bool> = OnceLock::new();
+    *PRESENT.get_or_init(|| gpu_node_in(std::path::Path::new("/dev")))
+}
+
+fn gpu_node_in(dev: &std::path::Path) -> bool {
+    let has_entry = |dir: &std::path::Path, prefix: &str| {
+        std::fs::read_dir(dir).is_ok_and(|entries| {
+            entries
+                .flatten()
+                .any(|e| e.file_name().to_string_lossy().starts_with(prefix))
+        })
+    };
+    has_entry(&dev.join("dri"), "renderD") || has_entry(dev, "nvidia")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -135,6 +160,31 @@ mod tests {
             "adapter discovery must wait for a big job"
         );
         assert_eq!(auto.describe(), "cpu");
+    }
+
+    #[test]
+    fn gpu_nodes_are_recognised_from_the_device_directory() {
+        let dev = std::env::temp_dir().join(format!("unicac-dev-{}", std::process::id()));
+        std::fs::create_dir_all(dev.join("dri")).unwrap();
+        assert!(!gpu_node_in(&dev), "empty /dev");
+        std::fs::write(dev.join("dri").join("card0"), b"").unwrap();
+        assert!(!gpu_node_in(&dev), "a display node alone is no render node");
+        std::fs::write(dev.join("dri").join("renderD128"), b"").unwrap();
+        assert!(gpu_node_in(&dev));
+        std::fs::remove_dir_all(dev.join("dri")).unwrap();
+        std::fs::write(dev.join("nvidia0"), b"").unwrap();
+        assert!(gpu_node_in(&dev));
+        std::fs::remove_dir_all(&dev).unwrap();
+    }
+
+    #[test]
+    fn auto_without_a_gpu_node_never_opens_a_device() {
+        if hardware_gpu_node_present() {
+            return; // a machine with a GPU: auto may open it
+        }
+        let auto = DeviceSelection::new(DeviceChoice::Auto, Precision::F32);
+        assert!(auto.tracer_for(usize::MAX).is_none());
+        assert!(auto.tracer.get().is_none(), "no Vulkan instance without a GPU node");
     }
 
     #[test]

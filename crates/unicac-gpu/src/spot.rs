@@ -44,7 +44,7 @@ pub fn spot(
             });
             (tracer.trace(&cpu.system, &source)?, 0)
         }
-        Aiming::Real => {
+        Aiming::Real | Aiming::Auto => {
             let (rays, not_aimed) = cpu.aimed_rays(field_deg, &sampling.points());
             (tracer.trace(&cpu.system, &RaySource::Host(&rays))?, not_aimed)
         }

@@ -400,7 +400,7 @@ fn rms_by_field(lens: &Lens, angles: &[f64]) -> Result<Vec<f64>, OdeError> {
         lens,
         angles,
         &wavelengths,
-        Aiming::Paraxial,
+        Aiming::Auto,
         &PupilSampling::Hexapolar { rings: 10 },
     )?;
     Ok((0..angles.len())

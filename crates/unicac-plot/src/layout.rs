@@ -42,7 +42,7 @@ pub fn layout_bundles(lens: &Lens, rays_per_field: usize) -> Result<Vec<RayBundl
     }
     let first = lens.first_order()?;
     let wavelength = lens.primary_wavelength_um();
-    let aimer = Aimer::new(lens, wavelength, Aiming::Paraxial)?;
+    let aimer = Aimer::new(lens, wavelength, Aiming::Auto)?;
     let system = TraceSystem::new(lens, wavelength, Clipping::Apertures)?;
     let mut start_z = first.entrance_pupil_z_mm.min(0.0) - 0.2 * lens.total_track_mm().abs();
     if let Some(distance) = lens.object_distance_mm {

@@ -14,7 +14,8 @@ const ROW_HEIGHT: u32 = 26;
 /// Caption, x axis and margins of a panel.
 const PANEL_OVERHEAD: u32 = 100;
 const MIN_PLOT_HEIGHT: u32 = 170;
-/// Longer names are cut to this many characters.
+/// Longer names are cut to this many characters, from the left: names that share a start (paths,
+/// design ids) differ at their end.
 const MAX_NAME_CHARS: usize = 40;
 /// Bars at least this fraction of their axis carry their value inside their end.
 const INSIDE: f64 = 0.85;
@@ -39,7 +40,8 @@ pub fn ode_bars(names: &[String], ode: &[f64], rms_radius_um: &[f64], path: &Pat
         .iter()
         .map(|n| {
             if n.chars().count() > MAX_NAME_CHARS {
-                n.chars().take(MAX_NAME_CHARS - 1).chain(['…']).collect()
+                let skip = n.chars().count() - (MAX_NAME_CHARS - 1);
+                std::iter::once('…').chain(n.chars().skip(skip)).collect()
             } else {
                 n.clone()
             }

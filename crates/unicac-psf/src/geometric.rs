@@ -19,6 +19,20 @@ use std::sync::Arc;
 use unicac_optics::Lens;
 use unicac_trace::{Aimer, Aiming, Clipping, PupilSampling, StatusCounts, TraceSystem};
 
+/// Largest kernel a caller may ask for (`PsfSettings::with_kernel_cap`): 4095^2 f32 samples are 64 MiB
+/// per channel.
+pub const KERNEL_PX_LIMIT: usize = 4095;
+
+/// A requested kernel cap, checked: odd and 1..=`KERNEL_PX_LIMIT` pixels.
+pub fn check_kernel_cap(max_kernel_px: usize) -> Result<usize, String> {
+    if max_kernel_px % 2 == 0 || !(1..=KERNEL_PX_LIMIT).contains(&max_kernel_px) {
+        return Err(format!(
+            "{max_kernel_px}: expected an odd number of pixels from 1 to {KERNEL_PX_LIMIT}"
+        ));
+    }
+    Ok(max_kernel_px)
+}
+
 /// Fidelity knobs of a geometric PSF (defaults from the sweep in docs/performance.md).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PsfSettings {
@@ -38,11 +52,24 @@ impl PsfSettings {
     pub fn new(pixel_um: f64) -> PsfSettings {
         PsfSettings {
             pupil_sampling: PupilSampling::Fibonacci { n: 2048 },
-            aiming: Aiming::Paraxial,
+            aiming: Aiming::Auto,
             oversample: 4,
             pixel_um,
             energy_fraction: 0.995,
             max_kernel_px: 127,
+        }
+    }
+
+    /// These settings, or, given a size, the whole PSF: the kernel sized to hold every ray (energy
+    /// fraction 1), capped at `max_kernel_px` (odd) instead of the default 127 px.
+    pub fn with_kernel_cap(self, max_kernel_px: Option<usize>) -> PsfSettings {
+        match max_kernel_px {
+            Some(max_kernel_px) => PsfSettings {
+                max_kernel_px,
+                energy_fraction: 1.0,
+                ..self
+            },
+            None => self,
         }
     }
 }

@@ -14,7 +14,9 @@ pub mod spectrum;
 pub mod wave;
 
 pub use error::{PsfError, PsfResult};
-pub use geometric::{ChiefReference, FieldHits, FieldPsf, PsfSettings, PsfTracer};
+pub use geometric::{
+    check_kernel_cap, ChiefReference, FieldHits, FieldPsf, PsfSettings, PsfTracer, KERNEL_PX_LIMIT,
+};
 pub use hit_tracer::{default_hit_tracer, set_default_hit_tracer, CpuHitTracer, HitTracer};
 pub use kernel::Kernel;
 pub use spectrum::{visible_wavelengths_um, SpectralResponse, SpectralWeights};

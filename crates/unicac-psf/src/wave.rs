@@ -235,7 +235,7 @@ impl Channel {
             wavelength_um,
             clipped: TraceSystem::new(lens, wavelength_um, Clipping::Apertures)?,
             unclipped: TraceSystem::new(lens, wavelength_um, Clipping::None)?,
-            aimer: Aimer::new(lens, wavelength_um, Aiming::Paraxial)?,
+            aimer: Aimer::new(lens, wavelength_um, Aiming::Auto)?,
         })
     }
 }

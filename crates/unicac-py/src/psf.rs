@@ -117,8 +117,10 @@ fn geometric(
     pixel_um: f64,
     field_deg: f64,
     mono: bool,
+    max_kernel_px: Option<usize>,
 ) -> PyResult<FieldPsf> {
-    let tracer = PsfTracer::new(lens, weights, PsfSettings::new(pixel_um)).or_raise()?;
+    let settings = PsfSettings::new(pixel_um).with_kernel_cap(max_kernel_px);
+    let tracer = PsfTracer::new(lens, weights, settings).or_raise()?;
     let reference = tracer.reference_point_mm(field_deg).or_raise()?;
     let hits = tracer.hits(field_deg, reference);
     let size = tracer.kernel_size_for(&hits);
@@ -151,9 +153,12 @@ fn wave(
 /// `wavelengths_um`: None gives R, G, B kernels over 400-700 nm (31 wavelengths, the default camera's
 /// sensitivities); one wavelength gives a monochromatic kernel; several are weighted by the camera into
 /// R, G, B. `mode`: "geometric" (ray density) or "wave" (diffraction). `pixel_um`: default the lens's
-/// sensor pitch, else 2 um. `object_distance_mm` replaces the lens's object distance. GIL released.
+/// sensor pitch, else 2 um. `object_distance_mm` replaces the lens's object distance. `max_kernel_px`
+/// (geometric mode; odd, at most 4095): the kernel holds every ray up to this size instead of 99.5% of
+/// the energy within 127 px. GIL released.
 #[pyfunction]
-#[pyo3(signature = (lens, field_deg, wavelengths_um=None, mode="geometric", pixel_um=None, object_distance_mm=None))]
+#[pyo3(signature = (lens, field_deg, wavelengths_um=None, mode="geometric", pixel_um=None, object_distance_mm=None, max_kernel_px=None))]
+#[allow(clippy::too_many_arguments)]
 pub fn psf(
     py: Python<'_>,
     lens: &PyLens,
@@ -162,7 +167,11 @@ pub fn psf(
     mode: &str,
     pixel_um: Option<f64>,
     object_distance_mm: Option<f64>,
+    max_kernel_px: Option<usize>,
 ) -> PyResult<PyPsf> {
+    if let Some(n) = max_kernel_px {
+        unicac_psf::check_kernel_cap(n).map_err(|e| PyValueError::new_err(format!("max_kernel_px: {e}")))?;
+    }
     if mode != "geometric" && mode != "wave" {
         return Err(PyValueError::new_err(format!(
             "mode: '{mode}': expected \"geometric\" or \"wave\""
@@ -203,7 +212,7 @@ pub fn psf(
     };
     let (field_psf, undersampled) = crate::pool::detach(py, || match mode {
         "wave" => wave(lens_ref, weights.clone(), pixel_um, field_deg, mono),
-        _ => geometric(lens_ref, weights.clone(), pixel_um, field_deg, mono).map(|p| (p, false)),
+        _ => geometric(lens_ref, weights.clone(), pixel_um, field_deg, mono, max_kernel_px).map(|p| (p, false)),
     })?;
     from_field_psf(py, &field_psf, mode, pixel_um, &weights, undersampled)
 }

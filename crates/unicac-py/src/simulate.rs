@@ -11,9 +11,11 @@ use crate::lens::PyLens;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use unicac_image::isp::Pipeline;
+use unicac_image::isp::{Pipeline, SensorNoise};
 use unicac_image::Planar;
 use unicac_sim::{crop, LensSimulator, PixelWindow, SimulationSettings};
+
+use unicac_image::isp::DEFAULT_BIT_DEPTH as DEFAULT_SENSOR_BITS;
 
 /// A lens prepared for images of one size: PSF map, distortion and relative illumination.
 #[pyclass(module = "unicac", name = "Simulator", frozen)]
@@ -21,12 +23,22 @@ pub struct PySimulator {
     sim: LensSimulator,
 }
 
-fn pipeline(isp: bool, noise: bool) -> Pipeline {
-    Pipeline {
+/// The sensor/ISP chain of `unicac simulate` with its switches and `--sensor-bits`.
+fn pipeline(isp: bool, noise: bool, sensor_bits: u8) -> PyResult<Pipeline> {
+    if !(1..=16).contains(&sensor_bits) {
+        return Err(PyValueError::new_err(format!(
+            "sensor_bits: {sensor_bits}, expected 1..=16"
+        )));
+    }
+    Ok(Pipeline {
         no_isp: !isp,
         no_noise: !noise,
+        sensor: SensorNoise {
+            bit_depth: sensor_bits,
+            ..SensorNoise::default()
+        },
         ..Default::default()
-    }
+    })
 }
 
 impl PySimulator {
@@ -113,8 +125,10 @@ impl PySimulator {
 
     /// The whole chain on one image, as `unicac simulate` (seed `seed`): inverse white balance, optics,
     /// sensor noise and ISP (`isp=False`: no Bayer mosaic, no ISP randomisation; `noise=False`: no shot
-    /// or read noise). Returns the degraded image in the input's representation. GIL released.
-    #[pyo3(signature = (image, seed=0, isp=true, noise=true))]
+    /// or read noise; both off: no read-out, the optics at full precision). `sensor_bits`: read-out bit
+    /// depth (1-16, default 10 as `--sensor-bits`). Returns the degraded image in the input's
+    /// representation. GIL released.
+    #[pyo3(signature = (image, seed=0, isp=true, noise=true, sensor_bits=DEFAULT_SENSOR_BITS))]
     fn simulate<'py>(
         &self,
         py: Python<'py>,
@@ -122,10 +136,11 @@ impl PySimulator {
         seed: u64,
         isp: bool,
         noise: bool,
+        sensor_bits: u8,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (linear, kind) = image_linear(image, "image")?;
         self.check_dims(&linear, "image")?;
-        let pipeline = pipeline(isp, noise);
+        let pipeline = pipeline(isp, noise, sensor_bits)?;
         let degraded = crate::pool::detach(py, || self.sim.degrade(&pipeline, &linear, seed).or_raise())?;
         encoded_out(py, &degraded, kind)
     }
@@ -133,7 +148,7 @@ impl PySimulator {
     /// A training pair from one sharp image: `(degraded, target)`, both float32 H x W x 3 in the ISP's
     /// output encoding (sRGB, values in [0, 1]); the target is the sharp image through the same
     /// encoding (no optics, no noise). Same chain and seed rule as `simulate`. GIL released.
-    #[pyo3(signature = (image, seed=0, isp=true, noise=true))]
+    #[pyo3(signature = (image, seed=0, isp=true, noise=true, sensor_bits=DEFAULT_SENSOR_BITS))]
     fn render_pair<'py>(
         &self,
         py: Python<'py>,
@@ -141,10 +156,11 @@ impl PySimulator {
         seed: u64,
         isp: bool,
         noise: bool,
+        sensor_bits: u8,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let (linear, _) = image_linear(image, "image")?;
         self.check_dims(&linear, "image")?;
-        let pipeline = pipeline(isp, noise);
+        let pipeline = pipeline(isp, noise, sensor_bits)?;
         // `degrade` (not Pipeline::render_pair) so that optics errors keep their own class.
         let (degraded, target) = crate::pool::detach(py, || -> PyResult<(Planar, Planar)> {
             let degraded = self.sim.degrade(&pipeline, &linear, seed).or_raise()?;
@@ -280,11 +296,11 @@ impl PySimulator {
 }
 
 /// Simulates one image through `lens`, as `unicac simulate LENS IMAGE --seed SEED` (same flags:
-/// `isp`, `noise`, `illumination`, `distortion`). `image`: H x W x 3 uint8/uint16 (sRGB) or float32
+/// `isp`, `noise`, `illumination`, `distortion`, `sensor_bits`). `image`: H x W x 3 uint8/uint16 (sRGB) or float32
 /// (linear); the result has the same dtype and representation. For many images of one size, build a
 /// `Simulator` once instead (the PSFs are traced per call here). GIL released.
 #[pyfunction]
-#[pyo3(signature = (lens, image, pixel_um=None, seed=0, isp=true, noise=true, illumination=true, distortion=true))]
+#[pyo3(signature = (lens, image, pixel_um=None, seed=0, isp=true, noise=true, illumination=true, distortion=true, sensor_bits=DEFAULT_SENSOR_BITS))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -296,6 +312,7 @@ pub fn simulate<'py>(
     noise: bool,
     illumination: bool,
     distortion: bool,
+    sensor_bits: u8,
 ) -> PyResult<Bound<'py, PyAny>> {
     let (linear, _) = image_linear(image, "image")?;
     let simulator = PySimulator::new(
@@ -307,7 +324,7 @@ pub fn simulate<'py>(
         distortion,
         illumination,
     )?;
-    simulator.simulate(py, image, seed, isp, noise)
+    simulator.simulate(py, image, seed, isp, noise, sensor_bits)
 }
 
 /// PSFs over a `width_px` x `height_px` image at the centres of a `nodes_y` x `nodes_x` grid (see

@@ -164,11 +164,12 @@ pub fn trace_detailed<'py>(
 }
 
 /// Object-space rays of field `field_deg` through normalised pupil points `pupil` (float64, (M, 2)),
-/// aimed `"paraxial"` or `"real"` (docs/conventions.md), at `wavelength_um` (default: primary).
+/// aimed `"auto"` (the default: real where the pupil is aberrated), `"paraxial"` or `"real"`
+/// (docs/conventions.md), at `wavelength_um` (default: primary).
 /// Returns `(starts, dirs)`, float64 (M, 3) each, ready for `trace`; rows that real aiming could not
 /// place are NaN (and trace as `invalid_input`).
 #[pyfunction]
-#[pyo3(signature = (lens, field_deg, pupil, wavelength_um=None, aiming="paraxial"))]
+#[pyo3(signature = (lens, field_deg, pupil, wavelength_um=None, aiming="auto"))]
 pub fn aim_rays<'py>(
     py: Python<'py>,
     lens: &PyLens,
@@ -209,7 +210,7 @@ pub fn aim_rays<'py>(
 /// image-surface intercepts (float64, (M, 2)). Defaults: the lens's fields and wavelengths.
 /// `pupil_sampling`: "hexapolar:R", "grid:N", "fibonacci:N" or "random:N[:SEED]".
 #[pyfunction]
-#[pyo3(signature = (lens, fields_deg=None, wavelengths_um=None, aiming="paraxial", pupil_sampling="hexapolar:10"))]
+#[pyo3(signature = (lens, fields_deg=None, wavelengths_um=None, aiming="auto", pupil_sampling="hexapolar:10"))]
 pub fn spots<'py>(
     py: Python<'py>,
     lens: &PyLens,

@@ -8,6 +8,9 @@
 //!   point with a finite-difference Jacobian, from the paraxial guess; where that fails (wide fields),
 //!   by continuation from the axis in growing field steps.
 //!
+//! - `Auto` (the default): `Real` for lenses whose paraxial chief ray misses the stop centre by more than
+//!   `AUTO_REAL_AIMING_STOP_MISS` of R_stop at the largest field, else `Paraxial` (`AutoAiming`).
+//!
 //! Pupils come from the primary wavelength, as in Zemax; each ray is aimed at its own wavelength.
 
 use crate::error::{TraceError, TraceResult};
@@ -19,9 +22,12 @@ use unicac_optics::{FirstOrder, Lens};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Aiming {
-    #[default]
     Paraxial,
     Real,
+    /// `Real` when the lens's pupil is aberrated enough for paraxial aiming to be wrong, else `Paraxial`
+    /// (see `AutoAiming`). Resolved once per lens by `Aimer::new`.
+    #[default]
+    Auto,
 }
 
 impl std::str::FromStr for Aiming {
@@ -30,7 +36,58 @@ impl std::str::FromStr for Aiming {
         match text {
             "paraxial" => Ok(Aiming::Paraxial),
             "real" => Ok(Aiming::Real),
-            _ => Err(format!("'{text}': expected paraxial or real")),
+            "auto" => Ok(Aiming::Auto),
+            _ => Err(format!("'{text}': expected auto, paraxial or real")),
+        }
+    }
+}
+
+/// `Aiming::Auto` switches to real aiming when the paraxially aimed chief ray of the lens's largest field
+/// (primary wavelength, no clipping) crosses the stop farther than this fraction of R_stop from its
+/// centre, or does not reach it. At 25% the bundled classic lenses (largest miss 5.9%, the Cooke triplet
+/// at 20 deg) stay paraxial, bit for bit as before, while the 100-degree retrofocus
+/// `lenses/wide_angle_100.json` (miss 346% of R_stop at 50 deg) switches.
+pub const AUTO_REAL_AIMING_STOP_MISS: f64 = 0.25;
+
+/// What `Aiming::Auto` decided for a lens, and why (reported in the JSON of the commands).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct AutoAiming {
+    /// The aiming in use: `paraxial` or `real`.
+    pub aiming: Aiming,
+    /// Field at which the pupil was checked: the lens's largest (deg).
+    pub checked_field_deg: f64,
+    /// Distance of the paraxially aimed chief ray from the stop centre, as a fraction of R_stop; None
+    /// when that ray does not reach the stop.
+    pub chief_ray_stop_miss: Option<f64>,
+    /// The switching threshold, `AUTO_REAL_AIMING_STOP_MISS`.
+    pub threshold: f64,
+}
+
+impl AutoAiming {
+    /// The decision for `lens` (pupils from the primary wavelength, as every aiming).
+    pub fn decide(lens: &Lens) -> TraceResult<AutoAiming> {
+        let probe = Aimer::resolved(lens, lens.primary_wavelength_um(), Aiming::Paraxial)?;
+        let field = probe.first_order.max_field_deg();
+        let r_stop = probe.first_order.stop_radius_mm;
+        let miss = probe
+            .stop_intercept(field, [0.0, 0.0])
+            .map(|hit| hit[0].hypot(hit[1]) / r_stop.abs().max(f64::MIN_POSITIVE));
+        let real = miss.is_none_or(|m| !(m <= AUTO_REAL_AIMING_STOP_MISS));
+        Ok(AutoAiming {
+            aiming: if real { Aiming::Real } else { Aiming::Paraxial },
+            checked_field_deg: field,
+            chief_ray_stop_miss: miss,
+            threshold: AUTO_REAL_AIMING_STOP_MISS,
+        })
+    }
+}
+
+impl Aiming {
+    /// `Paraxial` or `Real`: this aiming, with `Auto` decided for `lens`.
+    pub fn resolve(self, lens: &Lens) -> TraceResult<Aiming> {
+        match self {
+            Aiming::Auto => Ok(AutoAiming::decide(lens)?.aiming),
+            fixed => Ok(fixed),
         }
     }
 }
@@ -48,7 +105,13 @@ pub struct Aimer {
 }
 
 impl Aimer {
+    /// An aimer; `Aiming::Auto` is decided here for the lens (so `aimer.aiming` is never `Auto`).
     pub fn new(lens: &Lens, wavelength_um: f64, aiming: Aiming) -> TraceResult<Aimer> {
+        let aiming = aiming.resolve(lens)?;
+        Aimer::resolved(lens, wavelength_um, aiming)
+    }
+
+    fn resolved(lens: &Lens, wavelength_um: f64, aiming: Aiming) -> TraceResult<Aimer> {
         Ok(Aimer {
             unclipped: TraceSystem::new(lens, wavelength_um, Clipping::None)?,
             first_order: lens.first_order()?,
@@ -62,7 +125,8 @@ impl Aimer {
     pub fn ray(&self, field_deg: f64, px: f64, py: f64) -> TraceResult<Ray> {
         match self.aiming {
             Aiming::Paraxial => Ok(self.paraxial_ray(field_deg, px, py)),
-            Aiming::Real => self.real_ray(field_deg, px, py),
+            // `new` resolves Auto; an Aimer built otherwise aims for real.
+            Aiming::Real | Aiming::Auto => self.real_ray(field_deg, px, py),
         }
     }
 

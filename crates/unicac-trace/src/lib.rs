@@ -26,7 +26,7 @@ pub mod summary;
 pub mod system;
 pub mod workload;
 
-pub use aim::{Aimer, Aiming};
+pub use aim::{Aimer, Aiming, AutoAiming, AUTO_REAL_AIMING_STOP_MISS};
 pub use batch::{trace_rays, trace_rays_serial};
 pub use error::{TraceError, TraceResult};
 pub use pupil::PupilSampling;

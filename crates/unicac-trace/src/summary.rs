@@ -29,7 +29,7 @@ impl LensSummary {
             surfaces: lens.surfaces.len(),
             stop_surface_number: lens.stop_index + 1,
             working_f_number: spot::real_working_f_number(lens)?,
-            clear_semi_diameters_mm: clear_semi_diameters(lens, Aiming::Paraxial)?,
+            clear_semi_diameters_mm: clear_semi_diameters(lens, Aiming::Auto)?,
             distortion: spot::distortion(lens, &first_order.field_angles_deg)?,
             first_order,
         })

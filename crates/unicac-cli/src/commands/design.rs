@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 use unicac_design::library::Library;
 use unicac_design::local::Gradient;
-use unicac_design::run::{run_specs, Event, RunSettings};
+use unicac_design::run::{run_specs, Event, RunSettings, StopReason};
 use unicac_design::spec::{
     focal_length_for_sensor, paper_grid, GRID_ELEMENTS, GRID_F_NUMBERS, GRID_HALF_FOV_DEG, GRID_STOPS,
 };
@@ -34,9 +34,21 @@ pub struct DesignArgs {
     /// Also make an aspheric version of each design (conic + r^4..r^10 on two surfaces).
     #[arg(long)]
     pub aspheric: bool,
-    /// Accepted (spherical) designs wanted per specification.
+    /// Designs kept per specification (spherical ones): the COUNT best distinct designs found within the
+    /// budget (the search stops early only when it has converged).
     #[arg(long, default_value_t = 4)]
     pub count: usize,
+    /// Stop at the first COUNT acceptable designs instead of keeping the best (fast).
+    #[arg(long)]
+    pub first_acceptable: bool,
+    /// Smallest air gap between neighbouring surfaces over the beam heights (mm); default 0.1 mm at
+    /// f = 50 mm, scaled with the focal length.
+    #[arg(long)]
+    pub min_air_edge_mm: Option<f64>,
+    /// Smallest glass edge thickness at an element's semi-diameter (mm); default 0.7 mm at f = 50 mm,
+    /// scaled with the focal length.
+    #[arg(long)]
+    pub min_glass_edge_mm: Option<f64>,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Wall-clock budget for the whole run (s); work stops cleanly with the designs so far written.
@@ -157,16 +169,42 @@ fn spec_line(spec: &DesignSpec) -> serde_json::Value {
     })
 }
 
+/// Largest --count: the kept designs are compared with every new one.
+const MAX_COUNT: usize = 1000;
+
+/// The edge-thickness flags applied to every spec.
+fn with_edge_limits(mut specs: Vec<DesignSpec>, args: &DesignArgs) -> Result<Vec<DesignSpec>> {
+    for (flag, value) in [
+        ("--min-air-edge-mm", args.min_air_edge_mm),
+        ("--min-glass-edge-mm", args.min_glass_edge_mm),
+    ] {
+        if let Some(v) = value {
+            if !(v.is_finite() && v >= 0.0) {
+                bail!("{flag} {v}: must be a finite length >= 0");
+            }
+        }
+    }
+    for spec in &mut specs {
+        if let Some(v) = args.min_air_edge_mm {
+            spec.constraints.air_edge_min_mm = v;
+        }
+        if let Some(v) = args.min_glass_edge_mm {
+            spec.constraints.glass_edge_min_mm = v;
+        }
+    }
+    Ok(specs)
+}
+
 pub fn run(args: &DesignArgs) -> Result<()> {
-    if args.count == 0 {
-        bail!("--count must be at least 1");
+    if !(1..=MAX_COUNT).contains(&args.count) {
+        bail!("--count {}: expected 1 to {MAX_COUNT}", args.count);
     }
     if let Some(t) = args.time_budget_s {
         if !(t.is_finite() && t > 0.0) {
             bail!("--time-budget-s {t}: must be positive");
         }
     }
-    let specs = specs(args)?;
+    let specs = with_edge_limits(specs(args)?, args)?;
     if args.list_specs {
         for spec in &specs {
             println!("{}", spec_line(spec));
@@ -174,6 +212,7 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         return Ok(());
     }
     let mut settings = RunSettings::new(args.count, args.seed);
+    settings.first_acceptable = args.first_acceptable;
     settings.time_budget_s = args.time_budget_s;
     settings.max_rms_um = args.max_rms_um;
     settings.gradient = if args.gradient == "fd" {
@@ -219,11 +258,31 @@ pub fn run(args: &DesignArgs) -> Result<()> {
             bar.println(format!("accepted {id}: mean RMS spot {rms_mean_um:.2} um"));
         }
         Event::Rejected { .. } => *rejected.lock().unwrap_or_else(|e| e.into_inner()) += 1,
+        Event::Replaced { id, rms_mean_um, .. } => {
+            bar.dec(1);
+            bar.println(format!("replaced {id} (mean RMS spot {rms_mean_um:.2} um) by a better design"));
+        }
         Event::SpecDone { .. } => {}
     };
     let summaries = run_specs(&specs, &settings, &mut library, &events)?;
     bar.finish_and_clear();
     let written = library.rows.len();
+    for s in &summaries {
+        eprintln!(
+            "{}: {} kept, stopped: {} after {} search round(s), {:.1} s",
+            s.slug,
+            s.accepted,
+            match s.stop_reason {
+                StopReason::CountReached => "first acceptable designs found (--first-acceptable)",
+                StopReason::Converged => "converged (no better design in the last rounds)",
+                StopReason::Budget => "time budget used",
+                StopReason::RoundsDone => "search rounds done",
+                StopReason::AlreadyDone => "finished by an earlier run (same seed and library)",
+            },
+            s.rounds,
+            s.elapsed_s
+        );
+    }
     eprintln!(
         "{written} lenses in {} ({} rejected this run); manifest: {}",
         args.out.display(),
@@ -237,6 +296,7 @@ pub fn run(args: &DesignArgs) -> Result<()> {
                 serde_json::json!({
                     "spec": s.slug, "accepted": s.accepted,
                     "first_accepted_s": s.first_accepted_s, "elapsed_s": s.elapsed_s,
+                    "stop_reason": s.stop_reason, "rounds": s.rounds,
                 })
             })
             .collect();

@@ -15,7 +15,7 @@ pub fn run(args: &LayoutArgs) -> Result<()> {
     }
     crate::outputs::check_lens_and_picture(&args.lens.lens, "--plot", Some(args.plot.as_path()))?;
     let lens = load_lens(&args.lens.lens)?;
-    let semi_diameters = clear_semi_diameters(&lens, Aiming::Paraxial)?;
+    let semi_diameters = clear_semi_diameters(&lens, Aiming::Auto)?;
     let bundles = unicac_plot::layout_bundles(&lens, args.rays)?;
     unicac_plot::layout(&lens, &bundles, &semi_diameters, &args.plot)?;
     eprintln!("wrote {}", args.plot.display());

@@ -1,6 +1,7 @@
 //! One module per command.
 
 mod chart;
+mod crops;
 pub(crate) mod design;
 mod fan;
 pub(crate) mod gpu;
@@ -44,6 +45,29 @@ pub(crate) fn print_json(value: &impl Serialize) -> Result<()> {
 /// Optional number for tables: "-" when absent.
 pub(crate) fn or_dash(value: Option<f64>, decimals: usize) -> String {
     value.map_or_else(|| "-".to_string(), |v| format!("{v:.decimals$}"))
+}
+
+/// With `--aim auto`, what it decided for `lens`; a switch to real aiming is announced on stderr.
+pub(crate) fn auto_aiming(
+    lens: &unicac_optics::Lens,
+    aim: unicac_trace::Aiming,
+) -> Result<Option<unicac_trace::AutoAiming>> {
+    if aim != unicac_trace::Aiming::Auto {
+        return Ok(None);
+    }
+    let decision = unicac_trace::AutoAiming::decide(lens)?;
+    if decision.aiming == unicac_trace::Aiming::Real {
+        let miss = decision
+            .chief_ray_stop_miss
+            .map_or("does not reach the stop".to_string(), |m| {
+                format!("misses the stop centre by {:.1}% of R_stop", 100.0 * m)
+            });
+        eprintln!(
+            "aiming: real (auto: at {} deg the paraxially aimed chief ray {miss})",
+            decision.checked_field_deg
+        );
+    }
+    Ok(Some(decision))
 }
 
 /// The fields and wavelengths a command uses: the given ones, else the lens's.

@@ -51,7 +51,7 @@ pub fn run(args: &OdeArgs) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
     if let Some(path) = &args.plot {
-        let names: Vec<String> = lenses.iter().map(|l| l.lens.clone()).collect();
+        let names = plot_labels(&lenses.iter().map(|l| l.lens.as_str()).collect::<Vec<_>>());
         let ode: Vec<f64> = lenses.iter().map(|l| l.report.ode).collect();
         let rms: Vec<f64> = lenses.iter().map(|l| l.report.rms_radius_um).collect();
         unicac_plot::ode_bars(&names, &ode, &rms, path)?;
@@ -85,4 +85,56 @@ fn csv(lenses: &[LensOde]) -> String {
         );
     }
     text
+}
+
+/// Short, unique plot labels for lens arguments: the file stem (`builtin:NAME` gives NAME); stems that
+/// collide get their parent directory, and any still equal keep the whole argument.
+fn plot_labels(lenses: &[&str]) -> Vec<String> {
+    let path = |name: &str| std::path::PathBuf::from(name.strip_prefix("builtin:").unwrap_or(name));
+    let stem = |name: &str| {
+        path(name)
+            .file_stem()
+            .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned())
+    };
+    let with_parent = |name: &str| {
+        let p = path(name);
+        match p.parent().and_then(|d| d.file_name()) {
+            Some(dir) => format!("{}/{}", dir.to_string_lossy(), stem(name)),
+            None => stem(name),
+        }
+    };
+    let unique = |labels: &[String], i: usize| labels.iter().filter(|l| **l == labels[i]).count() == 1;
+    let stems: Vec<String> = lenses.iter().map(|n| stem(n)).collect();
+    let parents: Vec<String> = (0..lenses.len())
+        .map(|i| if unique(&stems, i) { stems[i].clone() } else { with_parent(lenses[i]) })
+        .collect();
+    (0..lenses.len())
+        .map(|i| if unique(&parents, i) { parents[i].clone() } else { lenses[i].to_string() })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plot_labels;
+
+    #[test]
+    fn plot_labels_are_file_stems_made_unique_by_their_directory() {
+        let labels = plot_labels(&[
+            "out/designs/lenses/e3_h20_f5_middle_f50_s1_0001.json",
+            "out/designs/lenses/e3_h20_f5_middle_f50_s1_0002.json",
+            "builtin:cooke_triplet",
+            "a/triplet.json",
+            "b/triplet.json",
+        ]);
+        assert_eq!(
+            labels,
+            [
+                "e3_h20_f5_middle_f50_s1_0001",
+                "e3_h20_f5_middle_f50_s1_0002",
+                "cooke_triplet",
+                "a/triplet",
+                "b/triplet"
+            ]
+        );
+    }
 }

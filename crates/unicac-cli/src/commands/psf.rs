@@ -68,7 +68,8 @@ pub fn run(args: &PsfArgs) -> Result<()> {
                 pixel_um,
                 &weights,
                 monochromatic,
-                unicac_psf::default_hit_tracer().describe()
+                unicac_psf::default_hit_tracer().describe(),
+                args.max_kernel_px
             )
         )
         .as_bytes(),
@@ -169,7 +170,7 @@ fn compute(
     Ok(match args.mode.as_str() {
         "wave" => wave_psf(lens, weights.clone(), pixel_um, args.field_deg, monochromatic)?,
         _ => {
-            let tracer = PsfTracer::new(lens, weights.clone(), PsfSettings::new(pixel_um))?;
+            let tracer = PsfTracer::new(lens, weights.clone(), PsfSettings::new(pixel_um).with_kernel_cap(args.max_kernel_px))?;
             let reference = tracer.reference_point_mm(args.field_deg)?;
             let hits = tracer.hits(args.field_deg, reference);
             tracer.require_arrivals(args.field_deg, &hits)?;
@@ -185,7 +186,8 @@ fn warn_if_cut(psf: &FieldPsf, requested: usize, cap: usize) {
     let worst = psf.energy_cut.iter().fold(0.0f64, |m, v| m.max(*v));
     if requested > cap || worst > 0.01 {
         eprintln!(
-            "warning: kernel capped at {cap} px; {:.2}% of the energy fell outside and was cut",
+            "warning: kernel capped at {cap} px; {:.2}% of the energy fell outside and was cut \
+             (--max-kernel-px lifts the cap)",
             100.0 * worst
         );
     }

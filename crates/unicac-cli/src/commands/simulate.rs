@@ -6,7 +6,7 @@ use crate::lens_input::load_lens;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use unicac_image::io::{read_image, FileFormat, LoadedImage, SampleDepth};
-use unicac_image::isp::Pipeline;
+use unicac_image::isp::{Pipeline, SensorNoise};
 use unicac_image::Planar;
 use unicac_sim::{LensSimulator, SimulationSettings};
 
@@ -74,11 +74,23 @@ fn simulate_all(args: &SimulateArgs, lens: &unicac_optics::Lens, outputs: &[(Pat
         let pipeline = Pipeline {
             no_isp: args.no_isp,
             no_noise: args.no_noise,
+            sensor: SensorNoise {
+                bit_depth: args.sensor_bits,
+                ..SensorNoise::default()
+            },
             ..Default::default()
         };
+        if index == 0 {
+            bar.suspend(|| report_read_out(&pipeline));
+        }
         let seed = args.seed.wrapping_add(index as u64);
         let degraded = sim.degrade(&pipeline, &image, seed)?;
         write_encoded(&degraded, out, *format, loaded.bit_depth)?;
+        if let (0, Some(crops)) = (index, &args.crops) {
+            let sharp = unicac_image::color::linear_to_srgb(&image);
+            super::crops::write(&sharp, &degraded, crops)?;
+            bar.suspend(|| eprintln!("wrote {}", crops.display()));
+        }
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -114,6 +126,7 @@ fn plan_outputs(args: &SimulateArgs) -> Result<Vec<(PathBuf, FileFormat)>> {
         outputs.push((out, format));
     }
     crate::outputs::picture(&mut plan, "--psf-plot", args.psf_plot.as_deref())?;
+    crate::outputs::picture(&mut plan, "--crops", args.crops.as_deref())?;
     plan.check()?;
     Ok(outputs)
 }
@@ -127,6 +140,18 @@ fn sniff_format(path: &Path) -> Result<FileFormat> {
         .with_context(|| format!("reading {}", path.display()))?;
     FileFormat::sniff(&head[..read])
         .ok_or_else(|| anyhow::anyhow!("{}: not a PNG, TIFF or OpenEXR file", path.display()))
+}
+
+/// The sensor read-out in use: its bit depth is a simulation parameter, so it is announced.
+fn report_read_out(pipeline: &Pipeline) {
+    if pipeline.no_isp && pipeline.no_noise {
+        eprintln!("sensor read-out: off (--no-isp --no-noise: optics only, full precision)");
+    } else {
+        eprintln!(
+            "sensor read-out: {} bits (--sensor-bits), black level {} DN",
+            pipeline.sensor.bit_depth, pipeline.sensor.black_level_dn
+        );
+    }
 }
 
 /// Where the PSF map came from, and how much energy the kernel-size cap cut.

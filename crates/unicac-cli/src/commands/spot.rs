@@ -5,12 +5,15 @@ use crate::args::SpotArgs;
 use crate::lens_input::load_lens;
 use anyhow::Result;
 use serde::Serialize;
-use unicac_trace::{spots, Aiming, PupilSampling, Spot};
+use unicac_trace::{spots, Aiming, AutoAiming, PupilSampling, Spot};
 
 #[derive(Serialize)]
 struct SpotReport<'a> {
     lens: &'a str,
     aiming: Aiming,
+    /// With `--aim auto`: the aiming it chose for this lens and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    auto_aiming: Option<AutoAiming>,
     pupil_sampling: PupilSampling,
     spots: &'a [Spot],
 }
@@ -20,6 +23,7 @@ pub fn run(args: &SpotArgs) -> Result<()> {
     let lens = load_lens(&args.lens.lens)?;
     let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.rays)?;
     let selection = super::gpu::install(&args.device);
+    let auto_aiming = super::auto_aiming(&lens, args.rays.aim)?;
     let rays_per_spot = args.pupil_sampling.points().len();
     let spots = match selection.tracer_for(rays_per_spot) {
         Some(tracer) => unicac_gpu::spot::spots(
@@ -40,6 +44,7 @@ pub fn run(args: &SpotArgs) -> Result<()> {
         return print_json(&SpotReport {
             lens: &args.lens.lens,
             aiming: args.rays.aim,
+            auto_aiming,
             pupil_sampling: args.pupil_sampling,
             spots: &spots,
         });

@@ -23,6 +23,11 @@ struct TraceReport {
     wavelength_um: f64,
     start_mm: [f64; 3],
     start_direction: [f64; 3],
+    /// The stop surface (1-based) and where the ray crosses it (null if it stops before): with `--aim
+    /// real` the ray of pupil (px, py) crosses at (px, py) R_stop (docs/conventions.md).
+    stop_surface: usize,
+    stop_xy_mm: Option<[f64; 2]>,
+    /// With --path: the start point, then the point on surface 1, 2, ...: `path_mm[k]` is on surface k.
     #[serde(skip_serializing_if = "Option::is_none")]
     path_mm: Option<Vec<[f64; 3]>>,
 }
@@ -47,6 +52,8 @@ pub fn run(args: &TraceArgs) -> Result<()> {
     } else {
         system.trace_path(ray)
     };
+    // path[0] is the start point, path[k] the point on surface k (1-based).
+    let stop_xy_mm = path.get(lens.stop_index + 1).map(|p| [p[0], p[1]]);
     let arrived = status.is_ok();
     let end = path.last().copied().filter(|_| arrived);
     let mut end_ray = ray;
@@ -65,6 +72,8 @@ pub fn run(args: &TraceArgs) -> Result<()> {
         wavelength_um,
         start_mm: ray.position_mm,
         start_direction: ray.direction,
+        stop_surface: lens.stop_index + 1,
+        stop_xy_mm,
         path_mm: args.path.then_some(path),
     };
     if args.json {

@@ -20,6 +20,11 @@ use crate::Planar;
 use raster::Raster;
 use std::path::Path;
 
+/// Most samples (pixels x channels) a decoded file may hold (2^28: 1 GiB as f32, e.g. 89 MP RGB).
+/// OpenEXR headers are checked against it before decoding; PNG and TIFF decoding is bounded by the
+/// `image` crate's allocation limit (512 MiB per buffer).
+pub const MAX_DECODED_SAMPLES: usize = 1 << 28;
+
 /// Container formats this module reads and writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FileFormat {

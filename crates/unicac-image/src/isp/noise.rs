@@ -21,6 +21,9 @@ use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Poisson, StandardNormal};
 
+/// Read-out bit depth of the default sensor: DeepLens' 10 bits (`unicac simulate --sensor-bits`).
+pub const DEFAULT_BIT_DEPTH: u8 = 10;
+
 /// Sensor read-out parameters. `Default` gives DeepLens' default sensor (prior-art.md section 1.4).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SensorNoise {
@@ -42,7 +45,7 @@ pub struct SensorNoise {
 impl Default for SensorNoise {
     fn default() -> Self {
         SensorNoise {
-            bit_depth: 10,
+            bit_depth: DEFAULT_BIT_DEPTH,
             black_level_dn: 64.0,
             iso: 100.0,
             iso_base: 100.0,

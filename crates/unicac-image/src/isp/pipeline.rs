@@ -40,10 +40,12 @@ pub struct Pipeline {
     /// Quantise outputs to this many bits (e.g. 8 or 16) while keeping f32 storage; `None` keeps full
     /// precision. Default `None`.
     pub output_bits: Option<u8>,
-    /// Noiseless sensor: no shot or read noise; black level, bit depth, rounding and clipping still apply.
+    /// Noiseless sensor: no shot or read noise; with the ISP on, black level, bit depth, rounding and
+    /// clipping still apply.
     pub no_noise: bool,
     /// No colour filter array and no ISP randomisation: the sensor records R, G and B at every pixel (noise,
-    /// if on, in each), gains stay nominal, nothing is demosaiced.
+    /// if on, in each), gains stay nominal, nothing is demosaiced. With `no_noise` as well there is no
+    /// read-out at all: the optics' output goes through unquantised (clipped to [0, 1]).
     pub no_isp: bool,
 }
 
@@ -102,7 +104,13 @@ impl Pipeline {
     /// encoding. See the module docs for the order of the steps.
     pub fn process(&self, raw_rgb: &Planar, draw: &IspDraw) -> Result<Planar> {
         check_layout(raw_rgb, "raw_rgb", &[3])?;
-        let rgb = if self.no_isp {
+        let rgb = if self.no_isp && draw.noise_seed.is_none() {
+            // Optics only: with no ISP and no noise there is nothing for the sensor to add but its
+            // digitisation, and a user who switched both off asks for the optics at full precision.
+            let mut exposure = raw_rgb.clone();
+            exposure.data.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
+            apply_white_balance(&exposure, draw.gains)?
+        } else if self.no_isp {
             let dn = read_out(raw_rgb, &self.sensor, draw.noise_seed)?;
             apply_white_balance(&subtract_black_level(&dn, &self.sensor)?, draw.gains)?
         } else {
@@ -214,6 +222,38 @@ mod tests {
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f32::max);
         assert!(worst <= bound, "worst {worst} > {bound}");
+    }
+
+    #[test]
+    fn no_isp_and_no_noise_is_exact_linear_light() {
+        // A ramp finer than any sensor step: it must come back unquantised (f32 rounding of the
+        // inverse and re-applied white balance only), whatever the sensor's bit depth.
+        let truth = Planar::from_fn(512, 2, 3, |_, x, _| 0.1 + 0.7 * x as f32 / 511.0);
+        for bit_depth in [8, 10, 16] {
+            let pipeline = Pipeline {
+                no_noise: true,
+                no_isp: true,
+                output_encoding: Encoding::Linear,
+                sensor: SensorNoise {
+                    bit_depth,
+                    ..SensorNoise::default()
+                },
+                ..Pipeline::default()
+            };
+            let pair = pipeline.render_pair(&truth, 3, |raw| Ok(raw.clone())).unwrap();
+            let worst = pair
+                .degraded
+                .data
+                .iter()
+                .zip(&truth.data)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f32::max);
+            assert!(worst <= 2e-7, "{bit_depth} bits: worst {worst}");
+            let mut levels: Vec<u32> = pair.degraded.data.iter().map(|v| v.to_bits()).collect();
+            levels.sort_unstable();
+            levels.dedup();
+            assert!(levels.len() >= 512, "{bit_depth} bits: only {} levels", levels.len());
+        }
     }
 
     #[test]

@@ -296,8 +296,12 @@ fn fit_centroids(region: &Region, previous: Option<EdgeLine>) -> Result<EdgeLine
     }
     if points.len() < MIN_ROI_SIDE / 2 {
         return Err(MetricsError::NoEdge(format!(
-            "only {} rows show an edge",
-            points.len()
+            "only {} of {} rows show a step from dark to bright (need {}): the image holds no edge \
+             running across it; give an image of one straight edge slanted 2 to 10 deg from the pixel \
+             rows or columns (e.g. `unicac chart slanted-edge`)",
+            points.len(),
+            region.height,
+            MIN_ROI_SIDE / 2
         )));
     }
     let n = points.len() as f64;
@@ -331,9 +335,21 @@ fn binned_esf(region: &Region, line: EdgeLine, oversampling: usize) -> Result<(V
         })
         .fold(f64::INFINITY, f64::min)
         * cos;
+    if !(half_width >= 0.0) {
+        // The line through the rows' edge positions leaves the region: those positions do not lie on one
+        // straight edge (texture, several edges, a curved edge).
+        return Err(MetricsError::NoEdge(
+            "the image does not hold one straight edge: the line fitted through the edge position of \
+             each row runs out of the image, as it does for textures (e.g. dead leaves), several edges \
+             or a curved edge; give an image of one straight edge slanted 2 to 10 deg from the pixel rows or \
+             columns (e.g. `unicac chart slanted-edge`)"
+                .into(),
+        ));
+    }
     if !(half_width >= MIN_ESF_HALF_WIDTH_PX) {
         return Err(MetricsError::NoEdge(format!(
-            "the edge leaves only {half_width:.2} px on one side (need {MIN_ESF_HALF_WIDTH_PX}); centre it in the region"
+            "the edge is too close to the image border: it leaves only {half_width:.2} px on one side \
+             (need {MIN_ESF_HALF_WIDTH_PX}); crop the image so that the edge runs near its middle"
         )));
     }
     let os = oversampling as f64;
@@ -420,6 +436,28 @@ fn esf_to_mtf(esf: &[f64], options: &SlantedEdgeOptions) -> (Vec<f64>, Vec<f64>)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_texture_is_refused_in_plain_words() {
+        // The README tour once measured a simulated dead-leaves chart: the message must say what is
+        // wrong with such an image, not quote a negative half width.
+        let texture = unicac_image::charts::dead_leaves(256, 192, 1).unwrap();
+        let roi = Roi {
+            x: 0,
+            y: 0,
+            width: 256,
+            height: 192,
+        };
+        let error = slanted_edge_mtf(&texture, 1, roi, &SlantedEdgeOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("one straight edge")
+                && error.contains("slanted-edge")
+                && !error.as_bytes().windows(2).any(|w| w[0] == b'-' && w[1].is_ascii_digit()),
+            "{error}"
+        );
+    }
 
     #[test]
     fn gaps_are_interpolated() {

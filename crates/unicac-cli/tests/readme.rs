@@ -1,0 +1,73 @@
+//! Every command of the README's tour runs: the `sh` block under "## A short tour" is read from README.md
+//! (so an edited README is what gets tested) and each line is run in a scratch directory, with smaller
+//! images and budgets so the whole tour takes seconds (the substitutions are listed in `shrink`). The
+//! README's first block (`bash scripts/demo.sh`, `bash scripts/test.sh`) is the project's own CI entry
+//! and demo, run by CI itself, not here.
+
+use std::path::Path;
+use std::process::Command;
+
+const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+
+/// The command lines of the tour, comments dropped.
+fn tour_commands() -> Vec<String> {
+    let readme = std::fs::read_to_string(Path::new(ROOT).join("README.md")).unwrap();
+    let tour = readme
+        .split("## A short tour")
+        .nth(1)
+        .expect("README has a tour section");
+    let block = tour
+        .split("```sh")
+        .nth(1)
+        .and_then(|rest| rest.split("```").next())
+        .expect("the tour has an sh block");
+    block
+        .lines()
+        .map(|line| line.split(" #").next().unwrap_or("").trim().to_string())
+        .filter(|line| !line.is_empty())
+        .collect()
+}
+
+/// The same command with test-sized arguments: small charts, a short design budget, lens files from the
+/// repository and scratch paths instead of /tmp.
+fn shrink(args: &[&str], scratch: &Path) -> Vec<String> {
+    args.iter()
+        .enumerate()
+        .map(|(i, &arg)| match (i.checked_sub(1).map(|p| args[p]), arg) {
+            (Some("--size"), _) => "256x192".to_string(),
+            (Some("--time-budget-s"), _) => "3".to_string(),
+            (Some("--count"), _) => "1".to_string(),
+            (_, a) if a.starts_with("lenses/") => Path::new(ROOT).join(a).display().to_string(),
+            (_, a) if a.starts_with("/tmp/") => scratch.join(&a[5..]).display().to_string(),
+            (_, a) => a.to_string(),
+        })
+        .collect()
+}
+
+#[test]
+fn every_command_of_the_readme_tour_runs() {
+    let scratch = std::env::temp_dir().join(format!("unicac-readme-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).unwrap();
+    let commands = tour_commands();
+    assert!(commands.len() >= 10, "the tour lost its commands: {commands:?}");
+    for line in &commands {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!(words[0], "unicac", "a tour line that is not a unicac command: {line}");
+        let args = shrink(&words[1..], &scratch);
+        let output = Command::new(env!("CARGO_BIN_EXE_unicac"))
+            .args(&args)
+            .current_dir(&scratch)
+            .env("UNICAC_CACHE_DIR", scratch.join("cache"))
+            .output()
+            .unwrap();
+        assert!(
+            output.status.success(),
+            "README command failed: {line}\n(run as {args:?})\n{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    // The tour's last image step measures the simulated edge: its output is an MTF.
+    let mtf_line = commands.iter().find(|l| l.starts_with("unicac mtf")).unwrap();
+    assert!(mtf_line.contains("simulated/edge"), "{mtf_line}");
+    std::fs::remove_dir_all(&scratch).ok();
+}
