@@ -102,3 +102,63 @@ fn design_rejects_bad_specifications_clearly() {
     assert!(!run.status.success());
     assert!(String::from_utf8_lossy(&run.stderr).contains("WIDTHxHEIGHT"));
 }
+
+#[test]
+fn list_specs_gives_the_run_order_and_one_cell_grids_select_each_spec() {
+    let out = scratch("list");
+    let out_text = out.to_str().unwrap();
+    let list = |extra: &[&str]| -> Vec<Value> {
+        let run = unicac(&[&["design", "--out", out_text, "--list-specs"][..], extra].concat());
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        String::from_utf8_lossy(&run.stdout)
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect()
+    };
+    let grid = list(&[
+        "--grid",
+        "--grid-elements",
+        "2,1",
+        "--grid-half-fov-deg",
+        "30,20",
+        "--grid-f-numbers",
+        "4",
+        "--grid-stops",
+        "middle,front",
+        "--sensor",
+        "36x24",
+    ]);
+    let slugs: Vec<&str> = grid.iter().map(|s| s["slug"].as_str().unwrap()).collect();
+    // The run order: by elements (stable), within that half field then F-number then stop as given; a
+    // singlet has no middle stop; with --sensor the focal length follows the half field.
+    assert_eq!(
+        slugs,
+        [
+            "e1_h30_f4_front_f37p47",
+            "e1_h20_f4_front_f59p437",
+            "e2_h30_f4_middle_f37p47",
+            "e2_h30_f4_front_f37p47",
+            "e2_h20_f4_middle_f59p437",
+            "e2_h20_f4_front_f59p437",
+        ]
+    );
+    // Each line's grid values, given back as a one-cell grid, select exactly that spec.
+    for spec in &grid {
+        let cell = list(&[
+            "--grid",
+            "--grid-elements",
+            &spec["grid_elements"].to_string(),
+            "--grid-half-fov-deg",
+            &spec["grid_half_fov_deg"].to_string(),
+            "--grid-f-numbers",
+            &spec["grid_f_numbers"].to_string(),
+            "--grid-stops",
+            spec["grid_stops"].as_str().unwrap(),
+            "--sensor",
+            "36x24",
+        ]);
+        assert_eq!(cell.len(), 1);
+        assert_eq!(cell[0]["slug"], spec["slug"]);
+    }
+    assert!(!out.exists(), "--list-specs wrote {}", out.display());
+}

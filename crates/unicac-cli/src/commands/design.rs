@@ -78,6 +78,11 @@ pub struct DesignArgs {
     /// Print the run summary as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Print the specifications this command would design, in the order it designs them (JSON lines:
+    /// slug and the options selecting each as a one-cell grid), and write nothing. Lets a distributed
+    /// driver (unicac-ray design) run one task per specification and merge in the same order.
+    #[arg(long)]
+    pub list_specs: bool,
 }
 
 fn focal_length(args: &DesignArgs, half_fov_deg: f64) -> Result<f64> {
@@ -151,6 +156,19 @@ fn specs(args: &DesignArgs) -> Result<Vec<DesignSpec>> {
     Ok(vec![spec])
 }
 
+/// One line of `--list-specs`: the slug, and the `--grid-*` values that select exactly this spec.
+fn spec_line(spec: &DesignSpec) -> serde_json::Value {
+    serde_json::json!({
+        "slug": spec.slug(),
+        "grid_elements": spec.elements,
+        "grid_half_fov_deg": spec.half_fov_deg,
+        "grid_f_numbers": spec.f_number,
+        "grid_stops": spec.stop.name(),
+        "focal_length_mm": spec.focal_length_mm,
+        "aspheric": spec.aspheric,
+    })
+}
+
 /// Largest --count: the kept designs are compared with every new one.
 const MAX_COUNT: usize = 1000;
 
@@ -187,6 +205,12 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         }
     }
     let specs = with_edge_limits(specs(args)?, args)?;
+    if args.list_specs {
+        for spec in &specs {
+            println!("{}", spec_line(spec));
+        }
+        return Ok(());
+    }
     let mut settings = RunSettings::new(args.count, args.seed);
     settings.first_acceptable = args.first_acceptable;
     settings.time_budget_s = args.time_budget_s;

@@ -1,0 +1,68 @@
+"""`unicac-ray dataset build`: one Ray task per shard, all writing into one dataset folder.
+
+`unicac dataset build ... --shard I/N` renders the pairs, PSF tables and edge sets whose index is I-1
+modulo N and writes the same manifests as every other shard; N shards in one folder equal the single run
+byte for byte (docs/dataset.md). Every shard grades every lens (the levels need all grades), from the
+grade cache in `OUT/.cache/ode` when another run has filled it. So the driver runs:
+
+1. shard 1/N alone: it grades the library (the serial part: the ODE of the library before sampling) and
+   fills the cache;
+2. shards 2..N as Ray tasks, `--workers` at a time, each reading the grades from the cache;
+3. the single-machine command itself, unsharded, on the driver: it finds every file present, renders
+   nothing, writes `dataset.json` (the mark of a complete dataset) and prints the CLI's own summary.
+
+Every step is the CLI resuming into the folder, so a killed task or a restarted driver redoes only
+missing files. The folder must be on a filesystem every node sees.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Optional, Sequence, TextIO
+
+from .tasks import fail_once, run_cli
+
+MAX_SHARDS = 10_000
+
+
+class Plan:
+    def __init__(self, binary: str, argv: Sequence[str]):
+        argv = list(argv)
+        if not argv or argv[0] != "build":
+            raise SystemExit("unicac-ray dataset: only `dataset build` runs on Ray (info and plot are instant)")
+        parser = argparse.ArgumentParser(prog="unicac-ray dataset build", allow_abbrev=False, add_help=False)
+        parser.add_argument("--shard")
+        parser.add_argument("--threads")
+        parser.add_argument("--shards", type=int, help=f"shards (1 to {MAX_SHARDS}; default 4 per worker)")
+        known, self.rest = parser.parse_known_args(argv[1:])
+        if known.shard or known.threads:
+            raise SystemExit("unicac-ray dataset build: --shard and --threads are set by the driver (--shards, --cpus-per-task)")
+        if known.shards is not None and not 1 <= known.shards <= MAX_SHARDS:
+            raise SystemExit(f"unicac-ray dataset build: --shards {known.shards}: must be 1 to {MAX_SHARDS}")
+        self.binary = binary
+        self.shards: Optional[int] = known.shards
+
+
+def prepare(binary: str, argv: Sequence[str]) -> Plan:
+    return Plan(binary, argv)
+
+
+def shard_task(binary: str, args: list[str], index: int, shards: int, threads: int, fault_dir: Optional[str]) -> int:
+    """Ray task: `unicac dataset build ARGS --shard I/N` (resumes: files present are skipped)."""
+    run_cli(binary, ["dataset", "build", *args, "--shard", f"{index}/{shards}", "--threads", str(threads)], threads)
+    fail_once(fault_dir, f"dataset-shard-{index}-of-{shards}")
+    return index
+
+
+def run(session, plan: Plan, fault_dir: Optional[str], stdout: TextIO) -> int:
+    shards = plan.shards or min(MAX_SHARDS, 4 * session.workers)
+    threads = session.cpus_per_task
+    print(f"dataset build: {shards} shards; shard 1 grades the library first", file=sys.stderr)
+    session.map(shard_task, [(plan.binary, plan.rest, 1, shards, threads, fault_dir)], "dataset shard 1 (grading)")
+    calls = [(plan.binary, plan.rest, i, shards, threads, fault_dir) for i in range(2, shards + 1)]
+    session.map(shard_task, calls, "dataset shards")
+    # The unsharded CLI: checks that every file is present and writes dataset.json and the summary.
+    stdout.write(run_cli(plan.binary, ["dataset", "build", *plan.rest], session.cpus_per_task))
+    stdout.flush()
+    return 0

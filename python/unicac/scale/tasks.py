@@ -1,0 +1,63 @@
+"""What a Ray task does: run the `unicac` CLI on its part of the work, and the fault-injection hook.
+
+These are plain functions (Ray wraps them in `session.Session.map`), so they can be called and tested
+without Ray. A task is idempotent: it writes only inside its own part folder, atomically, and a rerun
+(Ray's retry after a killed worker, or a restarted driver) resumes or redoes the same work.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+from typing import Optional, Sequence
+
+# Ray retries a task whose worker died this many times (a CLI error is not retried: it would fail again).
+MAX_RETRIES = 3
+# Environment variable naming a folder: each task kills its own worker once, mid-task (after its work,
+# before reporting it done), leaving a marker file there so that the retry runs through. Tests only.
+FAULT_ENV = "UNICAC_RAY_FAULT_ONCE_DIR"
+
+
+class CliError(RuntimeError):
+    """The `unicac` CLI refused the work (bad input): not retried, its message shown to the user."""
+
+
+def find_cli(explicit: Optional[str] = None) -> str:
+    """The `unicac` binary: --unicac-bin, else $UNICAC_BIN, else `unicac` on PATH."""
+    for candidate in (explicit, os.environ.get("UNICAC_BIN")):
+        if candidate:
+            if not (Path(candidate).is_file() and os.access(candidate, os.X_OK)):
+                raise CliError(f"--unicac-bin / UNICAC_BIN {candidate}: not an executable file")
+            return str(Path(candidate).resolve())
+    found = shutil.which("unicac")
+    if found is None:
+        raise CliError(
+            "the unicac CLI is not on PATH: install it (cargo install --path crates/unicac-cli) "
+            "or give --unicac-bin / UNICAC_BIN"
+        )
+    return found
+
+
+def run_cli(binary: str, args: Sequence[str], threads: int, cwd: Optional[str] = None) -> str:
+    """Runs `unicac ARGS` with `threads` worker threads; returns stdout, raises CliError on failure."""
+    env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
+    done = subprocess.run(
+        [binary, *args], capture_output=True, text=True, cwd=cwd, env=env, check=False
+    )
+    if done.returncode != 0:
+        raise CliError(f"unicac {' '.join(args)} failed (exit {done.returncode}):\n{done.stderr.strip()}")
+    return done.stdout
+
+
+def fail_once(fault_dir: Optional[str], key: str) -> None:
+    """The fault-injection hook: the first time `key` gets here, kill this worker process."""
+    if not fault_dir:
+        return
+    marker = Path(fault_dir) / key
+    if marker.exists():
+        return
+    marker.parent.mkdir(parents=True, exist_ok=True)
+    marker.write_text("killed once\n")
+    os._exit(1)  # a dead worker, not an exception: Ray's retry path for lost tasks
