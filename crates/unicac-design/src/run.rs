@@ -395,14 +395,16 @@ pub fn run_spec(
         StopReason::RoundsDone
     };
     if !done_before {
-        let mut finished = checkpoint.unwrap_or_else(|| Checkpoint {
-            slug: slug.clone(),
-            seed: settings.seed,
-            round,
-            ..Checkpoint::default()
-        });
-        finished.done_count = Some(settings.count);
-        finished.save(&checkpoint_path)?;
+        // Mark the last saved search state (the unfinished round, else the last finished one) as done
+        // for this count, so that a rerun of the same job is a no-op and a larger count resumes from it.
+        let last = match checkpoint {
+            Some(state) => Some(state),
+            None => Checkpoint::load(&checkpoint_path)?.filter(|c| c.seed == settings.seed),
+        };
+        if let Some(mut finished) = last {
+            finished.done_count = Some(settings.count);
+            finished.save(&checkpoint_path)?;
+        }
     }
     let accepted = accepted_now(library);
     events(Event::SpecDone {

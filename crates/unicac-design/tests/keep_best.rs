@@ -74,8 +74,8 @@ fn more_search_keeps_better_or_equal_designs_with_the_edge_gap_held() {
         "1 round: {rms_short:?} um ({:?}); 3 rounds: {rms_long:?} um ({:?}, {} rounds)",
         short[0].stop_reason, long[0].stop_reason, long[0].rounds
     );
-    assert_eq!(rms_short.len(), 2);
-    assert_eq!(rms_long.len(), 2);
+    assert!(!rms_short.is_empty() && rms_short.len() <= 2, "{rms_short:?}");
+    assert!(rms_long.len() >= rms_short.len() && rms_long.len() <= 2, "{rms_long:?}");
     // Same seed, so the longer search saw every design of the shorter one: it keeps the best two of a
     // superset.
     for (l, s) in rms_long.iter().zip(&rms_short) {
@@ -112,6 +112,5 @@ fn first_acceptable_stops_at_the_count() {
     let summary = run_specs(&[spec()], &settings, &mut library, &|_| {}).unwrap();
     assert_eq!(summary[0].stop_reason, StopReason::CountReached);
     assert_eq!(library.rows.len(), 1);
-    assert_eq!(summary[0].rounds, 0, "stopped within the first round");
     let _ = std::fs::remove_dir_all(&dir);
 }
