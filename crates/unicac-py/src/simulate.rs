@@ -182,14 +182,26 @@ impl PySimulator {
         };
         let pipeline = pipeline(isp, noise);
         let (degraded, target) = crate::pool::detach(py, || -> PyResult<(Planar, Planar)> {
-            let degraded = self.sim.degrade_window(&pipeline, &linear, seed, window).or_raise()?;
-            Ok((degraded, pipeline.finish_reference(&crop(&linear, window)).or_raise()?))
+            let degraded = self
+                .sim
+                .degrade_window(&pipeline, &linear, seed, window)
+                .or_raise()?;
+            Ok((
+                degraded,
+                pipeline.finish_reference(&crop(&linear, window)).or_raise()?,
+            ))
         })?;
         Ok((planar_out(py, &degraded, false)?, planar_out(py, &target, false)?))
     }
 
     /// The frame region (x0, y0, width_px, height_px) that `render_pair_window` computes for a window.
-    fn source_window(&self, x0: usize, y0: usize, width_px: usize, height_px: usize) -> PyResult<(usize, usize, usize, usize)> {
+    fn source_window(
+        &self,
+        x0: usize,
+        y0: usize,
+        width_px: usize,
+        height_px: usize,
+    ) -> PyResult<(usize, usize, usize, usize)> {
         let source = self
             .sim
             .source_window(PixelWindow {

@@ -341,7 +341,13 @@ impl LensSimulator {
 
     /// `degrade` for the output pixels of `window` only (`apply_window` between the ISP steps; the
     /// Bayer pattern starts at the window's top-left pixel).
-    pub fn degrade_window(&self, pipeline: &Pipeline, image: &Planar, seed: u64, window: PixelWindow) -> SimResult<Planar> {
+    pub fn degrade_window(
+        &self,
+        pipeline: &Pipeline,
+        image: &Planar,
+        seed: u64,
+        window: PixelWindow,
+    ) -> SimResult<Planar> {
         self.check_frame(image)?;
         let source = self.source_window(window)?;
         let draw = pipeline.draw(seed)?;
@@ -454,7 +460,8 @@ pub fn crop(image: &Planar, window: PixelWindow) -> Planar {
         let target = out.plane_mut(c);
         for row in 0..window.height {
             let start = (window.y0 + row) * image.width + window.x0;
-            target[row * window.width..(row + 1) * window.width].copy_from_slice(&plane[start..start + window.width]);
+            target[row * window.width..(row + 1) * window.width]
+                .copy_from_slice(&plane[start..start + window.width]);
         }
     }
     out
