@@ -12,12 +12,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 VENV=.venv
-PYTHON=${PYTHON:-python3}
-if [ ! -x "$VENV/bin/python" ]; then
-  echo "python: creating $VENV with $("$PYTHON" --version)"
-  "$PYTHON" -m venv "$VENV"
-fi
-"$VENV/bin/python" -m pip install --quiet --disable-pip-version-check numpy pytest
+source scripts/setup_python.sh dev   # the venv with the pinned test packages (idempotent)
 # A wheel installed earlier (pip install ./python) would shadow the build under test.
 "$VENV/bin/python" -m pip uninstall --quiet --yes unicac >/dev/null 2>&1 || true
 

@@ -4,6 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/setup.sh
+source scripts/setup_python.sh dev   # PyTorch, onnx, onnxruntime (ORT_DYLIB_PATH for the bench tests), ...
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --quiet -- -D warnings
 cargo test --workspace --quiet 2>&1 | tee /tmp/unicac-test.log

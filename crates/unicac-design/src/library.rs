@@ -122,6 +122,8 @@ impl Library {
         for sub in ["", "lenses", "state"] {
             let path = dir.join(sub);
             std::fs::create_dir_all(&path).map_err(io_error(&path))?;
+            // Temporaries a killed run left behind (`.manifest.csv.tmp-*`, ...) go on resume.
+            unicac_io::clean_stale_temporaries(&path).map_err(io_error(&path))?;
         }
         let manifest = dir.join("manifest.jsonl");
         let rows = match std::fs::read_to_string(&manifest) {

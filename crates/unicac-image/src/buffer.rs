@@ -41,6 +41,14 @@ impl Planar {
         image
     }
 
+    /// The first NaN or infinite sample as (channel, x, y, value), for errors that name the position.
+    pub fn first_non_finite(&self) -> Option<(usize, usize, usize, f32)> {
+        let index = self.data.iter().position(|v| !v.is_finite())?;
+        let n = self.pixels();
+        let (channel, within) = (index / n, index % n);
+        Some((channel, within % self.width, within / self.width, self.data[index]))
+    }
+
     pub fn pixels(&self) -> usize {
         self.width * self.height
     }

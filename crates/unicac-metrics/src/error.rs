@@ -27,6 +27,14 @@ pub enum MetricsError {
         image_width: usize,
         image_height: usize,
     },
+    /// A pixel is NaN or infinite: no measurement can be trusted; names the first such pixel.
+    #[error("pixel (x {x}, y {y}) of channel {channel} is {value}: the image holds non-finite values")]
+    NonFinitePixel {
+        x: usize,
+        y: usize,
+        channel: usize,
+        value: f32,
+    },
     #[error("no usable edge: {0}")]
     NoEdge(String),
     #[error("invalid input: {0}")]

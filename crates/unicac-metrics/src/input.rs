@@ -62,3 +62,24 @@ pub(crate) fn plane_255(
     }
     (out, w, h)
 }
+
+/// The first NaN or infinite sample of `channel` inside the rectangle (x, y, width, height), as an
+/// error naming its position (callers add the file name).
+pub(crate) fn check_finite_region(
+    image: &Planar,
+    channel: usize,
+    [x0, y0, width, height]: [usize; 4],
+) -> Result<()> {
+    if channel >= image.channels {
+        return Ok(()); // the caller's own checks name a missing channel
+    }
+    for y in y0..(y0 + height).min(image.height) {
+        for x in x0..(x0 + width).min(image.width) {
+            let value = image.get(channel, x, y);
+            if !value.is_finite() {
+                return Err(MetricsError::NonFinitePixel { x, y, channel, value });
+            }
+        }
+    }
+    Ok(())
+}

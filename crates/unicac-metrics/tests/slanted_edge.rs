@@ -188,3 +188,26 @@ fn oiqe_rises_as_blur_falls_and_stays_in_unit_range() {
     assert!(scores.iter().all(|q| (0.0..=1.0).contains(q)));
     assert!(scores.windows(2).all(|p| p[1] > p[0]), "{scores:?}");
 }
+
+/// Issue 16: one +inf pixel used to give MTF50 1.0 with every MTF value NaN, and a NaN pixel a
+/// misleading geometry message; now the first non-finite pixel is named with its position.
+#[test]
+fn non_finite_pixels_are_named_with_their_position() {
+    let mut image = unicac_image::charts::slanted_edge(64, 64, 5.0, 0.2, 0.8).unwrap();
+    let roi = unicac_metrics::Roi {
+        x: 0,
+        y: 0,
+        width: 64,
+        height: 64,
+    };
+    for value in [f32::INFINITY, f32::NAN, f32::NEG_INFINITY] {
+        let mut broken = image.clone();
+        broken.data[64 * 64 + 17 * 64 + 40] = value; // channel 1, x 40, y 17
+        let message = slanted_edge_mtf(&broken, 1, roi, &SlantedEdgeOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("pixel (x 40, y 17) of channel 1"), "{message}");
+    }
+    image.data[0] = 0.5; // a finite change still measures
+    assert!(slanted_edge_mtf(&image, 1, roi, &SlantedEdgeOptions::default()).is_ok());
+}

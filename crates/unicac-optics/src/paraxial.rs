@@ -232,7 +232,7 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
     let paraxial_image_heights_mm = heights(image_height_per_tan);
     let paraxial_chief_heights_at_image_surface_mm = heights(surface_height_per_tan);
 
-    Ok(FirstOrder {
+    let first_order = FirstOrder {
         wavelength_um,
         efl_mm,
         bfl_mm,
@@ -252,7 +252,53 @@ pub fn first_order(lens: &Lens, wavelength_um: f64) -> Result<FirstOrder> {
         field_angles_deg,
         paraxial_image_heights_mm,
         paraxial_chief_heights_at_image_surface_mm,
-    })
+    };
+    check_finite(&first_order)?;
+    Ok(first_order)
+}
+
+/// First-order data that overflowed (a curvature of 1e308, a thickness of 1e300, ...) is an error
+/// naming the first quantity that is not finite, never NaN reported as a result.
+fn check_finite(f: &FirstOrder) -> Result<()> {
+    let scalars = [
+        ("efl_mm", f.efl_mm),
+        ("bfl_mm", f.bfl_mm),
+        ("ffl_mm", f.ffl_mm),
+        ("epd_mm", f.epd_mm),
+        ("entrance_pupil_z_mm", f.entrance_pupil_z_mm),
+        ("exit_pupil_z_mm", f.exit_pupil_z_mm.unwrap_or(0.0)),
+        ("exit_pupil_diameter_mm", f.exit_pupil_diameter_mm.unwrap_or(0.0)),
+        ("f_number", f.f_number),
+        ("paraxial_working_f_number", f.paraxial_working_f_number),
+        ("stop_radius_mm", f.stop_radius_mm),
+        ("paraxial_image_z_mm", f.paraxial_image_z_mm),
+        ("total_track_mm", f.total_track_mm),
+        ("petzval_sum_per_mm", f.petzval_sum_per_mm),
+        ("magnification", f.magnification),
+    ];
+    let vectors = [
+        ("field_angles_deg", &f.field_angles_deg),
+        ("paraxial_image_heights_mm", &f.paraxial_image_heights_mm),
+        (
+            "paraxial_chief_heights_at_image_surface_mm",
+            &f.paraxial_chief_heights_at_image_surface_mm,
+        ),
+    ];
+    let bad = scalars
+        .iter()
+        .find(|(_, v)| !v.is_finite())
+        .map(|(name, v)| (*name, *v))
+        .or_else(|| {
+            vectors
+                .iter()
+                .find_map(|(name, values)| values.iter().find(|v| !v.is_finite()).map(|v| (*name, *v)))
+        });
+    match bad {
+        Some((name, value)) => Err(OpticsError::Paraxial(format!(
+            "{name} is {value}: the lens's numbers overflow or the system is degenerate"
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// The entrance-pupil diameter whose marginal ray just fills a stop of radius `stop_radius`.

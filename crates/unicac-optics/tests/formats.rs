@@ -204,3 +204,33 @@ fn the_json_schema_names_every_key_the_writer_emits() {
         }
     }
 }
+
+/// Issue 16: a `.zmx` cut short (or edited into an inconsistent state) must not load as a smaller lens.
+#[test]
+fn truncated_or_inconsistent_zemax_files_are_errors() {
+    let parse = |text: &str| zmx::parse(text.as_bytes(), Path::new("cut.zmx"));
+    // Truncated right after a SURF line: used to load as a lens one surface shorter.
+    let cut = &ZEMAX_SAMPLE[..ZEMAX_SAMPLE.find("SURF 4").unwrap() + "SURF 4\n".len()];
+    let message = parse(cut).unwrap_err().to_string();
+    assert!(message.contains("SURF 4") && message.contains("truncated"), "{message}");
+    // Truncated inside a surface block (CURV kept, DISZ lost).
+    let cut = &ZEMAX_SAMPLE[..ZEMAX_SAMPLE.rfind("  DISZ 0").unwrap()];
+    let message = parse(cut).unwrap_err().to_string();
+    assert!(message.contains("SURF 4 has no DISZ"), "{message}");
+    // Surface blocks out of order.
+    let message = parse(&ZEMAX_SAMPLE.replace("SURF 3\n", "SURF 5\n")).unwrap_err().to_string();
+    assert!(message.contains("expected SURF 3"), "{message}");
+    // No stop.
+    let message = parse(&ZEMAX_SAMPLE.replace("  STOP\n", "")).unwrap_err().to_string();
+    assert!(message.contains("0 surfaces are marked STOP"), "{message}");
+    // PWAV naming a wavelength that is not listed.
+    let message = parse(&ZEMAX_SAMPLE.replace("PWAV 2", "PWAV 7")).unwrap_err().to_string();
+    assert!(message.contains("PWAV 7"), "{message}");
+    let message = parse(&ZEMAX_SAMPLE.replace("PWAV 2", "PWAV -1")).unwrap_err().to_string();
+    assert!(message.contains("PWAV -1"), "{message}");
+    // A negative DIAM is rejected, as JSON rejects a negative semi_diameter_mm.
+    let message = parse(&ZEMAX_SAMPLE.replace("DIAM 6 1", "DIAM -6 1")).unwrap_err().to_string();
+    assert!(message.starts_with("cut.zmx:") && message.contains("DIAM -6"), "{message}");
+    // The intact sample still loads.
+    check_sample(&parse(ZEMAX_SAMPLE).unwrap().spec);
+}

@@ -31,7 +31,15 @@ const PROFILE_SAMPLES: usize = 81;
 /// wavelength and traced with clipping at the clear semi-diameters. A ray that fails (clipped, missed,
 /// totally reflected) is drawn up to the surface where it stopped. Each ray starts on the plane z = min(entrance pupil z, 0) - 0.2 total
 /// track (or at the object, if nearer), so it is seen entering the lens.
+/// Most rays drawn per field: more would only blacken the picture (and each ray's path is kept).
+pub const MAX_LAYOUT_RAYS: usize = 1000;
+
 pub fn layout_bundles(lens: &Lens, rays_per_field: usize) -> Result<Vec<RayBundle>, PlotError> {
+    if !(1..=MAX_LAYOUT_RAYS).contains(&rays_per_field) {
+        return Err(PlotError::InvalidInput(format!(
+            "rays per field {rays_per_field}: must lie between 1 and {MAX_LAYOUT_RAYS} (MAX_LAYOUT_RAYS)"
+        )));
+    }
     let first = lens.first_order()?;
     let wavelength = lens.primary_wavelength_um();
     let aimer = Aimer::new(lens, wavelength, Aiming::Paraxial)?;

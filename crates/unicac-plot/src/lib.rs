@@ -36,7 +36,7 @@ mod spot;
 mod style;
 
 pub use fan::ray_fan_plot;
-pub use layout::{layout, layout_bundles, RayBundle};
+pub use layout::{layout, layout_bundles, RayBundle, MAX_LAYOUT_RAYS};
 pub use mtf::{mtf_curves, Curve};
 pub use ode::ode_bars;
 pub use psf::{psf_panels, PsfPanel};

@@ -3,7 +3,7 @@
 use crate::PlotError;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A picture: its size in pixels and how to draw it on any backend.
 pub(crate) trait Picture {
@@ -17,6 +17,24 @@ pub(crate) trait Picture {
 /// Draws `picture` into `path`, as PNG or SVG according to the extension. The file appears complete or
 /// not at all: the picture is drawn to a temporary sibling (PNG) or to memory (SVG) and renamed into place.
 pub(crate) fn render(picture: &impl Picture, path: &Path) -> Result<(), PlotError> {
+    // A missing folder is reported with the path, not as the backend's debug structure.
+    let folder = path.parent().filter(|p| !p.as_os_str().is_empty());
+    if let Some(folder) = folder.filter(|f| !f.is_dir()) {
+        return Err(PlotError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                format!("the folder {} does not exist", folder.display()),
+            ),
+        });
+    }
+    render_file(picture, path).map_err(|error| match error {
+        PlotError::Backend(message) => PlotError::Backend(format!("{}: {message}", path.display())),
+        other => other,
+    })
+}
+
+fn render_file(picture: &impl Picture, path: &Path) -> Result<(), PlotError> {
     let extension = path
         .extension()
         .and_then(|e| e.to_str())
@@ -31,22 +49,27 @@ pub(crate) fn render(picture: &impl Picture, path: &Path) -> Result<(), PlotErro
             Ok(unicac_optics::io::write_atomically(path, svg.as_bytes())?)
         }
         Some("png") => {
-            // The bitmap backend writes on drop even after an error, hence the temporary file.
-            let temporary = temporary_sibling(path);
-            let result = draw_on(
-                picture,
-                BitMapBackend::new(&temporary, picture.size()).into_drawing_area(),
-            )
-            .and_then(|()| {
-                std::fs::rename(&temporary, path).map_err(|source| PlotError::Io {
-                    path: path.into(),
-                    source,
+            // The bitmap backend writes on drop even after an error, hence the temporary file (named
+            // with the .png extension the backend picks its encoder from).
+            let mut failure = None;
+            let written = unicac_io::write_via_path(path, |temporary| {
+                draw_on(
+                    picture,
+                    BitMapBackend::new(temporary, picture.size()).into_drawing_area(),
+                )
+                .map_err(|e| {
+                    failure = Some(e);
+                    std::io::Error::other("drawing failed")
                 })
             });
-            if result.is_err() {
-                let _ = std::fs::remove_file(&temporary);
+            match (written, failure) {
+                (_, Some(error)) => Err(error),
+                (Err(source), None) => Err(PlotError::Io {
+                    path: path.into(),
+                    source,
+                }),
+                (Ok(()), None) => Ok(()),
             }
-            result
         }
         _ => Err(PlotError::UnknownExtension {
             path: path.to_path_buf(),
@@ -62,13 +85,4 @@ where
     picture.draw(root.clone())?;
     root.present()?;
     Ok(())
-}
-
-/// `.name.tmp-PID.png` next to `path` (the bitmap encoder picks its format from the extension).
-fn temporary_sibling(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}.png", std::process::id()))
 }

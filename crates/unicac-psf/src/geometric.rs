@@ -194,6 +194,18 @@ impl PsfTracer {
             .collect()
     }
 
+    /// An error when no ray of any wavelength arrived: a PSF of such a field is not a zero kernel but no
+    /// answer (callers that map a whole sensor may accept dark fields; a single-field PSF may not).
+    pub fn require_arrivals(&self, field_deg: f64, hits: &[FieldHits]) -> PsfResult<()> {
+        if hits.iter().all(|h| h.offsets_um.is_empty()) {
+            return Err(PsfError::FieldVignetted {
+                field_deg,
+                rays_traced: self.pupil.len() * hits.len(),
+            });
+        }
+        Ok(())
+    }
+
     /// Kernel size (odd, pixels) holding `energy_fraction` of this field's hits, before the cap.
     pub fn kernel_size_for(&self, hits: &[FieldHits]) -> usize {
         hits.iter()

@@ -20,4 +20,4 @@ pub use error::{SimError, SimResult};
 pub use geometry::SensorGrid;
 pub use psf_cache::{lens_fingerprint, PsfCache};
 pub use psf_map::RadialPsfs;
-pub use simulate::{crop, LensSimulator, PixelWindow, SimulationSettings};
+pub use simulate::{crop, LensSimulator, PixelWindow, SimulationSettings, MAX_SIMULATE_PIXELS};

@@ -9,15 +9,20 @@
 //! that reaches the tracer is equal.
 //!
 //! File: `<dir>/<key>.psf`: a magic line, the JSON metadata of the PSFs (length-prefixed), then every
-//! kernel's samples as little-endian f32 in order. Written to a temporary file and renamed, so a
-//! crash never leaves a half-written entry; an unreadable entry is a miss, never an error.
+//! kernel's samples as little-endian f32 in order, then the SHA-256 of everything before it. Written
+//! to a temporary file and renamed, so a crash never leaves a half-written entry; an entry that is
+//! unreadable, fails its checksum (a flipped bit on disk, an edited file) or holds non-finite samples
+//! is a miss, never an error and never a silently different PSF: the next store replaces it.
 
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use unicac_optics::Lens;
 use unicac_psf::FieldPsf;
 
-const MAGIC: &[u8] = b"unicac-psf-cache 1\n";
+const MAGIC: &[u8] = b"unicac-psf-cache 2\n";
+
+/// Bytes of the trailing content checksum (SHA-256).
+const CHECKSUM_BYTES: usize = 32;
 
 /// A directory of cached PSF sets.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -74,6 +79,16 @@ impl PsfCache {
         decode(&std::fs::read(self.path(key)).ok()?)
     }
 
+    /// Decodes the bytes of a cache entry (`None` when corrupt); public for the fuzzer.
+    pub fn decode_entry(bytes: &[u8]) -> Option<Vec<FieldPsf>> {
+        decode(bytes)
+    }
+
+    /// The bytes of a cache entry holding `psfs`.
+    pub fn encode_entry(psfs: &[FieldPsf]) -> Vec<u8> {
+        encode(psfs)
+    }
+
     /// Stores `psfs` under `key` (atomically).
     pub fn store(&self, key: &str, psfs: &[FieldPsf]) -> std::io::Result<()> {
         std::fs::create_dir_all(&self.dir)?;
@@ -93,11 +108,17 @@ fn encode(psfs: &[FieldPsf]) -> Vec<u8> {
     for kernel in psfs.iter().flat_map(|p| &p.kernels) {
         bytes.extend(kernel.data.iter().flat_map(|v| v.to_le_bytes()));
     }
+    let checksum = Sha256::digest(&bytes);
+    bytes.extend(checksum);
     bytes
 }
 
 fn decode(bytes: &[u8]) -> Option<Vec<FieldPsf>> {
-    let rest = bytes.strip_prefix(MAGIC)?;
+    let (content, checksum) = bytes.split_at_checked(bytes.len().checked_sub(CHECKSUM_BYTES)?)?;
+    if Sha256::digest(content).as_slice() != checksum {
+        return None;
+    }
+    let rest = content.strip_prefix(MAGIC)?;
     let (length, rest) = rest.split_first_chunk::<8>()?;
     let length = usize::try_from(u64::from_le_bytes(*length)).ok()?;
     let metadata = rest.get(..length)?;
@@ -105,6 +126,10 @@ fn decode(bytes: &[u8]) -> Option<Vec<FieldPsf>> {
     let mut psfs: Vec<FieldPsf> = serde_json::from_slice(metadata).ok()?;
     for kernel in psfs.iter_mut().flat_map(|p| &mut p.kernels) {
         let count = kernel.size.checked_mul(kernel.size)?;
+        // Never allocate more than the entry holds (a corrupt size must not ask for terabytes).
+        if count > samples.len() {
+            return None;
+        }
         kernel.data = (0..count)
             .map(|_| {
                 samples
@@ -113,7 +138,11 @@ fn decode(bytes: &[u8]) -> Option<Vec<FieldPsf>> {
             })
             .collect::<Option<Vec<f32>>>()?;
     }
-    (samples.len() == 0 && samples.remainder().is_empty()).then_some(psfs)
+    let finite = psfs
+        .iter()
+        .flat_map(|p| &p.kernels)
+        .all(|k| k.data.iter().all(|v| v.is_finite()));
+    (finite && samples.len() == 0 && samples.remainder().is_empty()).then_some(psfs)
 }
 
 #[cfg(test)]
@@ -164,6 +193,23 @@ mod tests {
         std::fs::write(&path, [bytes.as_slice(), &[0, 0, 0, 0]].concat()).unwrap();
         assert!(cache.load(&key).is_none());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Issue 16: one changed byte anywhere in an entry (here: in every position of a small entry) is a
+    /// miss; before the checksum a changed sample byte loaded as a valid, different PSF.
+    #[test]
+    fn any_changed_byte_is_a_miss() {
+        let bytes = encode(&[psf(3, 0.5)]);
+        assert!(decode(&bytes).is_some());
+        for position in 0..bytes.len() {
+            let mut changed = bytes.clone();
+            changed[position] ^= 0x01;
+            assert!(decode(&changed).is_none(), "byte {position} changed and still loaded");
+        }
+        // A kernel size that the samples do not back (with a valid checksum) never allocates it.
+        let mut psfs = vec![psf(3, 0.5)];
+        psfs[0].kernels[0].size = 1 << 31;
+        assert!(decode(&encode(&psfs)).is_none());
     }
 
     #[test]

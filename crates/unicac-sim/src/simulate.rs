@@ -43,6 +43,10 @@ pub struct SimulationSettings {
     pub cache: Option<PsfCache>,
 }
 
+/// Most pixels of an image `LensSimulator` takes (2^27, 134 MP). Peak memory is linear in the pixel
+/// count (docs/reliability.md gives the measured formula): about 12 GB at this limit.
+pub const MAX_SIMULATE_PIXELS: usize = 1 << 27;
+
 /// Node spacing floor (pixels): below it nodes cost more than they correct (docs/performance.md).
 pub const MIN_NODE_SPACING_PX: usize = 8;
 
@@ -89,6 +93,12 @@ impl LensSimulator {
         if width < 2 || height < 2 {
             return Err(SimError::InvalidRequest(format!(
                 "image of {width} x {height} pixels is too small"
+            )));
+        }
+        if width.saturating_mul(height) > MAX_SIMULATE_PIXELS {
+            return Err(SimError::InvalidRequest(format!(
+                "image of {width} x {height} pixels exceeds the limit of {MAX_SIMULATE_PIXELS} pixels \
+                 (MAX_SIMULATE_PIXELS; peak memory grows with the pixel count, see docs/reliability.md)"
             )));
         }
         let chief = ChiefRayMap::new(lens)?;

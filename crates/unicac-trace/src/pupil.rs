@@ -7,6 +7,11 @@ use std::f64::consts::PI;
 /// Fixed default seed of `random:N`, so two runs sample the same rays.
 pub const DEFAULT_SEED: u64 = 0x5EED_0FC0_FFEE;
 
+/// Most pupil points one sampling may produce (2^24). A spot holds, per point, the pupil point (16 B),
+/// the ray (48 B), its status (8 B) and its image point (16 B): about 1.5 GB at this limit, traced in a
+/// few seconds. Checked before anything is allocated.
+pub const MAX_PUPIL_SAMPLES: u64 = 1 << 24;
+
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PupilSampling {
@@ -36,7 +41,8 @@ impl std::str::FromStr for PupilSampling {
         if n == 0 {
             return Err(format!("'{text}': the count must be at least 1"));
         }
-        let n_usize = n as usize;
+        // Counts beyond the limit are refused below; clamping here keeps 32-bit targets from wrapping.
+        let n_usize = usize::try_from(n).unwrap_or(usize::MAX);
         let sampling = match kind {
             "hexapolar" => PupilSampling::Hexapolar { rings: n_usize },
             "grid" => PupilSampling::Grid { n: n_usize },
@@ -54,11 +60,45 @@ impl std::str::FromStr for PupilSampling {
                 ))
             }
         };
+        sampling.check().map_err(|e| format!("'{text}': {e}"))?;
         Ok(sampling)
     }
 }
 
 impl PupilSampling {
+    /// How many points the sampling visits before the disc test (grid: N^2 cells), without allocating;
+    /// saturates instead of overflowing.
+    pub fn candidate_count(&self) -> u64 {
+        match *self {
+            PupilSampling::Hexapolar { rings } => {
+                let r = rings as u64;
+                r.saturating_mul(r.saturating_add(1)).saturating_mul(3).saturating_add(1)
+            }
+            PupilSampling::Grid { n } => (n as u64).saturating_mul(n as u64),
+            PupilSampling::Fibonacci { n } | PupilSampling::Random { n, .. } => n as u64,
+        }
+    }
+
+    /// An error naming the limit when the sampling is empty or would exceed [`MAX_PUPIL_SAMPLES`].
+    pub fn check(&self) -> Result<(), String> {
+        let count = self.candidate_count();
+        let n = match *self {
+            PupilSampling::Hexapolar { rings: n }
+            | PupilSampling::Grid { n }
+            | PupilSampling::Fibonacci { n }
+            | PupilSampling::Random { n, .. } => n,
+        };
+        if n == 0 {
+            return Err("the count must be at least 1".into());
+        }
+        if count > MAX_PUPIL_SAMPLES {
+            return Err(format!(
+                "{count} pupil samples exceed the limit of {MAX_PUPIL_SAMPLES} (MAX_PUPIL_SAMPLES)"
+            ));
+        }
+        Ok(())
+    }
+
     /// The sample points (px, py) in the unit disc.
     pub fn points(&self) -> Vec<[f64; 2]> {
         match *self {
@@ -152,6 +192,26 @@ mod tests {
         let mean_x: f64 = a.iter().map(|[x, _]| x).sum::<f64>() / a.len() as f64;
         assert!((mean_r2 - 0.5).abs() < 0.01, "{mean_r2}");
         assert!(mean_x.abs() < 0.015, "{mean_x}");
+    }
+
+    #[test]
+    fn counts_beyond_the_limit_are_refused_before_allocating() {
+        // Each of these used to abort on allocation, overflow capacity or run for minutes (issue 16).
+        for bad in [
+            "fibonacci:18446744073709551615",
+            "random:18446744073709551615",
+            "random:4294967296",
+            "hexapolar:100000",
+            "grid:100000",
+            "grid:4294967295",
+        ] {
+            let message = bad.parse::<PupilSampling>().unwrap_err();
+            assert!(message.contains("MAX_PUPIL_SAMPLES"), "{bad}: {message}");
+        }
+        assert!("hexapolar:2000".parse::<PupilSampling>().is_ok());
+        assert!("grid:4096".parse::<PupilSampling>().is_ok());
+        assert!("random:16777216".parse::<PupilSampling>().is_ok());
+        assert!("random:16777217".parse::<PupilSampling>().is_err());
     }
 
     #[test]

@@ -114,6 +114,9 @@ pub fn spots(
     aiming: Aiming,
     sampling: &PupilSampling,
 ) -> TraceResult<Vec<Spot>> {
+    sampling
+        .check()
+        .map_err(|e| crate::TraceError::InvalidRequest(format!("pupil sampling: {e}")))?;
     let mut spots = Vec::with_capacity(fields_deg.len() * wavelengths_um.len());
     for &wavelength in wavelengths_um {
         let tracer = SpotTracer::new(lens, wavelength, aiming)?;
@@ -164,6 +167,19 @@ pub struct RayFan {
     pub wavelength_um: f64,
     pub tangential: Vec<FanPoint>,
     pub sagittal: Vec<FanPoint>,
+}
+
+/// Most points per fan: each is an aimed ray (a real-aimed one costs a Newton solve).
+pub const MAX_FAN_SAMPLES: usize = 100_001;
+
+/// Fans need at least two points (the pupil's two ends) and at most [`MAX_FAN_SAMPLES`].
+pub fn check_fan_samples(samples: usize) -> TraceResult<()> {
+    if !(2..=MAX_FAN_SAMPLES).contains(&samples) {
+        return Err(crate::TraceError::InvalidRequest(format!(
+            "fan samples {samples}: must lie between 2 and {MAX_FAN_SAMPLES} (MAX_FAN_SAMPLES)"
+        )));
+    }
+    Ok(())
 }
 
 pub fn ray_fan(tracer: &SpotTracer, field_deg: f64, samples: usize) -> Option<RayFan> {

@@ -29,6 +29,10 @@ pub const LANE_BLOCK: usize = 64;
 /// Relative size of the last Newton step at which the intersection counts as converged (see module docs).
 const NEWTON_STEP_TOLERANCE: f64 = 1e-9;
 
+/// Relative distance a ray may "travel backwards" to a surface before `trace_path_from_start` calls it
+/// missed (rounding of a ray that starts on the surface).
+const BACKWARDS_TOLERANCE: f64 = 1e-12;
+
 /// Below this |N| a ray counts as parallel to a surface's tangent plane (angle > 89.99994 deg).
 const GRAZING_N: f64 = 1e-6;
 
@@ -169,6 +173,37 @@ impl TraceSystem {
                     .copysign(along);
         });
         (status, opl)
+    }
+
+    /// Like `trace_path`, for a ray that physically starts where it is (a ray given by a user): every
+    /// surface must lie ahead of it. A ray pointing away from the lens, or starting past the image
+    /// surface, is `Missed` at the first surface it would have to travel backwards to, instead of being
+    /// traced as if it had come from the other side. A gap of negative thickness is traversed
+    /// backwards by design and is exempt. (Aimed rays start on the entrance-pupil plane, which may
+    /// be virtual, and use `trace`.)
+    pub fn trace_path_from_start(&self, ray: Ray) -> (Vec<[f64; 3]>, RayStatus) {
+        let mut ray = ray;
+        let mut points = vec![ray.position_mm];
+        let mut surface = 0usize;
+        let mut backwards_at: Option<u32> = None;
+        let status = self.walk(&mut ray, self.image_index(), false, |before, after, _| {
+            let delta = [0, 1, 2].map(|k| after.position_mm[k] - before.position_mm[k]);
+            let d = before.direction;
+            let along = delta[0] * d[0] + delta[1] * d[1] + delta[2] * d[2];
+            let scale = 1.0 + before.position_mm.iter().chain(&after.position_mm).fold(0.0f64, |m, v| m.max(v.abs()));
+            let negative_gap = surface > 0 && self.surfaces[surface].z_mm < self.surfaces[surface - 1].z_mm;
+            if backwards_at.is_none() && !negative_gap && along < -BACKWARDS_TOLERANCE * scale {
+                backwards_at = Some(surface as u32);
+            }
+            if backwards_at.is_none() {
+                points.push(after.position_mm);
+            }
+            surface += 1;
+        });
+        match backwards_at {
+            Some(surface) => (points, RayStatus::Missed { surface }),
+            None => (points, status),
+        }
     }
 
     /// Traces to the image surface and records the point on every surface it reaches (for layouts and

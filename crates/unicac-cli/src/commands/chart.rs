@@ -6,6 +6,8 @@ use unicac_image::charts;
 
 pub fn run(args: &ChartArgs) -> Result<()> {
     let [w, h] = args.size;
+    charts::check_chart_size(w, h).map_err(|e| anyhow::anyhow!("--size {w}x{h}: {e}"))?;
+    unicac_io::require_extension("--out", &args.out, &["png", "tif", "tiff", "exr"])?;
     let chart = match args.kind.as_str() {
         "dead-leaves" => charts::dead_leaves(w, h, args.seed)?,
         "checkerboard" => charts::checkerboard(w, h, (w.min(h) as f64 / 8.0).max(8.0), 1.0, 5.0)?,

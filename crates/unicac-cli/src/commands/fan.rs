@@ -7,6 +7,8 @@ use anyhow::Result;
 use unicac_trace::{spot::ray_fan, SpotTracer};
 
 pub fn run(args: &FanArgs) -> Result<()> {
+    unicac_trace::spot::check_fan_samples(args.samples).map_err(|e| anyhow::anyhow!("--samples: {e}"))?;
+    crate::outputs::check_lens_and_picture(&args.lens.lens, "--plot", args.plot.as_deref())?;
     let lens = load_lens(&args.lens.lens)?;
     let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.rays)?;
     let mut fans = Vec::new();
@@ -15,7 +17,7 @@ pub fn run(args: &FanArgs) -> Result<()> {
         fans.extend(
             fields
                 .iter()
-                .filter_map(|&field| ray_fan(&tracer, field, args.samples.max(2))),
+                .filter_map(|&field| ray_fan(&tracer, field, args.samples)),
         );
     }
     if let Some(path) = &args.plot {

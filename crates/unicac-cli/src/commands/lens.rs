@@ -60,6 +60,10 @@ pub fn info(args: &LensInfoArgs) -> Result<()> {
 }
 
 pub fn convert(args: &ConvertArgs) -> Result<()> {
+    unicac_io::require_extension("OUTPUT", &args.output, &["json", "zmx"])?;
+    let mut plan = crate::outputs::plan(Some(args.input.as_str()));
+    plan.output("OUTPUT", &args.output);
+    plan.check()?;
     let spec = load_spec(&args.input)?;
     unicac_optics::Lens::from_spec(&spec).map_err(|e| anyhow::anyhow!("{}: {e}", args.input))?;
     unicac_optics::write_spec(&spec, &args.output)?;

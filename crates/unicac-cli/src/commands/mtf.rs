@@ -25,6 +25,10 @@ pub fn run(args: &MtfArgs) -> Result<()> {
         return lens(args);
     }
     let path = std::path::Path::new(&args.input);
+    let mut plan = crate::outputs::plan(None);
+    plan.input(path);
+    crate::outputs::picture(&mut plan, "--plot", args.plot.as_deref())?;
+    plan.check()?;
     let loaded = read_image(path)?;
     let image = if args.linear {
         loaded.image.clone()
@@ -88,6 +92,7 @@ pub fn run(args: &MtfArgs) -> Result<()> {
 
 /// `unicac mtf LENS`: slanted-edge and exact MTFs at the ODE fields (green channel plotted).
 fn lens(args: &MtfArgs) -> Result<()> {
+    crate::outputs::check_lens_and_picture(&args.input, "--plot", args.plot.as_deref())?;
     let lens = crate::lens_input::load_lens(&args.input)?;
     let curves = unicac_ode::lens_mtf(&lens, &unicac_ode::OdeSettings::default())?;
     if let Some(plot) = &args.plot {

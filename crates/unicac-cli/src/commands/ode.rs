@@ -17,6 +17,16 @@ struct LensOde {
 }
 
 pub fn run(args: &OdeArgs) -> Result<()> {
+    let mut plan = crate::outputs::plan(None);
+    for lens in args.lenses.iter().filter(|l| !l.starts_with(crate::lens_input::BUILTIN_PREFIX)) {
+        plan.input(lens);
+    }
+    if let Some(csv) = &args.csv {
+        unicac_io::require_extension("--csv", csv, &["csv"])?;
+        plan.output("--csv", csv);
+    }
+    crate::outputs::picture(&mut plan, "--plot", args.plot.as_deref())?;
+    plan.check()?;
     super::gpu::install(&args.device);
     let settings = OdeSettings::default();
     let bar = progress(args.lenses.len(), "ode");

@@ -36,6 +36,7 @@ struct PsfReport<'a> {
 }
 
 pub fn run(args: &PsfArgs) -> Result<()> {
+    check_request(args)?;
     super::gpu::install(&args.device);
     let mut spec = load_spec(&args.lens.lens)?;
     if let Some(distance) = args.object_distance_mm {
@@ -136,6 +137,27 @@ pub fn run(args: &PsfArgs) -> Result<()> {
     Ok(())
 }
 
+/// Everything that can be refused before any work: the field, the wavelengths, and the outputs (the
+/// EXR under an .exr name, its JSON sidecar and the picture never over the lens file or each other).
+fn check_request(args: &PsfArgs) -> Result<()> {
+    if !(args.field_deg.is_finite() && args.field_deg.abs() < 90.0) {
+        bail!("--field-deg {}: must lie strictly between -90 and 90", args.field_deg);
+    }
+    if let Some(bad) = args.wavelengths_um.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
+        bail!("--wavelength-um {bad}: must be positive");
+    }
+    if let Some(pixel_um) = args.pixel_um.filter(|p| !(p.is_finite() && *p > 0.0)) {
+        bail!("--pixel-um {pixel_um}: must be positive");
+    }
+    unicac_io::require_extension("--out", &args.out, &["exr"])?;
+    let mut plan = crate::outputs::plan(Some(args.lens.lens.as_str()));
+    plan.output("--out", &args.out)
+        .output("--out (JSON sidecar)", args.out.with_extension("json"));
+    crate::outputs::picture(&mut plan, "--plot", args.plot.as_deref())?;
+    plan.check()?;
+    Ok(())
+}
+
 /// The PSF of the requested mode, traced now.
 fn compute(
     lens: &Lens,
@@ -150,6 +172,7 @@ fn compute(
             let tracer = PsfTracer::new(lens, weights.clone(), PsfSettings::new(pixel_um))?;
             let reference = tracer.reference_point_mm(args.field_deg)?;
             let hits = tracer.hits(args.field_deg, reference);
+            tracer.require_arrivals(args.field_deg, &hits)?;
             let size = tracer.kernel_size_for(&hits);
             let psf = tracer.kernels_from_hits(args.field_deg, reference, &hits, size, monochromatic);
             warn_if_cut(&psf, size, tracer.settings().max_kernel_px);

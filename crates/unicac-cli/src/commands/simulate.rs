@@ -11,13 +11,34 @@ use unicac_image::Planar;
 use unicac_sim::{LensSimulator, SimulationSettings};
 
 pub fn run(args: &SimulateArgs) -> Result<()> {
+    let outputs = plan_outputs(args)?;
     super::gpu::install(&args.device);
     let lens = load_lens(&args.lens.lens)?;
+    let created = !args.out.exists();
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    if let Err(error) = unicac_io::clean_stale_temporaries(&args.out) {
+        eprintln!("warning: {}: cleaning temporaries of killed runs: {error}", args.out.display());
+    }
+    let result = simulate_all(args, &lens, &outputs);
+    // A run that failed before writing anything leaves no empty folder behind.
+    if result.is_err() && created {
+        let _ = std::fs::remove_dir(&args.out);
+    }
+    result
+}
+
+fn simulate_all(args: &SimulateArgs, lens: &unicac_optics::Lens, outputs: &[(PathBuf, FileFormat)]) -> Result<()> {
     let bar = progress(args.images.len(), "simulate");
     let mut simulator: Option<LensSimulator> = None;
-    for (index, path) in args.images.iter().enumerate() {
+    for (index, (path, (out, format))) in args.images.iter().zip(outputs).enumerate() {
         let loaded = read_image(path)?;
+        if let Some((channel, x, y, value)) = loaded.image.first_non_finite() {
+            bail!(
+                "{}: pixel (x {x}, y {y}) of channel {} is {value}; simulate needs finite values",
+                path.display(),
+                loaded.channel_names.get(channel).map_or("?", String::as_str)
+            );
+        }
         let image = rgb(&loaded, path)?;
         // PSF maps depend on the image size: reuse while it stays the same.
         if simulator
@@ -35,7 +56,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
                 ..Default::default()
             };
             simulator = Some(LensSimulator::new(
-                &lens,
+                lens,
                 image.width,
                 image.height,
                 args.pixel_um,
@@ -57,22 +78,55 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         };
         let seed = args.seed.wrapping_add(index as u64);
         let degraded = sim.degrade(&pipeline, &image, seed)?;
-        let format = args
-            .format
-            .as_deref()
-            .map(format_from_name)
-            .unwrap_or(loaded.format);
-        let stem = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| format!("image{index}"));
-        let out = args.out.join(format!("{stem}.{}", extension(format)));
-        write_encoded(&degraded, &out, format, loaded.bit_depth)?;
+        write_encoded(&degraded, out, *format, loaded.bit_depth)?;
         bar.inc(1);
     }
     bar.finish_and_clear();
     eprintln!("wrote {} image(s) to {}", args.images.len(), args.out.display());
     Ok(())
+}
+
+/// Each input's output path and format, checked before any work: the input's file name, extension
+/// included, inside --out, in the format that extension names (a name whose extension names no format
+/// gets the format's extension appended, the format read from the file's signature). `--format`
+/// replaces the extension where it names another format. No output may be an input (`simulate d/a.png
+/// --out d/`) or another output (`x/a.png y/a.png`), and the PSF-map picture is checked with them.
+fn plan_outputs(args: &SimulateArgs) -> Result<Vec<(PathBuf, FileFormat)>> {
+    let mut plan = crate::outputs::plan(Some(args.lens.lens.as_str()));
+    let mut outputs = Vec::with_capacity(args.images.len());
+    for input in &args.images {
+        plan.input(input);
+        let name = input
+            .file_name()
+            .ok_or_else(|| anyhow::anyhow!("{}: not a file name", input.display()))?;
+        let named = FileFormat::from_extension(&unicac_io::extension_of(input));
+        let format = match (args.format.as_deref(), named) {
+            (Some(requested), _) => format_from_name(requested),
+            (None, Some(format)) => format,
+            (None, None) => sniff_format(input)?,
+        };
+        let out = match named {
+            Some(n) if n == format => args.out.join(name),
+            Some(_) => args.out.join(name).with_extension(format.extension()),
+            None => args.out.join(format!("{}.{}", name.to_string_lossy(), format.extension())),
+        };
+        plan.output("--out", &out);
+        outputs.push((out, format));
+    }
+    crate::outputs::picture(&mut plan, "--psf-plot", args.psf_plot.as_deref())?;
+    plan.check()?;
+    Ok(outputs)
+}
+
+/// The format of an image file from its first bytes (for names without a known extension).
+fn sniff_format(path: &Path) -> Result<FileFormat> {
+    use std::io::Read;
+    let mut head = [0u8; 8];
+    let read = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut head))
+        .with_context(|| format!("reading {}", path.display()))?;
+    FileFormat::sniff(&head[..read])
+        .ok_or_else(|| anyhow::anyhow!("{}: not a PNG, TIFF or OpenEXR file", path.display()))
 }
 
 /// Where the PSF map came from, and how much energy the kernel-size cap cut.
@@ -146,13 +200,6 @@ fn format_from_name(name: &str) -> FileFormat {
     }
 }
 
-fn extension(format: FileFormat) -> &'static str {
-    match format {
-        FileFormat::Png => "png",
-        FileFormat::Tiff => "tiff",
-        FileFormat::OpenExr => "exr",
-    }
-}
 
 /// Writes an sRGB-encoded image (the ISP's output): PNG/TIFF at the input's depth (8 or 16 bit),
 /// EXR decoded back to linear float.

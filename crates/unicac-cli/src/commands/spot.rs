@@ -16,6 +16,7 @@ struct SpotReport<'a> {
 }
 
 pub fn run(args: &SpotArgs) -> Result<()> {
+    crate::outputs::check_lens_and_picture(&args.lens.lens, "--plot", args.plot.as_deref())?;
     let lens = load_lens(&args.lens.lens)?;
     let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.rays)?;
     let selection = super::gpu::install(&args.device);

@@ -41,7 +41,12 @@ pub fn run(args: &TraceArgs) -> Result<()> {
         _ => bail!("give either --ray=X,Y,Z,L,M,N or --field-deg F with --pupil PX,PY"),
     };
     let system = TraceSystem::new(&lens, wavelength_um, Clipping::Apertures)?;
-    let (path, status) = system.trace_path(ray);
+    // A ray given by the user starts where it says; an aimed ray starts on the entrance-pupil plane.
+    let (path, status) = if args.ray.is_some() {
+        system.trace_path_from_start(ray)
+    } else {
+        system.trace_path(ray)
+    };
     let arrived = status.is_ok();
     let end = path.last().copied().filter(|_| arrived);
     let mut end_ray = ray;

@@ -97,6 +97,7 @@ impl DeadLeaves {
 
     /// The chart and the number of leaves drawn until full coverage (or `max_leaves`).
     fn render_counted(&self, width: usize, height: usize, seed: u64) -> Result<(Planar, usize)> {
+        super::check_chart_size(width, height)?;
         self.validate()?;
         let n = self.supersampling;
         let (fine_width, fine_height) = (width * n, height * n);

@@ -16,11 +16,33 @@ pub use patterns::{
     checkerboard, siemens_star, slanted_edge, CHART_HIGH, CHART_LOW, CHART_MEAN, SUPERSAMPLING,
 };
 
+use crate::error::{ImageError, Result};
 use crate::Planar;
+
+/// Most pixels of a generated chart (2^25, e.g. 8192 x 4096). Peak memory of a chart is about
+/// 4 n^2 + 16 bytes per pixel (dead leaves: one u32 label per sub-sample, n = 4 by default, then the
+/// f32 RGB image): 2.7 GB at this limit.
+pub const MAX_CHART_PIXELS: usize = 1 << 25;
+
+/// An error naming the limit when a chart of `width` x `height` is empty or too large; checked before
+/// anything is allocated.
+pub fn check_chart_size(width: usize, height: usize) -> Result<()> {
+    match width.checked_mul(height) {
+        Some(pixels) if pixels > 0 && pixels <= MAX_CHART_PIXELS => Ok(()),
+        _ => Err(ImageError::invalid(
+            "size",
+            format!(
+                "{width} x {height} px: a chart needs at least one pixel and at most {MAX_CHART_PIXELS} \
+                 (MAX_CHART_PIXELS)"
+            ),
+        )),
+    }
+}
 
 /// Grey chart from an analytic reflectance `shade(x, y)` in continuous pixel coordinates, averaged over
 /// `n x n` sub-samples per pixel and copied to three identical channels.
 fn render_grey(width: usize, height: usize, n: usize, shade: impl Fn(f64, f64) -> f64) -> Planar {
+    debug_assert!(check_chart_size(width, height).is_ok());
     let mut grey = vec![0.0f32; width * height];
     let inverse_n = 1.0 / n as f64;
     for y in 0..height {

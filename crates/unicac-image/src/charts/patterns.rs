@@ -45,6 +45,7 @@ pub fn checkerboard(
     contrast: f64,
     slant_deg: f64,
 ) -> Result<Planar> {
+    super::check_chart_size(width, height)?;
     if !(period_px.is_finite() && period_px >= 2.0) {
         return Err(ImageError::invalid(
             "period_px",
@@ -68,6 +69,7 @@ pub fn checkerboard(
 /// (cx, cy) being the image centre, so a positive angle moves the edge right going down. Pixels left of the
 /// edge are `low`, right of it `high` (both in [0, 1], linear light).
 pub fn slanted_edge(width: usize, height: usize, angle_deg: f64, low: f64, high: f64) -> Result<Planar> {
+    super::check_chart_size(width, height)?;
     let (low, high) = (unit("low", low)?, unit("high", high)?);
     let (sin, cos) = finite("angle_deg", angle_deg)?.to_radians().sin_cos();
     let (cx, cy) = (width as f64 / 2.0, height as f64 / 2.0);
@@ -87,6 +89,7 @@ pub fn slanted_edge(width: usize, height: usize, angle_deg: f64, low: f64, high:
 /// it the image is `CHART_MEAN`. The spatial period at radius r is `2 pi r / spokes` px; the centre aliases
 /// by construction and the supersampling only tempers it.
 pub fn siemens_star(width: usize, height: usize, spokes: usize) -> Result<Planar> {
+    super::check_chart_size(width, height)?;
     if spokes < 2 {
         return Err(ImageError::invalid(
             "spokes",

@@ -38,6 +38,25 @@ impl FileFormat {
         }
     }
 
+    /// The format a file name's extension names (case-insensitive): png, tif/tiff, exr.
+    pub fn from_extension(extension: &str) -> Option<FileFormat> {
+        match extension.to_ascii_lowercase().as_str() {
+            "png" => Some(FileFormat::Png),
+            "tif" | "tiff" => Some(FileFormat::Tiff),
+            "exr" => Some(FileFormat::OpenExr),
+            _ => None,
+        }
+    }
+
+    /// The extension written for this format when a name has to be made: png, tiff, exr.
+    pub fn extension(self) -> &'static str {
+        match self {
+            FileFormat::Png => "png",
+            FileFormat::Tiff => "tiff",
+            FileFormat::OpenExr => "exr",
+        }
+    }
+
     /// The format whose signature starts `bytes`: PNG (ISO/IEC 15948, 8-byte signature), TIFF (TIFF 6.0
     /// header `II*\0` or `MM\0*`), OpenEXR (magic number 20000630 as little-endian `76 2f 31 01`).
     pub fn sniff(bytes: &[u8]) -> Option<FileFormat> {
@@ -127,15 +146,21 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<LoadedImage> {
         path: path.to_path_buf(),
         source,
     })?;
+    decode_image(path, &bytes)
+}
+
+/// Decodes the bytes of a PNG, TIFF or OpenEXR file (`path` only names it in errors); what
+/// [`read_image`] does after reading the file, public for tools that hold the bytes (and the fuzzer).
+pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<LoadedImage> {
     if bytes.is_empty() {
         return Err(ImageError::EmptyFile {
             path: path.to_path_buf(),
         });
     }
-    match FileFormat::sniff(&bytes) {
-        Some(FileFormat::Png) => raster::decode(path, &bytes, Raster::Png),
-        Some(FileFormat::Tiff) => raster::decode(path, &bytes, Raster::Tiff),
-        Some(FileFormat::OpenExr) => openexr::decode(path, &bytes),
+    match FileFormat::sniff(bytes) {
+        Some(FileFormat::Png) => raster::decode(path, bytes, Raster::Png),
+        Some(FileFormat::Tiff) => raster::decode(path, bytes, Raster::Tiff),
+        Some(FileFormat::OpenExr) => openexr::decode(path, bytes),
         None => Err(ImageError::UnknownFormat {
             path: path.to_path_buf(),
         }),

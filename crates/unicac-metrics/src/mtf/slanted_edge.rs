@@ -133,6 +133,7 @@ pub fn slanted_edge_mtf(
     roi: Roi,
     options: &SlantedEdgeOptions,
 ) -> Result<EdgeMtf> {
+    crate::input::check_finite_region(image, channel, [roi.x, roi.y, roi.width, roi.height])?;
     let (region, orientation) = oriented_region(image, channel, roi)?;
     let Region {
         width: w,

@@ -60,6 +60,15 @@ fn decode(bytes: &[u8]) -> String {
     }
 }
 
+/// What the reader saw of one SURF block, for the structure checks of `finish`.
+#[derive(Debug, Clone, Copy)]
+struct SurfaceBlock {
+    line: usize,
+    declared_index: Option<usize>,
+    has_curvature: bool,
+    has_thickness: bool,
+}
+
 struct Reader<'a> {
     path: &'a Path,
     name: String,
@@ -77,6 +86,8 @@ struct Reader<'a> {
     /// Surfaces in file order, starting with the object surface (SURF 0).
     surfaces: Vec<SurfaceSpec>,
     parms: Vec<Vec<(usize, f64)>>,
+    /// Per surface: the line of its SURF keyword and whether CURV and DISZ were given (structure checks).
+    blocks: Vec<SurfaceBlock>,
     object_distance: Option<f64>,
     unsupported: BTreeSet<String>,
     warnings: BTreeSet<String>,
@@ -100,6 +111,7 @@ impl<'a> Reader<'a> {
             catalogs: Vec::new(),
             surfaces: Vec::new(),
             parms: Vec::new(),
+            blocks: Vec::new(),
             object_distance: None,
             unsupported: BTreeSet::new(),
             warnings: BTreeSet::new(),
@@ -135,6 +147,60 @@ impl<'a> Reader<'a> {
             location: line.to_string(),
             message: format!("{keyword} before the first SURF"),
         })
+    }
+
+    /// The block of the current surface (`current` has been called, so there is one).
+    fn block(&mut self) -> &mut SurfaceBlock {
+        self.blocks.last_mut().expect("a SURF block")
+    }
+
+    /// A file cut short or edited by hand must not load as a smaller lens: every SURF block is
+    /// numbered in order and complete (Zemax writes CURV and DISZ for every surface), one surface is
+    /// the stop, and PWAV names a listed wavelength.
+    fn check_structure(&self) -> Result<()> {
+        for (position, block) in self.blocks.iter().enumerate() {
+            if block.declared_index != Some(position) {
+                return Err(self.error(
+                    block.line,
+                    format!("surface blocks must be numbered SURF 0, 1, 2, ...; expected SURF {position}"),
+                ));
+            }
+            if !(block.has_curvature && block.has_thickness) {
+                return Err(self.error(
+                    block.line,
+                    format!(
+                        "SURF {position} has no {}: the surface is incomplete (is the file truncated?)",
+                        if block.has_curvature { "DISZ" } else { "CURV" }
+                    ),
+                ));
+            }
+        }
+        let stops = self.surfaces.iter().filter(|s| s.stop).count();
+        if stops != 1 {
+            return Err(self.error(
+                0,
+                format!("{stops} surfaces are marked STOP; a lens file marks exactly one (is the file truncated?)"),
+            ));
+        }
+        if let Some(primary) = self.primary {
+            let listed: Vec<usize> = if self.wavelengths.is_empty() {
+                self.old_wavelengths
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, w)| **w > 0.0)
+                    .map(|(i, _)| i + 1)
+                    .collect()
+            } else {
+                self.wavelengths.iter().map(|(i, _)| *i).collect()
+            };
+            if !listed.contains(&primary) {
+                return Err(self.error(
+                    0,
+                    format!("PWAV {primary}: no such wavelength (listed: {listed:?})"),
+                ));
+            }
+        }
+        Ok(())
     }
 
     fn line(&mut self, n: usize, line: &str) -> Result<()> {
@@ -213,11 +279,23 @@ impl<'a> Reader<'a> {
             }
             "WAVL" => self.old_wavelengths = self.numbers(n, &tokens, "WAVL")?,
             "WWGT" => self.old_weights = self.numbers(n, &tokens, "WWGT")?,
-            "PWAV" => self.primary = Some(self.number(n, tokens.first().copied(), "PWAV")? as usize),
+            "PWAV" => {
+                let primary = self.number(n, tokens.first().copied(), "PWAV")?;
+                if !((1.0..=1e6).contains(&primary) && primary.fract() == 0.0) {
+                    return Err(self.error(n, format!("PWAV {primary}: expected a wavelength number 1, 2, ...")));
+                }
+                self.primary = Some(primary as usize);
+            }
             "GCAT" => self.catalogs = tokens.iter().map(|t| t.to_ascii_uppercase()).collect(),
             "SURF" => {
                 self.surfaces.push(SurfaceSpec::default());
                 self.parms.push(Vec::new());
+                self.blocks.push(SurfaceBlock {
+                    line: n,
+                    declared_index: tokens.first().and_then(|t| t.parse().ok()),
+                    has_curvature: false,
+                    has_thickness: false,
+                });
             }
             "TYPE" => {
                 let surface_type = match tokens.first().copied() {
@@ -233,9 +311,12 @@ impl<'a> Reader<'a> {
             "CURV" => {
                 let c = self.number(n, tokens.first().copied(), "CURV")?;
                 self.current(n, keyword)?.curvature_per_mm = Some(c);
+                self.block().has_curvature = true;
             }
             "DISZ" => {
                 let d = self.number(n, tokens.first().copied(), "DISZ")?;
+                self.current(n, keyword)?;
+                self.block().has_thickness = true;
                 if self.surfaces.len() == 1 {
                     self.object_distance = d.is_finite().then_some(d);
                 } else {
@@ -258,6 +339,9 @@ impl<'a> Reader<'a> {
             }
             "DIAM" => {
                 let sd = self.number(n, tokens.first().copied(), "DIAM")?;
+                if !(sd >= 0.0 && sd.is_finite()) {
+                    return Err(self.error(n, format!("DIAM {sd}: a semi-diameter must be finite and >= 0")));
+                }
                 self.current(n, keyword)?.semi_diameter_mm = (sd > 0.0).then_some(sd);
             }
             "STOP" => self.current(n, keyword)?.stop = true,
@@ -318,6 +402,7 @@ impl<'a> Reader<'a> {
                 features: features.join("; "),
             });
         }
+        self.check_structure()?;
         for (surface, parms) in self.surfaces.iter_mut().zip(&self.parms) {
             if surface.surface_type == SurfaceType::EvenAsphere {
                 let count = parms.iter().map(|(i, _)| *i).max().unwrap_or(0).min(10);

@@ -1,0 +1,23 @@
+//! # unicac-io
+//!
+//! The one output-file policy of unicac (every command and stage that writes files calls it):
+//!
+//! - [`OutputPlan`]: before any work, the outputs of a run are checked against its inputs (an output
+//!   is never an input, compared by file identity, not by spelling) and against each other (two
+//!   outputs never share a path);
+//! - [`require_extension`]: an output's extension must name the format written (or the format follows
+//!   the extension: the caller picks it with [`extension_of`]);
+//! - [`write_atomically`] / [`write_with`] / [`write_via_path`]: a file appears complete or not at all
+//!   (a dot-named temporary sibling, synced, then renamed over the target);
+//! - [`clean_stale_temporaries`]: temporaries left by killed runs are removed on the next run.
+//!
+//! std only, so that every crate (optics, image, plot, sim, dataset, bench) can depend on it.
+
+mod atomic;
+mod plan;
+
+pub use atomic::{
+    clean_stale_temporaries, is_temporary_name, temporary_sibling, write_atomically, write_via_path,
+    write_with,
+};
+pub use plan::{extension_of, require_extension, OutputError, OutputPlan};

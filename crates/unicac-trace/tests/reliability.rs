@@ -1,0 +1,155 @@
+//! Issue 16: rays given by a user that never reach the lens are `missed`, and random valid lenses
+//! never give a ray reported `ok` with non-finite data.
+
+use unicac_optics::spec::{ApertureSpec, FieldSpec, MaterialSpec, SurfaceSpec};
+use unicac_optics::{examples, Lens, LensSpec};
+use unicac_trace::pupil::{counter_hash, unit_interval};
+use unicac_trace::{spots, Aiming, Clipping, PupilSampling, Ray, RayStatus, StatusCounts, TraceSystem};
+
+const D_LINE: f64 = 0.5875618;
+
+#[test]
+fn rays_that_never_reach_the_lens_are_missed() {
+    let lens = examples::lens("cooke_triplet").unwrap();
+    let system = TraceSystem::new(&lens, D_LINE, Clipping::Apertures).unwrap();
+    // Pointing away from the lens (used to report `ok` with the forward ray's image point).
+    let away = Ray::new([0.0, 1.0, -5.0], [0.0, 0.0, -1.0]);
+    assert_eq!(system.trace_path_from_start(away).1, RayStatus::Missed { surface: 0 });
+    // Starting past the image surface, pointing along +z.
+    let z_image = lens.surfaces[lens.image_index()].z_mm;
+    let past = Ray::new([0.0, 1.0, z_image + 10.0], [0.0, 0.0, 1.0]);
+    assert_eq!(system.trace_path_from_start(past).1, RayStatus::Missed { surface: 0 });
+    // Starting past the image surface, pointing back at the lens: it reaches surface 1 from behind,
+    // then would have to travel backwards to surface 2.
+    let back = Ray::new([0.0, 1.0, z_image + 10.0], [0.0, 0.0, -1.0]);
+    assert!(!system.trace_path_from_start(back).1.is_ok());
+    // An ordinary ray in front of the lens is traced exactly as `trace_path` traces it.
+    let forward = Ray::new([0.0, 2.0, -5.0], [0.0, 0.0, 1.0]);
+    assert_eq!(system.trace_path_from_start(forward), system.trace_path(forward));
+    assert!(system.trace_path_from_start(forward).1.is_ok());
+}
+
+/// A random lens that `Lens::from_spec` accepts, from a counter-based generator (so any failing case
+/// is reproduced from its index alone): 1 to 8 elements of model glass, spherical or conic surfaces,
+/// apertures from F/1.4 to F/16, fields up to 40 degrees.
+fn random_lens(seed: u64) -> Option<Lens> {
+    let mut counter = 0u64;
+    let mut uniform = |low: f64, high: f64| {
+        counter += 1;
+        low + (high - low) * unit_interval(counter_hash(seed, counter))
+    };
+    let elements = 1 + (uniform(0.0, 8.0) as usize).min(7);
+    let focal_scale = uniform(5.0, 200.0);
+    let mut surfaces = Vec::new();
+    let stop_at = (uniform(0.0, (2 * elements) as f64) as usize).min(2 * elements - 1);
+    for i in 0..2 * elements {
+        let glass = i % 2 == 0;
+        surfaces.push(SurfaceSpec {
+            curvature_per_mm: Some(uniform(-2.5, 2.5) / focal_scale),
+            thickness_mm: focal_scale * if glass { uniform(0.02, 0.3) } else { uniform(0.0, 0.4) },
+            conic: if uniform(0.0, 1.0) < 0.2 { uniform(-3.0, 1.0) } else { 0.0 },
+            material: glass.then(|| MaterialSpec::Model {
+                nd: uniform(1.45, 1.95),
+                vd: uniform(20.0, 80.0),
+            }),
+            stop: i == stop_at,
+            ..SurfaceSpec::default()
+        });
+    }
+    surfaces.push(SurfaceSpec::default());
+    let mut spec: LensSpec = examples::spec("cooke_triplet").unwrap();
+    spec.name = format!("random {seed}");
+    spec.surfaces = surfaces;
+    spec.object_distance_mm = None;
+    spec.aperture = ApertureSpec::FNumber(uniform(1.4, 16.0));
+    spec.fields = FieldSpec::AnglesDeg(vec![0.0, uniform(0.0, 28.0), uniform(0.0, 40.0)]);
+    spec.field_weights = None;
+    let mut lens = Lens::from_spec(&spec).ok()?;
+    // Put the image surface at the paraxial focus (when there is one), as a designer would.
+    let focus = lens.first_order().ok()?.paraxial_image_z_mm;
+    let last = spec.surfaces.len() - 2;
+    let gap = focus - lens.surfaces[last].z_mm;
+    if gap.is_finite() && gap > 0.0 {
+        spec.surfaces[last].thickness_mm = gap;
+        lens = Lens::from_spec(&spec).ok()?;
+    }
+    Some(lens)
+}
+
+/// What a sweep saw: lenses built and skipped, and every ray's status.
+#[derive(Debug, Default)]
+struct Sweep {
+    lenses: usize,
+    lenses_rejected: usize,
+    lenses_without_first_order: usize,
+    counts: StatusCounts,
+}
+
+/// Traces `rays` random pupil rays at each field of `lenses` random lenses and checks every ray
+/// reported `ok`: finite image point and unit direction. Panics name the lens seed.
+fn sweep(lenses: u64, rays: usize) -> Sweep {
+    let mut result = Sweep::default();
+    let fields_per_lens = 3;
+    let sampling = PupilSampling::Random {
+        n: rays.div_ceil(fields_per_lens),
+        seed: 7,
+    };
+    for seed in 0..lenses {
+        let Some(lens) = random_lens(seed) else {
+            result.lenses_rejected += 1;
+            continue;
+        };
+        let Ok(first) = lens.first_order() else {
+            result.lenses_without_first_order += 1;
+            continue;
+        };
+        result.lenses += 1;
+        let system = TraceSystem::new(&lens, D_LINE, Clipping::None).unwrap();
+        for &field in &first.field_angles_deg {
+            // Through the tracer directly, to see every ray's final state.
+            let aimer = unicac_trace::Aimer::new(&lens, D_LINE, Aiming::Paraxial).unwrap();
+            let mut traced: Vec<Ray> = sampling
+                .points()
+                .iter()
+                .filter_map(|[px, py]| aimer.ray(field, *px, *py).ok())
+                .collect();
+            let statuses = unicac_trace::trace_rays(&system, &mut traced);
+            for (ray, status) in traced.iter().zip(&statuses) {
+                result.counts.add(*status);
+                assert!(ray.is_finite(), "lens seed {seed}, field {field}: non-finite ray {ray:?} ({status})");
+                if status.is_ok() {
+                    let norm: f64 = ray.direction.iter().map(|d| d * d).sum();
+                    assert!((norm - 1.0).abs() < 1e-9, "lens seed {seed}: direction norm {norm}");
+                }
+            }
+        }
+        // The spot summary of the same lens reports only finite numbers.
+        let summary = spots(&lens, &first.field_angles_deg, &[D_LINE], Aiming::Paraxial, &PupilSampling::Hexapolar { rings: 3 })
+            .unwrap();
+        for spot in summary {
+            for value in [spot.rms_radius_um, spot.centroid_x_mm, spot.centroid_y_mm].into_iter().flatten() {
+                assert!(value.is_finite(), "lens seed {seed}: spot value {value}");
+            }
+        }
+    }
+    result
+}
+
+#[test]
+fn random_valid_lenses_never_report_non_finite_rays() {
+    let result = sweep(200, 1000);
+    eprintln!("{result:?}");
+    assert!(result.lenses >= 100, "{result:?}");
+    assert!(result.counts.ok > 0 && result.counts.total() >= 100 * 999, "{result:?}");
+}
+
+/// The issue's full size: 10,000 lenses x 10,000 rays (1e8 rays). Run by hand:
+/// `cargo test --release -p unicac-trace --test reliability -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn random_valid_lenses_full_size() {
+    let start = std::time::Instant::now();
+    let result = sweep(10_000, 10_000);
+    eprintln!("{result:?} in {:.1} s", start.elapsed().as_secs_f64());
+    assert!(result.lenses >= 5_000, "{result:?}");
+}
