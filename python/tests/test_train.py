@@ -33,6 +33,10 @@ from unicac.train.models import RunError, Trainer  # noqa: E402
 # spin-waiting makes every step ten times slower. (Determinism holds at any fixed thread count.)
 torch.set_num_threads(1)
 
+# The FoV / PSF-feature maps come from the Rust bindings `unicac.fov_map` / `unicac.psf_features`
+# (branch `dataset`, docs/models.md); until they are in the build, the tests that need maps skip.
+needs_maps = pytest.mark.skipif(not hasattr(unicac, "psf_features"), reason="unicac.fov_map/psf_features not built yet (dataset bindings)")
+
 MODELS = ["nafnet", "nafnet-fov", "nafnet-psf", "nafnet-psf-blind", "restormer", "nafnet-gan"]
 INPUTS = {"nafnet": ["lq"], "nafnet-fov": ["lq", "fov"], "nafnet-psf": ["lq", "psf"], "nafnet-psf-blind": ["lq"],
           "restormer": ["lq"], "nafnet-gan": ["lq"]}
@@ -190,6 +194,7 @@ def test_gt_folder_pointing_at_lq_is_refused(tmp_path):
         folder.check_split("train")
 
 
+@needs_maps
 def test_flips_and_rotations_move_the_maps_with_the_image(dataset):
     """Each of the 8 flips/rotations of a crop equals the maps computed directly at the mirrored /
     transposed position of a mirrored lens: for the FoV map exactly, for the PSF features of a
@@ -227,6 +232,7 @@ def test_flips_and_rotations_move_the_maps_with_the_image(dataset):
     assert seen == {(3, h, w), (3, w, h)}
 
 
+@needs_maps
 def test_each_frame_size_places_its_maps(dataset):
     """Pairs of two frame sizes: every FoV map is the slice of its own frame's map (never one
     hard-coded frame), in normalised units (|(x, y)| <= 1, a frame corner at 1, never mm)."""
@@ -246,6 +252,7 @@ def test_each_frame_size_places_its_maps(dataset):
     assert len(sizes) == 2
 
 
+@needs_maps
 def test_onthefly_fov_is_normalised_not_mm():
     from unicac.train.data.datasets import build_train_set
 
@@ -262,6 +269,7 @@ def test_onthefly_fov_is_normalised_not_mm():
         build_train_set(options, seed=3, fov=False, psf=True)
 
 
+@needs_maps
 def test_validation_is_deterministic(tmp_path, dataset):
     trainer = Trainer(tiny_config("nafnet", dataset), tmp_path / "run", quiet=True)
     first, second = trainer.validate(), trainer.validate()
@@ -327,7 +335,7 @@ def test_psnr_and_ssim():
 
 # -- training ----------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("model", ["nafnet", "nafnet-psf-blind", "nafnet-gan"])
+@pytest.mark.parametrize("model", ["nafnet", pytest.param("nafnet-psf-blind", marks=needs_maps), "nafnet-gan"])
 def test_a_few_steps_reduce_the_loss(tmp_path, dataset, lpips_cache, model):
     trainer = Trainer(tiny_config(model, dataset), tmp_path / model, quiet=True)
     batch = next(iter(torch.utils.data.DataLoader(trainer.train_set, batch_size=2, sampler=range(2),
@@ -336,6 +344,7 @@ def test_a_few_steps_reduce_the_loss(tmp_path, dataset, lpips_cache, model):
     assert losses[-1] < 0.8 * losses[0], losses
 
 
+@needs_maps
 def test_run_writes_logs_curves_and_checkpoints(tmp_path, dataset):
     run = tmp_path / "run"
     scores = Trainer(tiny_config("nafnet-fov", dataset), run, quiet=True).train()
@@ -455,6 +464,7 @@ def test_export_matches_pytorch_at_two_sizes(tmp_path, model):
         assert got.shape == (n, 3, h, w) and np.abs(got - want).max() <= 1e-4
 
 
+@needs_maps
 def test_export_command(tmp_path, dataset, capsys):
     pytest.importorskip("onnxruntime")
     from unicac.train.export import read_metadata
