@@ -11,12 +11,15 @@
 //! - `npy`: float32 NPY files through the `npyz` crate (no ndarray needed; numpy reads them with
 //!   `allow_pickle=False`).
 
+pub mod build;
 pub mod error;
 pub mod fov;
+pub mod info;
 
 pub mod manifest;
 pub mod npy;
 pub mod psf_table;
+pub mod seeds;
 
 pub use error::{DatasetError, Result};
 pub use fov::fov_map;
