@@ -7,8 +7,8 @@ use std::sync::OnceLock;
 use unicac_dataset::build::{self, render, sources, BuildSettings, Shard, Silent};
 use unicac_dataset::manifest::{Dataset, PairRow};
 
-const LENSES: [&str; 7] = [
-    "singlet",
+// The singlet's PSF exceeds a 64 x 48 frame: it serves as the lens that fails below.
+const LENSES: [&str; 6] = [
     "achromat",
     "cooke_triplet",
     "double_gauss",
@@ -21,7 +21,7 @@ fn settings() -> BuildSettings {
     let lenses = LENSES.iter().map(|n| format!("builtin:{n}")).collect();
     let mut s = BuildSettings::new(lenses, "dead-leaves:3:80x60".into(), "dead-leaves:2".into());
     s.frame_px = Some([64, 48]);
-    s.levels = 5;
+    s.levels = 4;
     s.test_lenses_per_level = 1;
     s.val_lenses = 1;
     s.sub_benchmarks = true;
@@ -97,7 +97,7 @@ fn splits_are_lens_disjoint_and_levels_are_ordered_inside_their_thresholds() {
     let dataset = Dataset::open(reference()).unwrap();
     let lenses = dataset.lenses().unwrap();
     let pairs = dataset.pairs().unwrap();
-    assert_eq!(lenses.len(), 7);
+    assert_eq!(lenses.len(), 6);
     let split_of: BTreeMap<&str, &str> = lenses
         .iter()
         .map(|l| (l.lens_id.as_str(), l.split.as_str()))
@@ -118,7 +118,7 @@ fn splits_are_lens_disjoint_and_levels_are_ordered_inside_their_thresholds() {
     assert!(scenes(&["train", "val"]).is_disjoint(&scenes(&["test"])));
     // The test split is exactly test lenses x test images.
     let test_lenses = lenses.iter().filter(|l| l.split == "test").count();
-    assert_eq!(test_lenses, 5);
+    assert_eq!(test_lenses, 4);
     assert_eq!(
         pairs.iter().filter(|p| p.split == "test").count(),
         test_lenses * 2
@@ -134,7 +134,7 @@ fn splits_are_lens_disjoint_and_levels_are_ordered_inside_their_thresholds() {
         ode.thresholds
     );
     let mut previous = f64::INFINITY;
-    for level in 1..=5u32 {
+    for level in 1..=4u32 {
         let members: Vec<_> = lenses.iter().filter(|l| l.level == Some(level)).collect();
         assert_eq!(members.len(), 1, "level {level}");
         let summary = &ode.levels[level as usize - 1];
@@ -151,10 +151,10 @@ fn splits_are_lens_disjoint_and_levels_are_ordered_inside_their_thresholds() {
         }
     }
     // Sub-benchmarks cover the test lenses once each.
-    assert_eq!(lenses.iter().filter(|l| l.us_level.is_some()).count(), 5);
-    assert_eq!(lenses.iter().filter(|l| l.uc_level.is_some()).count(), 5);
+    assert_eq!(lenses.iter().filter(|l| l.us_level.is_some()).count(), 4);
+    assert_eq!(lenses.iter().filter(|l| l.uc_level.is_some()).count(), 4);
     // Edge patches: 5 fields x 3 channels x 2 directions per test lens.
-    assert_eq!(dataset.edges().unwrap().len(), 5 * 30);
+    assert_eq!(dataset.edges().unwrap().len(), 4 * 30);
     // BasicSR meta_info lists each pair once with its size.
     let meta = std::fs::read_to_string(reference().join("train/meta_info.txt")).unwrap();
     assert_eq!(meta.lines().count(), 2);
@@ -260,7 +260,7 @@ fn an_interrupted_build_resumes_to_the_same_bytes() {
     );
     assert_eq!(report.psf_tables_written, 1);
     assert_eq!(report.temporaries_removed, 1);
-    assert_eq!(report.odes_from_cache, 7);
+    assert_eq!(report.odes_from_cache, 6);
     assert_same_files(reference(), &dir);
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -320,6 +320,18 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
         .unwrap_err()
         .to_string();
     assert!(error.contains("wild.json"), "{error}");
+    assert!(nothing_written(&out));
+    // A lens whose PSF does not fit the frame: refused by name before anything is written.
+    let mut s = settings();
+    s.lenses.push("builtin:singlet".into());
+    let out = scratch("big-psf-out");
+    let error = build::build(&s, &out, Shard::ALL, &Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("singlet") && error.contains("larger than the image"),
+        "{error}"
+    );
     assert!(nothing_written(&out));
     // A library too small for the levels.
     let mut s = settings();
