@@ -341,7 +341,7 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
         .unwrap_err()
         .to_string();
     assert!(
-        error.contains("holds 7 lenses") && error.contains("need 12"),
+        error.contains("holds 6 lenses") && error.contains("need 10"),
         "{error}"
     );
     assert!(nothing_written(&out));
