@@ -332,9 +332,24 @@ fn score_field(
         .collect()
 }
 
-/// Slanted-edge MTFs of one kernel: [sagittal (near-vertical edge), tangential (its transpose)], each
-/// on an isolated edge patch of max(`min_edge_px`, 4 kernel widths) so the whole blurred edge fits.
-pub fn edge_mtfs(kernel: &Kernel, settings: &OdeSettings) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
+/// One slanted-edge patch of the ODE: the ideal (pixel-integrated) edge chart and the chart imaged
+/// through a kernel, single-channel linear light, with the region the MTF is measured on.
+#[derive(Debug, Clone)]
+pub struct EdgePatch {
+    /// "sagittal" (near-vertical edge) or "tangential" (its transpose).
+    pub direction: &'static str,
+    pub ideal: Planar,
+    pub blurred: Planar,
+    pub roi: Roi,
+}
+
+/// The two slanted-edge patches of one kernel ([sagittal, tangential]), each an isolated edge of
+/// max(`min_edge_px`, 4 kernel widths) so the whole blurred edge fits; what `edge_mtfs` measures and
+/// what `unicac dataset` stores as the benchmark's edge pairs.
+pub fn edge_patches(
+    kernel: &Kernel,
+    settings: &OdeSettings,
+) -> Result<[EdgePatch; 2], (&'static str, OdeError)> {
     let k = kernel.size;
     let crop = k / 2 + 1;
     let edge_size = settings.min_edge_px.max(4 * k);
@@ -346,19 +361,30 @@ pub fn edge_mtfs(kernel: &Kernel, settings: &OdeSettings) -> Result<[EdgeMtf; 2]
         width: edge_size - 2 * crop,
         height: edge_size - 2 * crop,
     };
-    let measure = |edge: &Planar, direction: &'static str| {
-        let blurred = Planar {
+    let patch = |ideal: Planar, direction: &'static str| EdgePatch {
+        direction,
+        blurred: Planar {
             width: edge_size,
             height: edge_size,
             channels: 1,
-            data: convolve_patch(edge.plane(0), edge_size, kernel),
-        };
-        slanted_edge_mtf(&blurred, 0, roi, &SlantedEdgeOptions::default()).map_err(|e| (direction, e.into()))
+            data: convolve_patch(ideal.plane(0), edge_size, kernel),
+        },
+        ideal,
+        roi,
     };
-    Ok([
-        measure(&vertical, "sagittal")?,
-        measure(&transpose(&vertical), "tangential")?,
-    ])
+    let horizontal = transpose(&vertical);
+    Ok([patch(vertical, "sagittal"), patch(horizontal, "tangential")])
+}
+
+/// Slanted-edge MTFs of one kernel: [sagittal (near-vertical edge), tangential (its transpose)], measured
+/// on the patches of `edge_patches`.
+pub fn edge_mtfs(kernel: &Kernel, settings: &OdeSettings) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
+    let [sagittal, tangential] = edge_patches(kernel, settings)?;
+    let measure = |patch: &EdgePatch| {
+        slanted_edge_mtf(&patch.blurred, 0, patch.roi, &SlantedEdgeOptions::default())
+            .map_err(|e| (patch.direction, e.into()))
+    };
+    Ok([measure(&sagittal)?, measure(&tangential)?])
 }
 
 /// Side of the checkerboard area PSNR and SSIM are computed on (after the border crop).

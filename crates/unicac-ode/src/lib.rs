@@ -12,6 +12,6 @@
 pub mod evaluate;
 
 pub use evaluate::{
-    evaluate, lens_mtf, score_fields, EvaluationSetup, FieldChannelScore, FieldKernels, LensMtf, OdeError,
-    OdeReport, OdeSettings,
+    edge_patches, evaluate, lens_mtf, score_fields, EdgePatch, EvaluationSetup, FieldChannelScore,
+    FieldKernels, LensMtf, OdeError, OdeReport, OdeSettings,
 };

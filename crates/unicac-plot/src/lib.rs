@@ -15,6 +15,7 @@
 //! - [`ode_bars`]: one row per lens, bars of Optical Degradation Evaluator (ODE) score and RMS spot radius side by side.
 //! - [`psf_panels`]: PSF kernels as images (each normalised to its peak, viridis colour map, scale bar in
 //!   µm) above a chart of their central rows.
+//! - [`level_histograms`]: per-level stacked histograms of lens scores (the dataset's stratification).
 //! - [`psf_map`]: R, G, B kernels at a grid of sensor positions, each drawn where it sits on the sensor.
 //!
 //! Conventions: lengths in the layout are mm, aberrations and spot coordinates µm; field angles are in
@@ -26,6 +27,7 @@
 //! failed plot never leaves a partial file. Text uses the system's sans-serif font through fontconfig.
 
 mod fan;
+mod histogram;
 mod layout;
 mod mtf;
 mod ode;
@@ -36,6 +38,7 @@ mod spot;
 mod style;
 
 pub use fan::ray_fan_plot;
+pub use histogram::{level_histograms, LevelHistogram};
 pub use layout::{layout, layout_bundles, RayBundle, MAX_LAYOUT_RAYS};
 pub use mtf::{mtf_curves, Curve};
 pub use ode::ode_bars;

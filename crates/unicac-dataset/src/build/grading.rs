@@ -1,0 +1,129 @@
+//! The ODE of every lens, graded on the sensor its pairs are rendered with (docs/dataset.md), and
+//! cached on disk by content: the lens model, the sensor and the ODE settings.
+
+use crate::error::{DatasetError, Result};
+use crate::seeds::sha256_hex;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use unicac_ode::{OdeReport, OdeSettings};
+use unicac_optics::spec::SensorSpec;
+use unicac_optics::Lens;
+
+/// The scores of a lens that the dataset records (the ODE report without its timings and tables).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Grade {
+    pub ode: f64,
+    pub oiq: f64,
+    pub u_s: f64,
+    pub u_c: f64,
+    pub oiqe: f64,
+    pub psnr_db: f64,
+    pub ssim: f64,
+    pub rms_radius_um: f64,
+    pub pixel_um: f64,
+    pub half_diagonal_mm: f64,
+    pub kernel_px: usize,
+}
+
+impl From<&OdeReport> for Grade {
+    fn from(r: &OdeReport) -> Grade {
+        Grade {
+            ode: r.ode,
+            oiq: r.oiq,
+            u_s: r.u_s,
+            u_c: r.u_c,
+            oiqe: r.oiqe,
+            psnr_db: r.psnr_db,
+            ssim: r.ssim,
+            rms_radius_um: r.rms_radius_um,
+            pixel_um: r.pixel_um,
+            half_diagonal_mm: r.half_diagonal_mm,
+            kernel_px: r.kernel_px,
+        }
+    }
+}
+
+/// The sensor of a build: a `frame_px` frame, with the lens's largest field on its half-diagonal
+/// (`pixel_um` None) or with a given pitch. The lens file's own sensor is replaced by it, so the ODE
+/// and the pairs see the same pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BuildSensor {
+    pub frame_px: [usize; 2],
+    pub pixel_um: Option<f64>,
+}
+
+impl BuildSensor {
+    /// The lens as graded and rendered: its sensor replaced by this one.
+    pub fn apply(&self, lens: &Lens) -> Lens {
+        let mut lens = lens.clone();
+        lens.sensor = self.pixel_um.map(|p| SensorSpec {
+            width_mm: self.frame_px[0] as f64 * p * 1e-3,
+            height_mm: self.frame_px[1] as f64 * p * 1e-3,
+            pixel_pitch_um: p,
+        });
+        lens
+    }
+
+    /// ODE settings on this sensor.
+    pub fn ode_settings(&self) -> OdeSettings {
+        OdeSettings {
+            default_frame_px: self.frame_px,
+            ..OdeSettings::default()
+        }
+    }
+}
+
+/// On-disk cache of grades: `DIR/<key>.json`.
+#[derive(Debug, Clone)]
+pub struct GradeCache {
+    pub dir: PathBuf,
+}
+
+impl GradeCache {
+    fn key(lens: &Lens, settings: &OdeSettings) -> String {
+        sha256_hex(&[
+            b"unicac-dataset-ode 1",
+            env!("CARGO_PKG_VERSION").as_bytes(),
+            unicac_sim::lens_fingerprint(lens).as_bytes(),
+            format!("{settings:?}").as_bytes(),
+        ])
+    }
+
+    fn path(&self, key: &str) -> PathBuf {
+        self.dir.join(format!("{key}.json"))
+    }
+
+    /// The lens's grade, from the cache or computed (and stored). `what` names the lens in errors.
+    pub fn grade(&self, lens: &Lens, settings: &OdeSettings, what: &str) -> Result<(Grade, bool)> {
+        let key = GradeCache::key(lens, settings);
+        let path = self.path(&key);
+        if let Some(grade) = std::fs::read(&path)
+            .ok()
+            .and_then(|bytes| serde_json::from_slice::<Grade>(&bytes).ok())
+        {
+            return Ok((grade, true));
+        }
+        let report = unicac_ode::evaluate(lens, settings)
+            .map_err(|e| DatasetError::Invalid(format!("lens {what}: the ODE failed: {e}")))?;
+        let grade = Grade::from(&report);
+        for (name, value) in [
+            ("ode", grade.ode),
+            ("oiq", grade.oiq),
+            ("u_s", grade.u_s),
+            ("u_c", grade.u_c),
+        ] {
+            if !value.is_finite() {
+                return Err(DatasetError::Invalid(format!(
+                    "lens {what}: the ODE gave a non-finite {name}"
+                )));
+            }
+        }
+        crate::manifest::write_json(&path, &grade)?;
+        Ok((grade, false))
+    }
+}
+
+/// Where the cache of a dataset folder lives.
+pub fn cache_dir(out: &Path) -> PathBuf {
+    out.join(".cache")
+}

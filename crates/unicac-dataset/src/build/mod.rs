@@ -1,0 +1,858 @@
+//! `unicac dataset build`: grade every lens, choose splits and levels, render the pairs, PSF tables,
+//! FoV maps and edge patches (docs/dataset.md).
+//!
+//! Reproducible by construction: every file is a pure function of the settings (lens content, scenes,
+//! seed), every random draw comes from a seed derived from `--seed` and the pair's id, and the
+//! manifests are written in a fixed order by every run and every shard alike. Hence:
+//! - resume: files are written atomically (dot-named temporary + rename) and skipped when present,
+//!   so a killed run started again recomputes only what is missing, with the same bytes;
+//! - shards: `--shard I/N` renders the pairs, tables and edges whose index is I-1 modulo N and writes
+//!   the same manifests; whichever run finds every file present writes `dataset.json` (last, the
+//!   completion mark), so N shards in one folder equal the single run byte for byte.
+//! Everything that can fail on bad input (lens files, images, the ODE, PSF maps larger than the
+//! frame, a library too small) is checked before the first dataset file is written.
+
+pub mod grading;
+pub mod render;
+pub mod sources;
+pub mod stratify;
+
+use crate::error::{DatasetError, Result};
+use crate::manifest::{
+    self, Counts, DatasetManifest, EdgeRow, LensRow, PairRow, DATASET_JSON, EDGES_JSONL, LENSES_CSV,
+    LENSES_JSONL, PAIRS_JSONL, SPLITS,
+};
+use crate::seeds::{below, derive_seed};
+use grading::{BuildSensor, Grade, GradeCache};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use sources::{LensSource, Scene};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use stratify::{Assignment, LevelCounts};
+use unicac_image::io::SampleDepth;
+use unicac_image::isp::Pipeline;
+use unicac_image::Planar;
+use unicac_optics::Lens;
+
+/// Every option that decides the dataset's content (recorded as `settings` in `dataset.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BuildSettings {
+    /// Lens files, folders, `unicac design` libraries or `builtin:NAME`, as given.
+    pub lenses: Vec<String>,
+    /// Scenes of the training and validation pairs: a folder, a file or `dead-leaves:N[:WxH]`.
+    pub images: String,
+    /// Scenes of the test pairs (disjoint from `images`).
+    pub test_images: String,
+    /// Sensor frame (px); None: the first test scene's size.
+    pub frame_px: Option<[usize; 2]>,
+    /// Pixel pitch (um) for grading and rendering; None: the lens's largest field fills the frame's
+    /// half-diagonal.
+    pub pixel_um: Option<f64>,
+    pub levels: usize,
+    pub test_lenses_per_level: usize,
+    pub val_lenses: usize,
+    pub sub_benchmarks: bool,
+    pub pairs_per_lens: usize,
+    /// Training/validation patch size (px); None: the whole frame.
+    pub crop_px: Option<[usize; 2]>,
+    pub seed: u64,
+    pub isp: bool,
+    pub noise: bool,
+    pub white_balance_jitter: f32,
+    pub iso: f32,
+    pub distortion: bool,
+    pub illumination: bool,
+    /// 8 or 16 (PNG sample depth of the pairs).
+    pub bit_depth: u8,
+}
+
+/// Largest `--pairs-per-lens`.
+pub const MAX_PAIRS_PER_LENS: usize = 100_000;
+
+impl BuildSettings {
+    /// The defaults of `unicac dataset build` (the paper's 5 levels x 24 test lenses, 75 validation).
+    pub fn new(lenses: Vec<String>, images: String, test_images: String) -> BuildSettings {
+        BuildSettings {
+            lenses,
+            images,
+            test_images,
+            frame_px: None,
+            pixel_um: None,
+            levels: 5,
+            test_lenses_per_level: 24,
+            val_lenses: 75,
+            sub_benchmarks: false,
+            pairs_per_lens: 8,
+            crop_px: Some([256, 256]),
+            seed: 0,
+            isp: true,
+            noise: true,
+            white_balance_jitter: 0.1,
+            iso: 100.0,
+            distortion: true,
+            illumination: true,
+            bit_depth: 8,
+        }
+    }
+
+    fn check(&self) -> Result<()> {
+        if self.pairs_per_lens == 0 || self.pairs_per_lens > MAX_PAIRS_PER_LENS {
+            return Err(DatasetError::Invalid(format!(
+                "--pairs-per-lens {}: must be between 1 and {MAX_PAIRS_PER_LENS}",
+                self.pairs_per_lens
+            )));
+        }
+        if !matches!(self.bit_depth, 8 | 16) {
+            return Err(DatasetError::Invalid(format!(
+                "--bit-depth {}: must be 8 or 16",
+                self.bit_depth
+            )));
+        }
+        if let Some(p) = self.pixel_um {
+            if !(p.is_finite() && p > 0.0 && p <= 1000.0) {
+                return Err(DatasetError::Invalid(format!(
+                    "--pixel-um {p}: must be in (0, 1000]"
+                )));
+            }
+        }
+        if !(self.iso.is_finite() && self.iso > 0.0 && self.iso <= 1.0e6) {
+            return Err(DatasetError::Invalid(format!(
+                "--iso {}: must be in (0, 1e6]",
+                self.iso
+            )));
+        }
+        if !(self.white_balance_jitter.is_finite() && (0.0..=1.0).contains(&self.white_balance_jitter)) {
+            return Err(DatasetError::Invalid(format!(
+                "--wb-jitter {}: must be in [0, 1]",
+                self.white_balance_jitter
+            )));
+        }
+        Ok(())
+    }
+
+    fn pipeline(&self) -> Pipeline {
+        let mut pipeline = Pipeline {
+            white_balance_jitter: self.white_balance_jitter,
+            no_isp: !self.isp,
+            no_noise: !self.noise,
+            ..Pipeline::default()
+        };
+        pipeline.sensor.iso = self.iso;
+        pipeline
+    }
+}
+
+/// Which part of the work a run does: `index` in 1..=count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    pub index: usize,
+    pub count: usize,
+}
+
+/// Most shards.
+pub const MAX_SHARDS: usize = 10_000;
+
+impl Shard {
+    pub const ALL: Shard = Shard { index: 1, count: 1 };
+
+    /// "I/N" with 1 <= I <= N <= MAX_SHARDS.
+    pub fn parse(text: &str) -> Result<Shard> {
+        let bad = || {
+            DatasetError::Invalid(format!(
+                "--shard {text}: expected I/N with 1 <= I <= N <= {MAX_SHARDS}"
+            ))
+        };
+        let (i, n) = text.split_once('/').ok_or_else(bad)?;
+        let (index, count) = (
+            i.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if index == 0 || index > count || count > MAX_SHARDS {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+
+    fn owns(&self, item: usize) -> bool {
+        item % self.count == self.index - 1
+    }
+}
+
+/// Progress of a build: stages with a known amount of work.
+pub trait Progress: Sync {
+    fn stage(&self, name: &str, total: usize);
+    fn advance(&self, done: usize);
+    /// A message for the user (cache hits, warnings); printed above any bar.
+    fn note(&self, message: &str);
+}
+
+/// Progress that goes nowhere (tests, libraries).
+pub struct Silent;
+
+impl Progress for Silent {
+    fn stage(&self, _: &str, _: usize) {}
+    fn advance(&self, _: usize) {}
+    fn note(&self, _: &str) {}
+}
+
+/// What a run did.
+#[derive(Debug, Clone, Serialize)]
+pub struct BuildReport {
+    pub out: PathBuf,
+    /// Every file of the dataset exists and `dataset.json` is written.
+    pub complete: bool,
+    pub shard: String,
+    pub frame_px: [usize; 2],
+    pub lenses: BTreeMap<String, usize>,
+    pub pairs: BTreeMap<String, usize>,
+    pub edges: usize,
+    /// Work this run did (the rest was present or belongs to other shards).
+    pub pairs_rendered: usize,
+    pub psf_tables_written: usize,
+    pub edge_patches_written: usize,
+    pub odes_computed: usize,
+    pub odes_from_cache: usize,
+    pub temporaries_removed: usize,
+}
+
+/// The run-independent record of a build, kept in DIR so that a later run can tell a resume of the
+/// same dataset from a different one.
+const BUILD_JSON: &str = ".unicac-build.json";
+
+/// One lens with everything the plan needs.
+struct PlannedLens {
+    source: LensSource,
+    lens: Lens,
+    grade: Grade,
+}
+
+/// The dataset as rows, before any pixel is rendered.
+pub struct Plan {
+    pub frame_px: [usize; 2],
+    pub lenses: Vec<LensRow>,
+    pub pairs: Vec<PairRow>,
+    pub edges: Vec<EdgeRow>,
+    pub manifest: DatasetManifest,
+}
+
+/// Builds (or resumes, or builds one shard of) the dataset in `out`.
+pub fn build(
+    settings: &BuildSettings,
+    out: &Path,
+    shard: Shard,
+    progress: &dyn Progress,
+) -> Result<BuildReport> {
+    settings.check()?;
+    let settings_json = serde_json::to_value(settings).expect("settings serialise");
+    check_output(out, &settings_json)?;
+    // Inputs: lenses, scenes, frame.
+    let sources = sources::lens_sources(&settings.lenses)?;
+    let lenses: Vec<Lens> = sources.iter().map(|s| s.load()).collect::<Result<_>>()?;
+    let test_first = sources::scenes(
+        &settings.test_images,
+        "--test-images",
+        "test",
+        settings.seed,
+        settings.frame_px,
+    )?;
+    let frame_px = match settings.frame_px {
+        Some(frame) => frame,
+        None => {
+            let first = test_first[0].load_linear()?;
+            [first.width, first.height]
+        }
+    };
+    let test_scenes = test_first;
+    let train_scenes = sources::scenes(
+        &settings.images,
+        "--images",
+        "train",
+        settings.seed,
+        Some(frame_px),
+    )?;
+    check_scenes(&train_scenes, &test_scenes, frame_px, settings.crop_px)?;
+    let sensor = BuildSensor {
+        frame_px,
+        pixel_um: settings.pixel_um,
+    };
+    // Grades (cached).
+    let cache = GradeCache {
+        dir: grading::cache_dir(out).join("ode"),
+    };
+    let ode_settings = sensor.ode_settings();
+    progress.stage("grading", lenses.len());
+    let graded: Vec<(Grade, bool)> = sources
+        .par_iter()
+        .zip(&lenses)
+        .map(|(source, lens)| {
+            let result = cache.grade(&sensor.apply(lens), &ode_settings, &source.source);
+            progress.advance(1);
+            result
+        })
+        .collect::<Result<_>>()?;
+    let odes_from_cache = graded.iter().filter(|(_, cached)| *cached).count();
+    let planned: Vec<PlannedLens> = sources
+        .into_iter()
+        .zip(lenses)
+        .zip(graded)
+        .map(|((source, lens), (grade, _))| PlannedLens {
+            lens: sensor.apply(&lens),
+            source,
+            grade,
+        })
+        .collect();
+    let ids: Vec<String> = planned.iter().map(|p| p.source.lens_id.clone()).collect();
+    let grades: Vec<Grade> = planned.iter().map(|p| p.grade.clone()).collect();
+    let assignment = stratify::assign(
+        &ids,
+        &grades,
+        LevelCounts {
+            levels: settings.levels,
+            per_level: settings.test_lenses_per_level,
+            val: settings.val_lenses,
+            sub_benchmarks: settings.sub_benchmarks,
+        },
+    )?;
+    let plan = make_plan(
+        settings,
+        &settings_json,
+        &planned,
+        &assignment,
+        &train_scenes,
+        &test_scenes,
+        frame_px,
+    )?;
+    // This shard's work, checked before anything is written.
+    let used: Vec<usize> = (0..planned.len())
+        .filter(|&i| !plan.lenses[i].psf.is_empty())
+        .collect();
+    let cache_psf = Some(unicac_sim::PsfCache::new(grading::cache_dir(out).join("psf")));
+    let lens_index: BTreeMap<&str, usize> = ids.iter().enumerate().map(|(i, id)| (id.as_str(), i)).collect();
+    let my_pairs: Vec<usize> = (0..plan.pairs.len()).filter(|&p| shard.owns(p)).collect();
+    let mut my_lenses: Vec<usize> = my_pairs
+        .iter()
+        .map(|&p| lens_index[plan.pairs[p].lens_id.as_str()])
+        .chain(
+            used.iter()
+                .enumerate()
+                .filter(|(k, _)| shard.owns(*k))
+                .map(|(_, &i)| i),
+        )
+        .collect();
+    my_lenses.sort_unstable();
+    my_lenses.dedup();
+    progress.stage("tracing PSF maps", my_lenses.len());
+    for &i in &my_lenses {
+        let p = &planned[i];
+        render::simulator(
+            &p.lens,
+            frame_px,
+            p.grade.pixel_um,
+            settings.distortion,
+            settings.illumination,
+            cache_psf.clone(),
+        )
+        .map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", p.source.source)))?;
+        progress.advance(1);
+    }
+    // Writing starts here.
+    let temporaries_removed = remove_temporaries(out)?;
+    manifest::write_json(&out.join(BUILD_JSON), &settings_json)?;
+    write_manifests(out, &plan)?;
+    let fov_path = out.join(fov_relative(frame_px));
+    if !fov_path.exists() {
+        let map = crate::fov_map(crate::FrameCrop::full(frame_px[0], frame_px[1]))?;
+        crate::npy::write_f32(&fov_path, &[2, map.height, map.width], &map.data)?;
+    }
+    let depth = if settings.bit_depth == 16 {
+        SampleDepth::Sixteen
+    } else {
+        SampleDepth::Eight
+    };
+    let all_scenes: BTreeMap<&str, &Scene> = train_scenes
+        .iter()
+        .chain(&test_scenes)
+        .map(|s| (s.image_id.as_str(), s))
+        .collect();
+    let mut report = BuildReport {
+        out: out.to_path_buf(),
+        complete: false,
+        shard: format!("{}/{}", shard.index, shard.count),
+        frame_px,
+        lenses: plan.manifest.counts.lenses.clone(),
+        pairs: plan.manifest.counts.pairs.clone(),
+        edges: plan.edges.len(),
+        pairs_rendered: 0,
+        psf_tables_written: 0,
+        edge_patches_written: 0,
+        odes_computed: planned.len() - odes_from_cache,
+        odes_from_cache,
+        temporaries_removed,
+    };
+    let missing_pairs: Vec<usize> = my_pairs
+        .iter()
+        .copied()
+        .filter(|&p| !pair_complete(out, &plan.pairs[p]))
+        .collect();
+    progress.stage("rendering pairs", missing_pairs.len());
+    for &i in &my_lenses {
+        let p = &planned[i];
+        let row = &plan.lenses[i];
+        let table_dir = out.join(&row.psf);
+        let owns_table = used.iter().position(|&u| u == i).is_some_and(|k| shard.owns(k));
+        let pairs: Vec<&PairRow> = missing_pairs
+            .iter()
+            .map(|&q| &plan.pairs[q])
+            .filter(|r| r.lens_id == row.lens_id)
+            .collect();
+        let needs_table = owns_table && !table_dir.join(crate::psf_table::TABLE_JSON).exists();
+        if pairs.is_empty() && !needs_table {
+            continue;
+        }
+        let sim = render::simulator(
+            &p.lens,
+            frame_px,
+            p.grade.pixel_um,
+            settings.distortion,
+            settings.illumination,
+            cache_psf.clone(),
+        )
+        .map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", p.source.source)))?;
+        if needs_table {
+            render::psf_table(&row.lens_id, &sim).write(&table_dir)?;
+            report.psf_tables_written += 1;
+        }
+        pairs.par_iter().try_for_each(|pair| -> Result<()> {
+            let scene = all_scenes[pair.image_id.as_str()];
+            let image = scene.load_linear()?;
+            let frame = sources::cut(&image, pair.scene_crop);
+            let (lq, gt) = render::render_pair(&sim, &frame, pair)?;
+            write_png(&out.join(&pair.gt), &gt, depth)?;
+            write_png(&out.join(&pair.lq), &lq, depth)?;
+            progress.advance(1);
+            Ok(())
+        })?;
+        report.pairs_rendered += pairs.len();
+    }
+    // Edge patches of this shard's test lenses.
+    let test_lenses: Vec<usize> = (0..planned.len())
+        .filter(|&i| assignment.split[i] == "test")
+        .collect();
+    let my_edge_lenses: Vec<usize> = test_lenses
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| shard.owns(*k))
+        .map(|(_, &i)| i)
+        .collect();
+    progress.stage("edge patches", my_edge_lenses.len());
+    for &i in &my_edge_lenses {
+        let rows: Vec<&EdgeRow> = plan.edges.iter().filter(|e| e.lens_id == ids[i]).collect();
+        if rows
+            .iter()
+            .all(|e| out.join(&e.lq).exists() && out.join(&e.gt).exists())
+        {
+            progress.advance(1);
+            continue;
+        }
+        report.edge_patches_written += write_edges(out, &planned[i], &ode_settings, &rows)?;
+        progress.advance(1);
+    }
+    report.complete = dataset_complete(out, &plan);
+    if report.complete {
+        manifest::write_json(&out.join(DATASET_JSON), &plan.manifest)?;
+    }
+    Ok(report)
+}
+
+/// The row plan: lens rows, pair rows (train, val, test; by lens id, then pair), edge rows, and
+/// `dataset.json`, all pure functions of the inputs.
+fn make_plan(
+    settings: &BuildSettings,
+    settings_json: &serde_json::Value,
+    planned: &[PlannedLens],
+    assignment: &Assignment,
+    train_scenes: &[Scene],
+    test_scenes: &[Scene],
+    frame_px: [usize; 2],
+) -> Result<Plan> {
+    let lenses: Vec<LensRow> = planned
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let g = &p.grade;
+            let split = assignment.split[i];
+            LensRow {
+                lens_id: p.source.lens_id.clone(),
+                source: p.source.source.clone(),
+                lens_sha256: p.source.sha256.clone(),
+                ode: g.ode,
+                oiq: g.oiq,
+                u_s: g.u_s,
+                u_c: g.u_c,
+                oiqe: g.oiqe,
+                psnr_db: g.psnr_db,
+                ssim: g.ssim,
+                rms_radius_um: g.rms_radius_um,
+                split: split.into(),
+                level: assignment.level[i],
+                us_level: assignment.us_level[i],
+                uc_level: assignment.uc_level[i],
+                pixel_pitch_um: g.pixel_um,
+                psf: if split == "unused" {
+                    String::new()
+                } else {
+                    format!("psf/{}", p.source.lens_id)
+                },
+            }
+        })
+        .collect();
+    let pipeline = settings.pipeline();
+    let crop = settings.crop_px.unwrap_or(frame_px);
+    let fov = fov_relative(frame_px);
+    let scene_crop = |scene: &Scene| -> Result<[usize; 4]> {
+        let [w, h] = scene_size(scene)?;
+        scene.frame_crop(w, h, frame_px)
+    };
+    let train_crops: Vec<[usize; 4]> = train_scenes.iter().map(scene_crop).collect::<Result<_>>()?;
+    let test_crops: Vec<[usize; 4]> = test_scenes.iter().map(scene_crop).collect::<Result<_>>()?;
+    let pair_row = |split: &str,
+                    lens: &LensRow,
+                    pair_id: String,
+                    scene: &Scene,
+                    scene_crop: [usize; 4],
+                    crop: [usize; 4],
+                    seed: u64|
+     -> Result<PairRow> {
+        let draw = pipeline
+            .draw(seed)
+            .map_err(|e| DatasetError::Invalid(format!("pair {pair_id}: {e}")))?;
+        Ok(PairRow {
+            lq: format!("{split}/lq/{pair_id}.png"),
+            gt: format!("{split}/gt/{pair_id}.png"),
+            pair_id,
+            split: split.into(),
+            lens_id: lens.lens_id.clone(),
+            image_id: scene.image_id.clone(),
+            image_source: scene.source.clone(),
+            seed,
+            frame_px,
+            scene_crop,
+            crop,
+            pixel_pitch_um: lens.pixel_pitch_um,
+            distortion: settings.distortion,
+            illumination: settings.illumination,
+            isp_draw: render::isp_record(&pipeline, &draw),
+            psf: lens.psf.clone(),
+            fov: fov.clone(),
+        })
+    };
+    let mut pairs = Vec::new();
+    for split in SPLITS {
+        for lens in lenses.iter().filter(|l| l.split == split) {
+            if split == "test" {
+                for (scene, &sc) in test_scenes.iter().zip(&test_crops) {
+                    let pair_id = format!("{}__{}", lens.lens_id, scene.image_id);
+                    let seed = derive_seed(settings.seed, &[b"pair", pair_id.as_bytes()]);
+                    pairs.push(pair_row(
+                        split,
+                        lens,
+                        pair_id,
+                        scene,
+                        sc,
+                        [0, 0, frame_px[0], frame_px[1]],
+                        seed,
+                    )?);
+                }
+                continue;
+            }
+            for j in 0..settings.pairs_per_lens {
+                let pair_id = format!("{}__{j:04}", lens.lens_id);
+                let seed = derive_seed(settings.seed, &[b"pair", pair_id.as_bytes()]);
+                let s = below(derive_seed(seed, &[b"scene"]), train_scenes.len());
+                let x0 = below(derive_seed(seed, &[b"crop-x"]), frame_px[0] - crop[0] + 1);
+                let y0 = below(derive_seed(seed, &[b"crop-y"]), frame_px[1] - crop[1] + 1);
+                pairs.push(pair_row(
+                    split,
+                    lens,
+                    pair_id,
+                    &train_scenes[s],
+                    train_crops[s],
+                    [x0, y0, crop[0], crop[1]],
+                    seed,
+                )?);
+            }
+        }
+    }
+    let ode_settings = unicac_ode::OdeSettings::default();
+    let mut edges = Vec::new();
+    for (p, lens) in planned.iter().zip(&lenses).filter(|(_, l)| l.split == "test") {
+        let size_px = ode_settings.min_edge_px.max(4 * p.grade.kernel_px);
+        let chief = unicac_sim::ChiefRayMap::new(&p.lens)
+            .map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", p.source.source)))?;
+        for (f, &fraction) in ode_settings.field_fractions.iter().enumerate() {
+            for channel in ["R", "G", "B"] {
+                for direction in ["sagittal", "tangential"] {
+                    let edge_id = format!("{}__f{f}_{channel}_{}", lens.lens_id, &direction[..3]);
+                    edges.push(EdgeRow {
+                        lq: format!("edges/lq/{edge_id}.png"),
+                        gt: format!("edges/gt/{edge_id}.png"),
+                        edge_id,
+                        lens_id: lens.lens_id.clone(),
+                        level: lens.level,
+                        field_fraction: fraction,
+                        field_deg: chief.angle_for_height(fraction * p.grade.half_diagonal_mm),
+                        channel: channel.into(),
+                        direction: direction.into(),
+                        size_px,
+                        slant_deg: ode_settings.slant_deg,
+                        pixel_pitch_um: p.grade.pixel_um,
+                    });
+                }
+            }
+        }
+    }
+    let mut counts = Counts {
+        edges: edges.len(),
+        train_images: train_scenes.len(),
+        test_images: test_scenes.len(),
+        ..Counts::default()
+    };
+    for split in ["train", "val", "test", "unused"] {
+        counts
+            .lenses
+            .insert(split.into(), lenses.iter().filter(|l| l.split == split).count());
+    }
+    for split in SPLITS {
+        counts
+            .pairs
+            .insert(split.into(), pairs.iter().filter(|p| p.split == split).count());
+    }
+    let manifest = DatasetManifest {
+        format: manifest::FORMAT_NAME.into(),
+        format_version: manifest::FORMAT_VERSION,
+        unicac_version: env!("CARGO_PKG_VERSION").into(),
+        settings: settings_json.clone(),
+        seed: settings.seed,
+        frame_px,
+        stratifications: assignment.stratifications.clone(),
+        counts,
+    };
+    Ok(Plan {
+        frame_px,
+        lenses,
+        pairs,
+        edges,
+        manifest,
+    })
+}
+
+fn scene_size(scene: &Scene) -> Result<[usize; 2]> {
+    match &scene.kind {
+        sources::SceneKind::DeadLeaves { width, height, .. } => Ok([*width, *height]),
+        sources::SceneKind::File { .. } => {
+            let image = scene.load_linear()?;
+            Ok([image.width, image.height])
+        }
+    }
+}
+
+/// `fov/WxH.npy`.
+pub fn fov_relative(frame_px: [usize; 2]) -> String {
+    format!("fov/{}x{}.npy", frame_px[0], frame_px[1])
+}
+
+/// Scenes are readable, at least the frame (and the frame at least the crop), and no scene is both a
+/// training and a test scene.
+fn check_scenes(
+    train: &[Scene],
+    test: &[Scene],
+    frame_px: [usize; 2],
+    crop_px: Option<[usize; 2]>,
+) -> Result<()> {
+    if let Some([w, h]) = crop_px {
+        if w > frame_px[0] || h > frame_px[1] {
+            return Err(DatasetError::Invalid(format!(
+                "--crop {w}x{h} is larger than the {} x {} frame",
+                frame_px[0], frame_px[1]
+            )));
+        }
+    }
+    let mut hashes = BTreeMap::new();
+    for scene in train {
+        if let sources::SceneKind::File { sha256, .. } = &scene.kind {
+            hashes.insert(sha256.clone(), scene.source.clone());
+        }
+    }
+    for scene in test {
+        if let sources::SceneKind::File { sha256, .. } = &scene.kind {
+            if let Some(other) = hashes.get(sha256) {
+                return Err(DatasetError::Invalid(format!(
+                    "test image {} is the same image as training image {other}: scenes must be disjoint",
+                    scene.source
+                )));
+            }
+        }
+    }
+    for scene in train.iter().chain(test) {
+        let [w, h] = scene_size(scene)?;
+        scene.frame_crop(w, h, frame_px)?;
+    }
+    Ok(())
+}
+
+/// `out` is absent, empty (dot-named leftovers aside), or a build of the same settings.
+fn check_output(out: &Path, settings: &serde_json::Value) -> Result<()> {
+    if !out.exists() {
+        return Ok(());
+    }
+    if !out.is_dir() {
+        return Err(DatasetError::Invalid(format!(
+            "--out {}: exists and is not a folder",
+            out.display()
+        )));
+    }
+    let recorded = [BUILD_JSON, DATASET_JSON].iter().find_map(|name| {
+        let bytes = std::fs::read(out.join(name)).ok()?;
+        let value: serde_json::Value = serde_json::from_slice(&bytes).ok()?;
+        Some(if *name == DATASET_JSON {
+            value.get("settings").cloned().unwrap_or_default()
+        } else {
+            value
+        })
+    });
+    match recorded {
+        Some(previous) if &previous == settings => Ok(()),
+        Some(previous) => {
+            let differing: Vec<String> = match (previous.as_object(), settings.as_object()) {
+                (Some(a), Some(b)) => b.keys().filter(|k| a.get(*k) != b.get(*k)).cloned().collect(),
+                _ => vec!["settings".into()],
+            };
+            Err(DatasetError::Invalid(format!(
+                "--out {} holds another dataset (built with different {}); choose another folder or remove it",
+                out.display(),
+                differing.join(", ")
+            )))
+        }
+        None => {
+            let entries = std::fs::read_dir(out).map_err(|e| DatasetError::io(out, e))?;
+            for entry in entries {
+                let name = entry.map_err(|e| DatasetError::io(out, e))?.file_name();
+                if !name.to_string_lossy().starts_with('.') {
+                    return Err(DatasetError::Invalid(format!(
+                        "--out {} is not empty and holds no unicac dataset build (found {}); choose an empty or new folder",
+                        out.display(),
+                        name.to_string_lossy()
+                    )));
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Removes dot-named temporaries left by an interrupted run, anywhere under `out`.
+fn remove_temporaries(out: &Path) -> Result<usize> {
+    let mut removed = 0;
+    let mut stack = vec![out.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            let path = entry.path();
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if path.is_dir() {
+                stack.push(path);
+            } else if manifest::is_temporary(&name) {
+                std::fs::remove_file(&path).map_err(|e| DatasetError::io(&path, e))?;
+                removed += 1;
+            }
+        }
+    }
+    Ok(removed)
+}
+
+/// The manifests (identical in every run and shard); rewritten only when their bytes differ.
+fn write_manifests(out: &Path, plan: &Plan) -> Result<()> {
+    let mut files: Vec<(String, Vec<u8>)> = vec![
+        (LENSES_JSONL.into(), manifest::jsonl_bytes(&plan.lenses)),
+        (LENSES_CSV.into(), manifest::lenses_csv(&plan.lenses)),
+        (PAIRS_JSONL.into(), manifest::jsonl_bytes(&plan.pairs)),
+        (EDGES_JSONL.into(), manifest::jsonl_bytes(&plan.edges)),
+    ];
+    for split in SPLITS {
+        let mut text = String::new();
+        for pair in plan.pairs.iter().filter(|p| p.split == split) {
+            text.push_str(&format!(
+                "{}.png ({},{},3)\n",
+                pair.pair_id, pair.crop[3], pair.crop[2]
+            ));
+        }
+        files.push((format!("{split}/meta_info.txt"), text.into_bytes()));
+    }
+    for (name, bytes) in files {
+        let path = out.join(&name);
+        if std::fs::read(&path).ok().as_deref() != Some(bytes.as_slice()) {
+            manifest::write_atomically(&path, &bytes)?;
+        }
+    }
+    Ok(())
+}
+
+fn pair_complete(out: &Path, pair: &PairRow) -> bool {
+    out.join(&pair.lq).exists() && out.join(&pair.gt).exists()
+}
+
+fn dataset_complete(out: &Path, plan: &Plan) -> bool {
+    plan.pairs.iter().all(|p| pair_complete(out, p))
+        && plan
+            .edges
+            .iter()
+            .all(|e| out.join(&e.lq).exists() && out.join(&e.gt).exists())
+        && plan
+            .lenses
+            .iter()
+            .filter(|l| !l.psf.is_empty())
+            .all(|l| out.join(&l.psf).join(crate::psf_table::TABLE_JSON).exists())
+        && out.join(fov_relative(plan.frame_px)).exists()
+}
+
+fn write_png(path: &Path, image: &Planar, depth: SampleDepth) -> Result<()> {
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent).map_err(|e| DatasetError::io(parent, e))?;
+    }
+    unicac_image::io::write_png(path, image, depth).map_err(|e| DatasetError::Invalid(e.to_string()))
+}
+
+/// A test lens's ODE edge patches (the kernels of its ODE fields on the build sensor); returns how
+/// many files were written.
+fn write_edges(
+    out: &Path,
+    lens: &PlannedLens,
+    settings: &unicac_ode::OdeSettings,
+    rows: &[&EdgeRow],
+) -> Result<usize> {
+    let fail = |e: unicac_ode::OdeError| {
+        DatasetError::Invalid(format!("lens {}: edge patches: {e}", lens.source.source))
+    };
+    let setup = unicac_ode::EvaluationSetup::new(&lens.lens, settings).map_err(fail)?;
+    let fields = setup.field_kernels(&settings.field_fractions).map_err(fail)?;
+    let mut written = 0;
+    for (f, field) in fields.iter().enumerate() {
+        for (c, kernel) in field.kernels.iter().enumerate() {
+            let patches = unicac_ode::edge_patches(kernel, settings).map_err(|(_, e)| fail(e))?;
+            for (d, patch) in patches.iter().enumerate() {
+                let row = rows[(f * 3 + c) * 2 + d];
+                for (relative, image) in [(&row.gt, &patch.ideal), (&row.lq, &patch.blurred)] {
+                    let path = out.join(relative);
+                    if !path.exists() {
+                        write_png(&path, &render::grey_to_srgb(image), SampleDepth::Sixteen)?;
+                        written += 1;
+                    }
+                }
+            }
+        }
+    }
+    Ok(written)
+}

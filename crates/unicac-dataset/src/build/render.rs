@@ -1,0 +1,226 @@
+//! Rendering one unit of work: a lens's PSF table, one LQ/GT pair, a test lens's edge patches.
+//! Each is a pure function of its manifest row (and the lens), so a resumed or sharded build, or a
+//! reader checking a pair, recomputes exactly the stored bytes.
+
+use crate::build::sources::cut;
+use crate::error::{DatasetError, Result};
+use crate::manifest::{IspRecord, PairRow};
+use crate::psf_table::{PsfTable, PsfTableMeta, TABLE_FORMAT};
+use unicac_image::isp::{IspDraw, Pipeline, SensorNoise};
+use unicac_image::Planar;
+use unicac_psf::{visible_wavelengths_um, Kernel, SpectralWeights};
+use unicac_sim::{LensSimulator, PsfCache, SimulationSettings};
+
+/// The simulator of a lens on the build's sensor (`lens` already carries the build sensor).
+pub fn simulator(
+    lens: &unicac_optics::Lens,
+    frame_px: [usize; 2],
+    pixel_um: f64,
+    distortion: bool,
+    illumination: bool,
+    cache: Option<PsfCache>,
+) -> std::result::Result<LensSimulator, unicac_sim::SimError> {
+    let settings = SimulationSettings {
+        distortion,
+        illumination,
+        cache,
+        ..SimulationSettings::default()
+    };
+    LensSimulator::new(lens, frame_px[0], frame_px[1], Some(pixel_um), settings)
+}
+
+/// The sensor/ISP configuration a pair row records.
+pub fn pipeline(record: &IspRecord, white_balance_jitter: f32) -> Pipeline {
+    Pipeline {
+        white_balance_jitter,
+        sensor: SensorNoise {
+            bit_depth: record.bit_depth,
+            black_level_dn: record.black_level_dn,
+            iso: record.iso,
+            iso_base: record.iso_base,
+            dn_per_electron_at_base_iso: record.dn_per_electron_at_base_iso,
+            read_noise_dn_at_base_iso: record.read_noise_dn_at_base_iso,
+        },
+        no_isp: !record.isp,
+        no_noise: !record.noise,
+        ..Pipeline::default()
+    }
+}
+
+/// What a row records of a pipeline and its draw for `seed`.
+pub fn isp_record(pipeline: &Pipeline, draw: &IspDraw) -> IspRecord {
+    let s = &pipeline.sensor;
+    IspRecord {
+        white_balance_gains: [draw.gains.red, draw.gains.green, draw.gains.blue],
+        white_balance_jitter: pipeline.white_balance_jitter,
+        noise_seed: draw.noise_seed,
+        isp: !pipeline.no_isp,
+        noise: !pipeline.no_noise,
+        bit_depth: s.bit_depth,
+        black_level_dn: s.black_level_dn,
+        iso: s.iso,
+        iso_base: s.iso_base,
+        dn_per_electron_at_base_iso: s.dn_per_electron_at_base_iso,
+        read_noise_dn_at_base_iso: s.read_noise_dn_at_base_iso,
+    }
+}
+
+/// The (LQ, GT) images of a pair, sRGB-encoded in [0, 1], cut to the row's crop. `frame` is the
+/// scene already cut to the sensor frame (linear light). GT goes through the same ISP draw as LQ
+/// (white balance, mosaic and demosaic, tone) without the lens and without noise.
+pub fn render_pair(sim: &LensSimulator, frame: &Planar, row: &PairRow) -> Result<(Planar, Planar)> {
+    let pipeline = pipeline(&row.isp_draw, row.isp_draw.white_balance_jitter);
+    let draw = pipeline.draw(row.seed).map_err(image_error(&row.pair_id))?;
+    let recorded = row.isp_draw.white_balance_gains;
+    if [draw.gains.red, draw.gains.green, draw.gains.blue] != recorded
+        || draw.noise_seed != row.isp_draw.noise_seed
+    {
+        return Err(DatasetError::Invalid(format!(
+            "pair {}: the recorded ISP draw does not follow from its seed",
+            row.pair_id
+        )));
+    }
+    let raw = pipeline
+        .unprocess(frame, &draw)
+        .map_err(image_error(&row.pair_id))?;
+    let through_lens = sim
+        .apply(&raw)
+        .map_err(|e| DatasetError::Invalid(format!("pair {}: {e}", row.pair_id)))?;
+    let lq = pipeline
+        .process(&through_lens, &draw)
+        .map_err(image_error(&row.pair_id))?;
+    let clean = IspDraw {
+        noise_seed: None,
+        gains: draw.gains,
+    };
+    let gt_pipeline = Pipeline {
+        no_noise: true,
+        ..pipeline
+    };
+    let gt = gt_pipeline
+        .process(&raw, &clean)
+        .map_err(image_error(&row.pair_id))?;
+    Ok((cut(&lq, row.crop), cut(&gt, row.crop)))
+}
+
+fn image_error(what: &str) -> impl Fn(unicac_image::ImageError) -> DatasetError + '_ {
+    move |e| DatasetError::Invalid(format!("pair {what}: {e}"))
+}
+
+/// The lens's PSF table from the simulator's radial PSFs (the PSFs that render its pairs), turned
+/// from the simulator's sensor +y radius to the frame's +x axis (docs/dataset.md).
+pub fn psf_table(lens_id: &str, sim: &LensSimulator) -> PsfTable {
+    let radial = &sim.radial;
+    let half_diagonal_mm = sim.grid.half_diagonal_mm();
+    let peak = radial.peak_transmission().max(1e-12);
+    let weights = SpectralWeights::new(
+        &sim.settings.response,
+        &visible_wavelengths_um(sim.settings.wavelengths),
+    );
+    let k = radial.kernel_size;
+    let mut kernels = Vec::with_capacity(radial.psfs.len() * 3 * k * k);
+    for psf in &radial.psfs {
+        for c in 0..3 {
+            let mut kernel = to_plus_x(&psf.kernels[c]);
+            kernel.normalise();
+            kernels.extend_from_slice(&kernel.data);
+        }
+    }
+    let radii = &radial.radii_mm;
+    PsfTable {
+        meta: PsfTableMeta {
+            format: TABLE_FORMAT.into(),
+            format_version: crate::FORMAT_VERSION,
+            lens_id: lens_id.into(),
+            field_radius_norm: radii.iter().map(|r| r / half_diagonal_mm).collect(),
+            field_deg: radial.psfs.iter().map(|p| p.field_deg).collect(),
+            kernel_px: k,
+            pixel_pitch_um: sim.grid.pitch_um,
+            frame_px: [sim.grid.width_px, sim.grid.height_px],
+            relative_illumination: radii
+                .iter()
+                .map(|&r| sim.chief.illumination_factor(r) * radial.transmission_at(r) / peak)
+                .collect(),
+            distortion: radii
+                .iter()
+                .map(|&r| {
+                    let ideal = sim.chief.ideal_height(r);
+                    if r > 0.0 && ideal > 0.0 {
+                        r / ideal
+                    } else {
+                        1.0
+                    }
+                })
+                .collect(),
+            channel_weights: (0..3)
+                .map(|c| weights.weights.iter().map(|w| w[c]).collect())
+                .collect(),
+            wavelengths_um: weights.wavelengths_um.clone(),
+            energy_cut: radial
+                .psfs
+                .iter()
+                .map(|p| std::array::from_fn(|c| p.energy_cut.get(c).copied().unwrap_or(0.0)))
+                .collect(),
+            unicac_version: env!("CARGO_PKG_VERSION").into(),
+        },
+        kernels,
+    }
+}
+
+/// A kernel of a field on sensor +y (image up) turned by 90 degrees so its field lies on image +x:
+/// in image coordinates (x right, y down) the offset (x, y) moves to (-y, x). Exact (a permutation).
+pub fn to_plus_x(kernel: &Kernel) -> Kernel {
+    let k = kernel.size;
+    let h = (k / 2) as isize;
+    let mut out = Kernel::zeros(k, kernel.pitch_um);
+    for row in 0..k {
+        for column in 0..k {
+            let (x, y) = (column as isize - h, row as isize - h);
+            let (nx, ny) = (-y + h, x + h);
+            out.data[ny as usize * k + nx as usize] = kernel.data[row * k + column];
+        }
+    }
+    out
+}
+
+/// A grey linear patch as the 3-channel sRGB image a restoration model takes.
+pub fn grey_to_srgb(patch: &Planar) -> Planar {
+    let rgb = Planar::from_fn(patch.width, patch.height, 3, |_, x, y| patch.get(0, x, y));
+    unicac_image::color::linear_to_srgb(&rgb)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn turning_to_plus_x_matches_the_simulators_psf_on_the_x_axis() {
+        let lens =
+            unicac_optics::Lens::from_spec(&unicac_optics::examples::spec("cooke_triplet").unwrap()).unwrap();
+        let sim = simulator(&lens, [96, 64], 8.0, true, true, None).unwrap();
+        let table = psf_table("cooke", &sim);
+        let f = table.fields() - 1;
+        let radius_mm = sim.radial.radii_mm[f];
+        for c in 0..3 {
+            // The simulator rotates a +y kernel to +x by bilinear resampling; ours is a permutation.
+            let reference = sim.radial.kernel_at(radius_mm, 0.0, c);
+            let ours = table.kernel(f, c);
+            let difference: f64 = reference
+                .data
+                .iter()
+                .zip(ours)
+                .map(|(a, b)| (a - b).abs() as f64)
+                .sum();
+            assert!(difference < 1e-3, "channel {c}: L1 {difference}");
+        }
+        // Each stored channel sums to 1 and the outer field's centroid lies on the +x axis.
+        let [dx, dy, ..] = crate::psf_table::raw_moments(table.kernel(f, 1), table.meta.kernel_px);
+        assert!(dy.abs() < 1e-3 && dx.abs() >= dy.abs(), "{dx} {dy}");
+        for c in 0..3 {
+            let sum: f64 = table.kernel(f, c).iter().map(|&v| v as f64).sum();
+            assert!((sum - 1.0).abs() < 1e-5);
+        }
+        assert!((table.meta.field_radius_norm[f] - 1.0).abs() < 1e-9);
+        assert_eq!(table.meta.relative_illumination[0], 1.0);
+    }
+}

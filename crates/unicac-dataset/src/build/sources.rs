@@ -1,0 +1,370 @@
+//! What the build reads: lenses (files, folders, `unicac design` libraries, `builtin:NAME`) and scenes
+//! (image folders or files, `dead-leaves:N[:WxH]` charts), each with a stable id from its name and a
+//! content hash.
+
+use crate::error::{DatasetError, Result};
+use crate::seeds::{derive_seed, sha256_hex};
+use std::path::{Path, PathBuf};
+use unicac_image::Planar;
+use unicac_optics::{examples, format, Lens, LensSpec};
+
+pub const BUILTIN_PREFIX: &str = "builtin:";
+const LENS_EXTENSIONS: [&str; 2] = ["json", "zmx"];
+const IMAGE_EXTENSIONS: [&str; 4] = ["png", "tif", "tiff", "exr"];
+/// Most lenses / scenes one build takes (a stated limit on the size of the plan held in memory).
+pub const MAX_ITEMS: usize = 1_000_000;
+
+/// One lens of the build.
+#[derive(Debug, Clone)]
+pub struct LensSource {
+    /// `NAME-HASH12`: the file stem (sanitised) and the first 12 hex digits of `sha256`.
+    pub lens_id: String,
+    /// The path as given (a file name when the given path is absolute), for the manifest.
+    pub source: String,
+    /// Where to read it (`builtin:NAME` for built-in lenses).
+    pub location: String,
+    /// SHA-256 of the file's bytes (of the spec's JSON for a built-in lens).
+    pub sha256: String,
+}
+
+impl LensSource {
+    /// Reads and validates the lens (errors name the file).
+    pub fn load(&self) -> Result<Lens> {
+        let spec = load_spec(&self.location)?;
+        Lens::from_spec(&spec).map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", self.location)))
+    }
+}
+
+fn load_spec(location: &str) -> Result<LensSpec> {
+    if let Some(name) = location.strip_prefix(BUILTIN_PREFIX) {
+        return examples::spec(name).map_err(|e| DatasetError::Invalid(format!("--lenses {location}: {e}")));
+    }
+    format::read_spec(Path::new(location))
+        .map(|loaded| loaded.spec)
+        .map_err(|e| DatasetError::Invalid(format!("lens {location}: {e}")))
+}
+
+/// Expands every `--lenses` argument; ids sorted, duplicates (same id) listed once.
+pub fn lens_sources(arguments: &[String]) -> Result<Vec<LensSource>> {
+    let mut found = Vec::new();
+    for argument in arguments {
+        if let Some(name) = argument.strip_prefix(BUILTIN_PREFIX) {
+            let spec = load_spec(argument)?;
+            let json = serde_json::to_vec(&spec).expect("a spec serialises");
+            found.push(source_for(name, argument.clone(), argument.clone(), &json));
+            continue;
+        }
+        let path = Path::new(argument);
+        if path.is_dir() {
+            let manifest = path.join("manifest.jsonl");
+            if manifest.is_file() {
+                found.extend(library_lenses(argument, &manifest)?);
+            } else {
+                for file in files_with(path, &LENS_EXTENSIONS)? {
+                    found.push(file_source(&file, &display_path(argument, &file, path))?);
+                }
+            }
+        } else {
+            found.push(file_source(path, &recorded(argument))?);
+        }
+        if found.len() > MAX_ITEMS {
+            return Err(DatasetError::Invalid(format!(
+                "--lenses: more than {MAX_ITEMS} lenses"
+            )));
+        }
+    }
+    found.sort_by(|a, b| a.lens_id.cmp(&b.lens_id));
+    found.dedup_by(|a, b| a.lens_id == b.lens_id);
+    if found.is_empty() {
+        return Err(DatasetError::Invalid("--lenses: no lens files found".into()));
+    }
+    Ok(found)
+}
+
+/// The lenses a `unicac design` library lists (read only: the library is an input).
+fn library_lenses(argument: &str, manifest: &Path) -> Result<Vec<LensSource>> {
+    let rows: Vec<unicac_design::library::ManifestRow> = crate::manifest::read_jsonl(manifest)?;
+    let dir = Path::new(argument);
+    rows.iter()
+        .map(|row| {
+            let file = dir.join(&row.json);
+            file_source(
+                &file,
+                &recorded(&format!("{}/{}", argument.trim_end_matches('/'), row.json)),
+            )
+        })
+        .collect()
+}
+
+fn file_source(path: &Path, source: &str) -> Result<LensSource> {
+    let bytes = std::fs::read(path).map_err(|e| DatasetError::io(path, e))?;
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "lens".into());
+    Ok(source_for(
+        &stem,
+        source.to_string(),
+        path.to_string_lossy().into_owned(),
+        &bytes,
+    ))
+}
+
+fn source_for(stem: &str, source: String, location: String, bytes: &[u8]) -> LensSource {
+    let sha256 = sha256_hex(&[bytes]);
+    LensSource {
+        lens_id: format!("{}-{}", sanitise(stem), &sha256[..12]),
+        source,
+        location,
+        sha256,
+    }
+}
+
+/// Letters, digits, `-` and `_` (others become `_`), at most 48 characters: safe in file names.
+pub fn sanitise(name: &str) -> String {
+    let cleaned: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(48)
+        .collect();
+    if cleaned.is_empty() {
+        "x".into()
+    } else {
+        cleaned
+    }
+}
+
+/// Manifests hold no absolute paths: an absolute argument is recorded by its file name.
+fn recorded(argument: &str) -> String {
+    let path = Path::new(argument);
+    if path.is_absolute() {
+        path.file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| argument.to_string())
+    } else {
+        argument.to_string()
+    }
+}
+
+fn display_path(argument: &str, file: &Path, dir: &Path) -> String {
+    let relative = file
+        .strip_prefix(dir)
+        .unwrap_or(file)
+        .to_string_lossy()
+        .into_owned();
+    if Path::new(argument).is_absolute() {
+        relative
+    } else {
+        format!("{}/{relative}", argument.trim_end_matches('/'))
+    }
+}
+
+/// Files under `dir` (recursively, dot-named entries skipped) with one of `extensions`, sorted.
+fn files_with(dir: &Path, extensions: &[&str]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(folder) = stack.pop() {
+        let entries = std::fs::read_dir(&folder).map_err(|e| DatasetError::io(&folder, e))?;
+        for entry in entries {
+            let entry = entry.map_err(|e| DatasetError::io(&folder, e))?;
+            let path = entry.path();
+            if entry.file_name().to_string_lossy().starts_with('.') {
+                continue;
+            }
+            if path.is_dir() {
+                stack.push(path);
+            } else if path
+                .extension()
+                .map(|e| e.to_string_lossy().to_ascii_lowercase())
+                .is_some_and(|e| extensions.contains(&e.as_str()))
+            {
+                out.push(path);
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// One scene (a sharp image) of the build.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// `NAME-HASH8` for files, `dead-leaves-KIND-INDEX` for charts.
+    pub image_id: String,
+    /// For the manifest: the path as given, or `dead-leaves:SEED:WxH`.
+    pub source: String,
+    pub kind: SceneKind,
+}
+
+#[derive(Debug, Clone)]
+pub enum SceneKind {
+    File { path: PathBuf, sha256: String },
+    DeadLeaves { seed: u64, width: usize, height: usize },
+}
+
+/// Default size of generated charts when neither the chart nor `--frame` gives one.
+pub const DEFAULT_CHART_PX: [usize; 2] = [1280, 800];
+/// Most charts one `dead-leaves:N` argument makes.
+pub const MAX_CHARTS: usize = 100_000;
+
+/// Scenes of a `--images` / `--test-images` argument; `kind` (`train` or `test`) separates the chart seeds.
+pub fn scenes(
+    argument: &str,
+    flag: &str,
+    kind: &str,
+    seed: u64,
+    frame_px: Option<[usize; 2]>,
+) -> Result<Vec<Scene>> {
+    if let Some(spec) = argument.strip_prefix("dead-leaves:") {
+        let mut parts = spec.splitn(2, ':');
+        let count: usize = parts
+            .next()
+            .and_then(|n| n.parse().ok())
+            .filter(|&n| (1..=MAX_CHARTS).contains(&n))
+            .ok_or_else(|| {
+                DatasetError::Invalid(format!(
+                    "{flag} {argument}: expected dead-leaves:N[:WxH] with 1 <= N <= {MAX_CHARTS}"
+                ))
+            })?;
+        let [width, height] = match parts.next() {
+            Some(size) => {
+                parse_size(size).map_err(|m| DatasetError::Invalid(format!("{flag} {argument}: {m}")))?
+            }
+            None => frame_px.unwrap_or(DEFAULT_CHART_PX),
+        };
+        return Ok((0..count)
+            .map(|i| {
+                let chart_seed = derive_seed(
+                    seed,
+                    &[b"dead-leaves", kind.as_bytes(), &(i as u64).to_le_bytes()],
+                );
+                Scene {
+                    image_id: format!("dead-leaves-{kind}-{i:04}"),
+                    source: format!("dead-leaves:{chart_seed}:{width}x{height}"),
+                    kind: SceneKind::DeadLeaves {
+                        seed: chart_seed,
+                        width,
+                        height,
+                    },
+                }
+            })
+            .collect());
+    }
+    let path = Path::new(argument);
+    let files = if path.is_dir() {
+        files_with(path, &IMAGE_EXTENSIONS)?
+    } else if path.exists() {
+        vec![path.to_path_buf()]
+    } else {
+        return Err(DatasetError::Invalid(format!(
+            "{flag} {argument}: no such file or folder"
+        )));
+    };
+    if files.is_empty() {
+        return Err(DatasetError::Invalid(format!(
+            "{flag} {argument}: no PNG, TIFF or EXR images found"
+        )));
+    }
+    if files.len() > MAX_ITEMS {
+        return Err(DatasetError::Invalid(format!(
+            "{flag}: more than {MAX_ITEMS} images"
+        )));
+    }
+    files
+        .iter()
+        .map(|file| {
+            let bytes = std::fs::read(file).map_err(|e| DatasetError::io(file, e))?;
+            let sha256 = sha256_hex(&[&bytes]);
+            let stem = file
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let source = if path.is_dir() {
+                display_path(argument, file, path)
+            } else {
+                recorded(argument)
+            };
+            Ok(Scene {
+                image_id: format!("{}-{}", sanitise(&stem), &sha256[..8]),
+                source,
+                kind: SceneKind::File {
+                    path: file.clone(),
+                    sha256,
+                },
+            })
+        })
+        .collect()
+}
+
+/// "WxH" with both sides positive.
+pub fn parse_size(text: &str) -> std::result::Result<[usize; 2], String> {
+    let (w, h) = text
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("size {text:?} is not WxH"))?;
+    let side = |s: &str| {
+        s.trim()
+            .parse::<usize>()
+            .ok()
+            .filter(|&v| (1..=crate::MAX_FRAME_SIDE_PX).contains(&v))
+    };
+    match (side(w), side(h)) {
+        (Some(w), Some(h)) => Ok([w, h]),
+        _ => Err(format!(
+            "size {text:?}: each side must be an integer from 1 to {}",
+            crate::MAX_FRAME_SIDE_PX
+        )),
+    }
+}
+
+impl Scene {
+    /// The scene's size without decoding pixels (charts) or by decoding the file.
+    pub fn load_linear(&self) -> Result<Planar> {
+        match &self.kind {
+            SceneKind::DeadLeaves { seed, width, height } => {
+                unicac_image::charts::dead_leaves(*width, *height, *seed)
+                    .map_err(|e| DatasetError::Invalid(format!("{}: {e}", self.source)))
+            }
+            SceneKind::File { path, .. } => {
+                let loaded = unicac_image::io::read_image(path)
+                    .map_err(|e| DatasetError::Invalid(format!("image {}: {e}", path.display())))?;
+                if loaded.image.width == 0 || loaded.image.height == 0 {
+                    return Err(DatasetError::Invalid(format!(
+                        "image {}: the image is empty",
+                        path.display()
+                    )));
+                }
+                loaded.rgb_planes(&loaded.to_linear()).ok_or_else(|| {
+                    DatasetError::Invalid(format!("image {}: expected a grey or RGB image", path.display()))
+                })
+            }
+        }
+    }
+
+    /// The frame cut from the scene: the centred `frame` crop ([x0, y0, w, h]); an error naming the
+    /// image when it is smaller than the frame.
+    pub fn frame_crop(&self, width: usize, height: usize, frame: [usize; 2]) -> Result<[usize; 4]> {
+        if width < frame[0] || height < frame[1] {
+            return Err(DatasetError::Invalid(format!(
+                "image {}: {width} x {height} px is smaller than the {} x {} frame (--frame)",
+                self.source, frame[0], frame[1]
+            )));
+        }
+        Ok([
+            (width - frame[0]) / 2,
+            (height - frame[1]) / 2,
+            frame[0],
+            frame[1],
+        ])
+    }
+}
+
+/// Cuts [x0, y0, w, h] out of an image.
+pub fn cut(image: &Planar, [x0, y0, w, h]: [usize; 4]) -> Planar {
+    Planar::from_fn(w, h, image.channels, |c, x, y| image.get(c, x0 + x, y0 + y))
+}

@@ -1,0 +1,176 @@
+//! `unicac dataset info` and `plot`: what a built dataset holds, read back from its manifests.
+
+use crate::error::{DatasetError, Result};
+use crate::manifest::{Dataset, LensRow, Stratification};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// One level of one stratification as found in the dataset.
+#[derive(Debug, Clone, Serialize)]
+pub struct LevelInfo {
+    pub metric: String,
+    pub level: u32,
+    pub lenses: usize,
+    pub test_pairs: usize,
+    /// The recorded thresholds: the level holds [lower, upper].
+    pub lower: f64,
+    pub upper: f64,
+    /// The range of the metric over the level's lenses [min, max], and of the ODE.
+    pub range: [f64; 2],
+    pub ode_range: [f64; 2],
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct DatasetInfo {
+    pub dir: String,
+    pub unicac_version: String,
+    pub frame_px: [usize; 2],
+    pub lenses: BTreeMap<String, usize>,
+    pub pairs: BTreeMap<String, usize>,
+    pub edges: usize,
+    pub levels: Vec<LevelInfo>,
+    /// Bytes of every file under the folder, and of the cache (`.cache`) among them.
+    pub disk_bytes: u64,
+    pub cache_bytes: u64,
+}
+
+fn metric_of(row: &LensRow, metric: &str) -> f64 {
+    match metric {
+        "u_s" => row.u_s,
+        "u_c" => row.u_c,
+        "oiq" => row.oiq,
+        _ => row.ode,
+    }
+}
+
+fn level_of(row: &LensRow, metric: &str) -> Option<u32> {
+    match metric {
+        "u_s" => row.us_level,
+        "u_c" => row.uc_level,
+        _ => row.level,
+    }
+}
+
+fn range(values: impl Iterator<Item = f64>) -> [f64; 2] {
+    values.fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| {
+        [lo.min(v), hi.max(v)]
+    })
+}
+
+pub fn info(dir: &Path) -> Result<DatasetInfo> {
+    let dataset = Dataset::open(dir)?;
+    let lenses = dataset.lenses()?;
+    let pairs = dataset.pairs()?;
+    let edges = dataset.edges()?;
+    let mut lens_counts = BTreeMap::new();
+    for row in &lenses {
+        *lens_counts.entry(row.split.clone()).or_insert(0) += 1;
+    }
+    let mut pair_counts = BTreeMap::new();
+    for row in &pairs {
+        *pair_counts.entry(row.split.clone()).or_insert(0) += 1;
+    }
+    let by_id: BTreeMap<&str, &LensRow> = lenses.iter().map(|l| (l.lens_id.as_str(), l)).collect();
+    let mut levels = Vec::new();
+    for Stratification {
+        metric,
+        levels: summaries,
+        ..
+    } in &dataset.manifest.stratifications
+    {
+        for summary in summaries {
+            let members: Vec<&LensRow> = lenses
+                .iter()
+                .filter(|l| level_of(l, metric) == Some(summary.level))
+                .collect();
+            let test_pairs = pairs
+                .iter()
+                .filter(|p| {
+                    p.split == "test"
+                        && by_id
+                            .get(p.lens_id.as_str())
+                            .is_some_and(|l| level_of(l, metric) == Some(summary.level))
+                })
+                .count();
+            levels.push(LevelInfo {
+                metric: metric.clone(),
+                level: summary.level,
+                lenses: members.len(),
+                test_pairs,
+                lower: summary.lower,
+                upper: summary.upper,
+                range: range(members.iter().map(|l| metric_of(l, metric))),
+                ode_range: range(members.iter().map(|l| l.ode)),
+            });
+        }
+    }
+    let (disk_bytes, cache_bytes) = disk_usage(dir)?;
+    Ok(DatasetInfo {
+        dir: dir.display().to_string(),
+        unicac_version: dataset.manifest.unicac_version.clone(),
+        frame_px: dataset.manifest.frame_px,
+        lenses: lens_counts,
+        pairs: pair_counts,
+        edges: edges.len(),
+        levels,
+        disk_bytes,
+        cache_bytes,
+    })
+}
+
+fn disk_usage(dir: &Path) -> Result<(u64, u64)> {
+    let (mut total, mut cache) = (0u64, 0u64);
+    let mut stack = vec![(dir.to_path_buf(), false)];
+    while let Some((folder, in_cache)) = stack.pop() {
+        for entry in std::fs::read_dir(&folder).map_err(|e| DatasetError::io(&folder, e))? {
+            let entry = entry.map_err(|e| DatasetError::io(&folder, e))?;
+            let meta = entry.metadata().map_err(|e| DatasetError::io(entry.path(), e))?;
+            let cached = in_cache || (folder == dir && entry.file_name() == ".cache");
+            if meta.is_dir() {
+                stack.push((entry.path(), cached));
+            } else {
+                total += meta.len();
+                if cached {
+                    cache += meta.len();
+                }
+            }
+        }
+    }
+    Ok((total, cache))
+}
+
+/// The lens distribution: ODE, OIQ, U_s and U_c histograms of the test lenses, one colour per ODE level.
+pub fn plot(dir: &Path, out: &Path) -> Result<()> {
+    let dataset = Dataset::open(dir)?;
+    let lenses = dataset.lenses()?;
+    let levels = dataset
+        .manifest
+        .stratifications
+        .iter()
+        .find(|s| s.metric == "ode")
+        .map_or(0, |s| s.levels.len());
+    if levels == 0 {
+        return Err(DatasetError::format(dir, "dataset.json records no ODE levels"));
+    }
+    let names: Vec<String> = (1..=levels).map(|k| format!("ODE level {k}")).collect();
+    let panels: Vec<unicac_plot::LevelHistogram> =
+        [("ODE", "ode"), ("OIQ", "oiq"), ("U_s", "u_s"), ("U_c", "u_c")]
+            .iter()
+            .map(|(label, metric)| unicac_plot::LevelHistogram {
+                metric: (*label).into(),
+                values_by_level: (1..=levels as u32)
+                    .map(|k| {
+                        lenses
+                            .iter()
+                            .filter(|l| l.level == Some(k))
+                            .map(|l| metric_of(l, metric))
+                            .collect()
+                    })
+                    .collect(),
+            })
+            .collect();
+    let title = format!("Test lenses of {} by ODE level", dir.display());
+    unicac_plot::level_histograms(&title, &names, &panels, out)
+        .map_err(|e| DatasetError::Invalid(format!("{}: {e}", out.display())))
+}

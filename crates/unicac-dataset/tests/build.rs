@@ -1,0 +1,374 @@
+//! The dataset builder end to end on tiny frames (64 x 48): splits, levels, regeneration from the
+//! manifest, resume after an interrupted run, shards and thread counts (byte for byte), bad input.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use unicac_dataset::build::{self, render, sources, BuildSettings, Shard, Silent};
+use unicac_dataset::manifest::{Dataset, PairRow};
+
+// The singlet's PSF exceeds a 64 x 48 frame: it serves as the lens that fails below.
+const LENSES: [&str; 6] = [
+    "achromat",
+    "cooke_triplet",
+    "double_gauss",
+    "petzval",
+    "phone_asphere",
+    "wide_angle",
+];
+
+fn settings() -> BuildSettings {
+    let lenses = LENSES.iter().map(|n| format!("builtin:{n}")).collect();
+    let mut s = BuildSettings::new(lenses, "dead-leaves:3:80x60".into(), "dead-leaves:2".into());
+    s.frame_px = Some([64, 48]);
+    s.levels = 4;
+    s.test_lenses_per_level = 1;
+    s.val_lenses = 1;
+    s.sub_benchmarks = true;
+    s.pairs_per_lens = 2;
+    s.crop_px = Some([32, 24]);
+    s.seed = 11;
+    s
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("unicac-dataset-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn build_with(
+    threads: usize,
+    settings: &BuildSettings,
+    out: &Path,
+    shard: Shard,
+) -> unicac_dataset::Result<build::BuildReport> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(|| build::build(settings, out, shard, &Silent))
+}
+
+/// The reference build (2 threads), made once per test binary.
+fn reference() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = scratch("reference");
+        let report = build_with(2, &settings(), &dir, Shard::ALL).unwrap();
+        assert!(report.complete);
+        dir
+    })
+}
+
+/// Every file under `dir` (relative path -> bytes), the ODE/PSF cache aside.
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(folder) = stack.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            let relative = path.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
+            if relative.starts_with(".cache") {
+                continue;
+            }
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                out.insert(relative, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    out
+}
+
+fn assert_same_files(a: &Path, b: &Path) {
+    let (fa, fb) = (files(a), files(b));
+    let names_a: Vec<&String> = fa.keys().collect();
+    let names_b: Vec<&String> = fb.keys().collect();
+    assert_eq!(names_a, names_b, "file lists differ");
+    for (name, bytes) in &fa {
+        assert!(bytes == &fb[name], "{name} differs");
+    }
+}
+
+#[test]
+fn splits_are_lens_disjoint_and_levels_are_ordered_inside_their_thresholds() {
+    let dataset = Dataset::open(reference()).unwrap();
+    let lenses = dataset.lenses().unwrap();
+    let pairs = dataset.pairs().unwrap();
+    assert_eq!(lenses.len(), 6);
+    let split_of: BTreeMap<&str, &str> = lenses
+        .iter()
+        .map(|l| (l.lens_id.as_str(), l.split.as_str()))
+        .collect();
+    for pair in &pairs {
+        assert_eq!(split_of[pair.lens_id.as_str()], pair.split, "{}", pair.pair_id);
+        assert!(dataset.resolve(&pair.lq).unwrap().is_file() && dataset.resolve(&pair.gt).unwrap().is_file());
+        assert_eq!(Path::new(&pair.lq).file_name(), Path::new(&pair.gt).file_name());
+    }
+    // Scenes: training/validation and test pairs use disjoint images.
+    let scenes = |split: &[&str]| -> std::collections::BTreeSet<String> {
+        pairs
+            .iter()
+            .filter(|p| split.contains(&p.split.as_str()))
+            .map(|p| p.image_id.clone())
+            .collect()
+    };
+    assert!(scenes(&["train", "val"]).is_disjoint(&scenes(&["test"])));
+    // The test split is exactly test lenses x test images.
+    let test_lenses = lenses.iter().filter(|l| l.split == "test").count();
+    assert_eq!(test_lenses, 4);
+    assert_eq!(
+        pairs.iter().filter(|p| p.split == "test").count(),
+        test_lenses * 2
+    );
+    assert_eq!(lenses.iter().filter(|l| l.split == "val").count(), 1);
+    assert_eq!(lenses.iter().filter(|l| l.split == "train").count(), 1);
+    // Levels: exactly one test lens each, inside the recorded thresholds, ordered mild to severe.
+    let ode = &dataset.manifest.stratifications[0];
+    assert_eq!(ode.metric, "ode");
+    assert!(
+        ode.thresholds.windows(2).all(|w| w[0] >= w[1]),
+        "{:?}",
+        ode.thresholds
+    );
+    let mut previous = f64::INFINITY;
+    for level in 1..=4u32 {
+        let members: Vec<_> = lenses.iter().filter(|l| l.level == Some(level)).collect();
+        assert_eq!(members.len(), 1, "level {level}");
+        let summary = &ode.levels[level as usize - 1];
+        for l in &members {
+            assert!(
+                l.ode <= summary.upper && l.ode >= summary.lower,
+                "level {level}: {} not in [{}, {}]",
+                l.ode,
+                summary.lower,
+                summary.upper
+            );
+            assert!(l.ode <= previous);
+            previous = l.ode;
+        }
+    }
+    // Sub-benchmarks cover the test lenses once each.
+    assert_eq!(lenses.iter().filter(|l| l.us_level.is_some()).count(), 4);
+    assert_eq!(lenses.iter().filter(|l| l.uc_level.is_some()).count(), 4);
+    // Edge patches: 5 fields x 3 channels x 2 directions per test lens.
+    assert_eq!(dataset.edges().unwrap().len(), 4 * 30);
+    // BasicSR meta_info lists each pair once with its size.
+    let meta = std::fs::read_to_string(reference().join("train/meta_info.txt")).unwrap();
+    assert_eq!(meta.lines().count(), 2);
+    assert!(meta.lines().all(|l| l.ends_with(".png (24,32,3)")), "{meta}");
+    // The FoV map is the one of docs/models.md.
+    let (shape, data) = unicac_dataset::npy::read_f32(&reference().join("fov/64x48.npy")).unwrap();
+    assert_eq!(shape, vec![2, 48, 64]);
+    assert_eq!(
+        data,
+        unicac_dataset::fov_map(unicac_dataset::FrameCrop::full(64, 48))
+            .unwrap()
+            .data
+    );
+    // Nothing run-specific in the manifests.
+    for name in ["lenses.jsonl", "pairs.jsonl", "edges.jsonl"] {
+        let text = std::fs::read_to_string(reference().join(name)).unwrap();
+        assert!(
+            !text.contains(&*std::env::temp_dir().to_string_lossy()),
+            "{name} holds an absolute path"
+        );
+    }
+}
+
+/// Renders a pair again from nothing but its manifest row and lens row.
+fn regenerate(dataset: &Dataset, pair: &PairRow) -> (Vec<u8>, Vec<u8>) {
+    let lenses = dataset.lenses().unwrap();
+    let lens_row = lenses.iter().find(|l| l.lens_id == pair.lens_id).unwrap();
+    let lens_source = sources::lens_sources(std::slice::from_ref(&lens_row.source))
+        .unwrap()
+        .remove(0);
+    assert_eq!(lens_source.sha256, lens_row.lens_sha256);
+    let lens = build::grading::BuildSensor {
+        frame_px: pair.frame_px,
+        pixel_um: None,
+    }
+    .apply(&lens_source.load().unwrap());
+    let sim = render::simulator(
+        &lens,
+        pair.frame_px,
+        pair.pixel_pitch_um,
+        pair.distortion,
+        pair.illumination,
+        None,
+    )
+    .unwrap();
+    // image_source is dead-leaves:SEED:WxH.
+    let parts: Vec<&str> = pair.image_source.split(':').collect();
+    let [w, h] = sources::parse_size(parts[2]).unwrap();
+    let scene = unicac_image::charts::dead_leaves(w, h, parts[1].parse().unwrap()).unwrap();
+    let frame = sources::cut(&scene, pair.scene_crop);
+    let (lq, gt) = render::render_pair(&sim, &frame, pair).unwrap();
+    let dir = scratch(&format!("regen-{}", pair.pair_id));
+    std::fs::create_dir_all(&dir).unwrap();
+    let encode = |image: &unicac_image::Planar, name: &str| {
+        let path = dir.join(name);
+        unicac_image::io::write_png(&path, image, unicac_image::io::SampleDepth::Eight).unwrap();
+        std::fs::read(&path).unwrap()
+    };
+    let out = (encode(&lq, "lq.png"), encode(&gt, "gt.png"));
+    std::fs::remove_dir_all(&dir).unwrap();
+    out
+}
+
+#[test]
+fn a_pair_regenerated_from_its_manifest_entry_equals_the_stored_files() {
+    let dataset = Dataset::open(reference()).unwrap();
+    let pairs = dataset.pairs().unwrap();
+    for split in ["train", "test"] {
+        let pair = pairs.iter().find(|p| p.split == split).unwrap();
+        let (lq, gt) = regenerate(&dataset, pair);
+        assert!(
+            lq == std::fs::read(dataset.resolve(&pair.lq).unwrap()).unwrap(),
+            "{} lq",
+            pair.pair_id
+        );
+        assert!(
+            gt == std::fs::read(dataset.resolve(&pair.gt).unwrap()).unwrap(),
+            "{} gt",
+            pair.pair_id
+        );
+        assert_ne!(lq, gt, "the lens and noise change the image");
+    }
+}
+
+#[test]
+fn an_interrupted_build_resumes_to_the_same_bytes() {
+    let dir = scratch("resume");
+    build_with(2, &settings(), &dir, Shard::ALL).unwrap();
+    // What a kill leaves: missing outputs, a half-written temporary, no dataset.json.
+    let pairs = Dataset::open(&dir).unwrap().pairs().unwrap();
+    std::fs::remove_file(dir.join(&pairs[0].lq)).unwrap();
+    std::fs::remove_file(dir.join(&pairs[pairs.len() - 1].gt)).unwrap();
+    std::fs::remove_file(dir.join(&pairs[0].psf).join("table.json")).unwrap();
+    std::fs::remove_file(dir.join("edges.jsonl")).unwrap();
+    std::fs::remove_dir_all(dir.join("edges/lq")).unwrap();
+    std::fs::remove_file(dir.join("dataset.json")).unwrap();
+    std::fs::write(dir.join("test/lq/.half.png.tmp-999"), b"partial").unwrap();
+    let report = build_with(2, &settings(), &dir, Shard::ALL).unwrap();
+    assert!(report.complete);
+    assert_eq!(
+        report.pairs_rendered, 2,
+        "only the two incomplete pairs are rendered again"
+    );
+    assert_eq!(report.psf_tables_written, 1);
+    assert_eq!(report.temporaries_removed, 1);
+    assert_eq!(report.odes_from_cache, 6);
+    assert_same_files(reference(), &dir);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn shards_in_one_folder_and_one_thread_equal_the_single_run() {
+    let dir = scratch("shards");
+    let first = build_with(2, &settings(), &dir, Shard::parse("1/2").unwrap()).unwrap();
+    assert!(!first.complete && !dir.join("dataset.json").exists());
+    let second = build_with(2, &settings(), &dir, Shard::parse("2/2").unwrap()).unwrap();
+    assert!(second.complete);
+    let total: usize = first.pairs.values().sum();
+    assert_eq!(first.pairs_rendered + second.pairs_rendered, total);
+    assert_same_files(reference(), &dir);
+    std::fs::remove_dir_all(&dir).unwrap();
+    let single = scratch("one-thread");
+    build_with(1, &settings(), &single, Shard::ALL).unwrap();
+    assert_same_files(reference(), &single);
+    std::fs::remove_dir_all(&single).unwrap();
+}
+
+/// Only dot-named entries (the cache) may be left by a refused build.
+fn nothing_written(dir: &Path) -> bool {
+    !dir.exists()
+        || std::fs::read_dir(dir)
+            .unwrap()
+            .all(|e| e.unwrap().file_name().to_string_lossy().starts_with('.'))
+}
+
+#[test]
+fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
+    // An unreadable image.
+    let images = scratch("bad-images");
+    std::fs::create_dir_all(&images).unwrap();
+    std::fs::write(images.join("broken.png"), b"\x89PNG\r\n\x1a\nnot really").unwrap();
+    let mut s = settings();
+    s.images = images.to_string_lossy().into_owned();
+    let out = scratch("bad-image-out");
+    let error = build::build(&s, &out, Shard::ALL, &Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("broken.png"), "{error}");
+    assert!(nothing_written(&out));
+    // A lens that fails to trace: a field far beyond what the singlet can image.
+    let lens_dir = scratch("bad-lens");
+    std::fs::create_dir_all(&lens_dir).unwrap();
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../lenses/singlet.json"))
+            .unwrap();
+    let broken = text.replacen("14.0", "89.0", 1).replacen("9.8", "60.0", 1);
+    std::fs::write(lens_dir.join("wild.json"), broken).unwrap();
+    let mut s = settings();
+    s.lenses
+        .push(lens_dir.join("wild.json").to_string_lossy().into_owned());
+    let out = scratch("bad-lens-out");
+    let error = build::build(&s, &out, Shard::ALL, &Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("wild.json"), "{error}");
+    assert!(nothing_written(&out));
+    // A lens whose PSF does not fit the frame: refused by name before anything is written.
+    let mut s = settings();
+    s.lenses.push("builtin:singlet".into());
+    let out = scratch("big-psf-out");
+    let error = build::build(&s, &out, Shard::ALL, &Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("singlet") && error.contains("larger than the image"),
+        "{error}"
+    );
+    assert!(nothing_written(&out));
+    // A library too small for the levels.
+    let mut s = settings();
+    s.test_lenses_per_level = 2;
+    let out = scratch("small-out");
+    let error = build::build(&s, &out, Shard::ALL, &Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("holds 6 lenses") && error.contains("need 10"),
+        "{error}"
+    );
+    assert!(nothing_written(&out));
+    // An output folder that holds another dataset is left untouched.
+    let before = files(reference());
+    let mut s = settings();
+    s.seed = 12;
+    let error = build::build(&s, reference(), Shard::ALL, &Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("holds another dataset") && error.contains("seed"),
+        "{error}"
+    );
+    assert!(before == files(reference()));
+    // A folder with unrelated files is not taken over either.
+    let stranger = scratch("stranger");
+    std::fs::create_dir_all(&stranger).unwrap();
+    std::fs::write(stranger.join("notes.txt"), b"mine").unwrap();
+    let error = build::build(&settings(), &stranger, Shard::ALL, &Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("not empty") && error.contains("notes.txt"),
+        "{error}"
+    );
+    for dir in [images, lens_dir, out, stranger] {
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}
