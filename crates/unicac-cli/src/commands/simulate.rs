@@ -148,7 +148,8 @@ fn format_from_name(name: &str) -> FileFormat {
 
 fn extension(format: FileFormat) -> &'static str {
     match format {
-        FileFormat::Png => "png",
+        // BMP is read only: a BMP input gives PNG output.
+        FileFormat::Png | FileFormat::Bmp => "png",
         FileFormat::Tiff => "tiff",
         FileFormat::OpenExr => "exr",
     }
@@ -163,7 +164,7 @@ fn write_encoded(image: &Planar, path: &Path, format: FileFormat, bit_depth: u8)
         SampleDepth::Eight
     };
     match format {
-        FileFormat::Png => unicac_image::io::write_png(path, image, depth)?,
+        FileFormat::Png | FileFormat::Bmp => unicac_image::io::write_png(path, image, depth)?,
         FileFormat::Tiff => unicac_image::io::write_tiff(path, image, SampleDepth::Sixteen)?,
         FileFormat::OpenExr => {
             unicac_image::io::write_exr(path, &unicac_image::color::srgb_to_linear(image))?
