@@ -25,6 +25,7 @@ from ._native import (
     builtin_lenses,
     chart,
     demosaic,
+    fov_map,
     invert_white_balance,
     isp_draw,
     isp_process,
@@ -37,6 +38,7 @@ from ._native import (
     oiqe_of_psf,
     perturb_white_balance,
     psf,
+    psf_features,
     psf_grid,
     quantise,
     read_image,
@@ -50,6 +52,7 @@ from ._native import (
     write_image,
 )
 from .errors import (
+    DatasetError,
     ImageError,
     LensError,
     MetricsError,
@@ -71,6 +74,7 @@ STATUS_OK: int = 0
 __all__ = [
     "STATUS_NAMES",
     "STATUS_OK",
+    "DatasetError",
     "ImageError",
     "Lens",
     "LensError",
@@ -88,6 +92,7 @@ __all__ = [
     "builtin_lenses",
     "chart",
     "demosaic",
+    "fov_map",
     "invert_white_balance",
     "isp_draw",
     "isp_process",
@@ -100,6 +105,7 @@ __all__ = [
     "oiqe_of_psf",
     "perturb_white_balance",
     "psf",
+    "psf_features",
     "psf_grid",
     "quantise",
     "read_image",

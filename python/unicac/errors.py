@@ -14,6 +14,7 @@ ImageError          an image cannot be read, written or processed (ISP steps)
 SimulationError     an image simulation request is invalid (e.g. PSF larger than the image)
 MetricsError        a metric cannot be computed from its inputs
 OdeError            the Optical Degradation Evaluator fails for a lens
+DatasetError        a dataset folder, manifest or PSF table cannot be read or written
 ==================  =====================================================================
 
 Arguments of the wrong type, dtype or shape raise the built-in ``TypeError`` / ``ValueError``
@@ -22,6 +23,7 @@ codes (``unicac.STATUS_NAMES``).
 """
 
 from ._native import (
+    DatasetError,
     ImageError,
     LensError,
     MetricsError,
@@ -33,6 +35,7 @@ from ._native import (
 )
 
 __all__ = [
+    "DatasetError",
     "ImageError",
     "LensError",
     "MetricsError",

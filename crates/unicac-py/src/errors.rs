@@ -2,7 +2,7 @@
 //!
 //! Every failure of a whole request raises a subclass of `unicac.UnicacError` named after the stage
 //! that failed: `LensError` (reading or analysing a lens), `TraceError` (ray aiming, trace requests),
-//! `PsfError`, `ImageError` (files, ISP steps), `SimulationError`, `MetricsError` and `OdeError`.
+//! `PsfError`, `ImageError` (files, ISP steps), `SimulationError`, `MetricsError`, `OdeError` and `DatasetError`.
 //! A nested error keeps the most specific stage: a lens problem found while simulating is a
 //! `LensError`. Wrong argument types, dtypes or shapes are caught before Rust sees them and raise
 //! the standard `TypeError` / `ValueError` naming the argument (see `arrays.rs`). Per-ray failures are
@@ -53,6 +53,12 @@ create_exception!(
     MetricsError,
     UnicacError,
     "A metric could not be computed from its inputs."
+);
+create_exception!(
+    unicac,
+    DatasetError,
+    UnicacError,
+    "A dataset folder, manifest or PSF table could not be read or written."
 );
 create_exception!(
     unicac,
@@ -132,6 +138,17 @@ impl ToPyErr for unicac_ode::OdeError {
     }
 }
 
+impl ToPyErr for unicac_dataset::DatasetError {
+    fn to_py_err(self) -> PyErr {
+        match self {
+            unicac_dataset::DatasetError::Invalid(message) => {
+                pyo3::exceptions::PyValueError::new_err(message)
+            }
+            other => DatasetError::new_err(other.to_string()),
+        }
+    }
+}
+
 /// Registers the exception classes on the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -143,5 +160,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SimulationError", py.get_type::<SimulationError>())?;
     m.add("MetricsError", py.get_type::<MetricsError>())?;
     m.add("OdeError", py.get_type::<OdeError>())?;
+    m.add("DatasetError", py.get_type::<DatasetError>())?;
     Ok(())
 }

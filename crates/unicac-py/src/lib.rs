@@ -6,12 +6,13 @@
 //! - `errors`: Rust errors -> named Python exceptions (one place);
 //! - `arrays`: numpy in and out, with dtype/shape checks that name the argument;
 //! - `json`: the CLI's JSON structs as Python dicts;
-//! - `lens`, `trace`, `psf`, `simulate`, `isp`, `ode`: the API, one module per stage.
+//! - `lens`, `trace`, `psf`, `simulate`, `isp`, `ode`, `dataset`: the API, one module per stage.
 //!
 //! Every call that traces or renders releases the GIL before the parallel (rayon) work, on a thread
 //! pool of its own process (`pool`), so forked workers (PyTorch data loaders) work too.
 
 mod arrays;
+mod dataset;
 mod errors;
 mod images;
 mod isp;
@@ -38,5 +39,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     images::register(m)?;
     isp::register(m)?;
     ode::register(m)?;
+    dataset::register(m)?;
     Ok(())
 }

@@ -1,0 +1,434 @@
+//! The manifests of a dataset directory (docs/dataset.md): row types, readers that check
+//! `dataset.json`'s format version, and atomic writers. Every path inside is relative to DIR; nothing
+//! run-specific (times, host names, absolute paths) is written outside `dataset.json`.
+
+use crate::error::{DatasetError, Result};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// `dataset.json`'s `format`.
+pub const FORMAT_NAME: &str = "unicac-dataset";
+/// The layout this code writes and the newest it reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+pub const DATASET_JSON: &str = "dataset.json";
+pub const LENSES_JSONL: &str = "lenses.jsonl";
+pub const LENSES_CSV: &str = "lenses.csv";
+pub const PAIRS_JSONL: &str = "pairs.jsonl";
+pub const EDGES_JSONL: &str = "edges.jsonl";
+
+/// Split names, in manifest order.
+pub const SPLITS: [&str; 3] = ["train", "val", "test"];
+
+/// One lens of the library (`lenses.jsonl`, `lenses.csv`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LensRow {
+    /// Stable id: the file name's stem (sanitised) and the first 12 hex digits of `lens_sha256`.
+    pub lens_id: String,
+    /// The lens path as given on the command line (or the library manifest's entry).
+    pub source: String,
+    /// SHA-256 of the lens file's bytes.
+    pub lens_sha256: String,
+    pub ode: f64,
+    pub oiq: f64,
+    pub u_s: f64,
+    pub u_c: f64,
+    pub oiqe: f64,
+    pub psnr_db: f64,
+    pub ssim: f64,
+    pub rms_radius_um: f64,
+    /// `train`, `val`, `test` or `unused`.
+    pub split: String,
+    /// ODE level of a test lens: 1 = mildest (highest ODE) .. `levels` = most severe.
+    pub level: Option<u32>,
+    /// U_s / U_c sub-benchmark level (1 = most uniform), when built with `--sub-benchmarks`.
+    pub us_level: Option<u32>,
+    pub uc_level: Option<u32>,
+    /// Pixel pitch the ODE was graded with and the pairs are rendered at.
+    pub pixel_pitch_um: f64,
+    /// The lens's PSF table folder (`psf/LENS_ID`); empty for unused lenses.
+    pub psf: String,
+}
+
+/// The random draws of one pair's sensor/ISP chain.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct IspRecord {
+    /// White-balance gains (R, G, B) used to invert and re-apply the white balance.
+    pub white_balance_gains: [f32; 3],
+    /// Standard deviation of the per-pair gain perturbation the gains were drawn with.
+    pub white_balance_jitter: f32,
+    /// Seed of the sensor noise (`None` when noiseless).
+    pub noise_seed: Option<u64>,
+    pub isp: bool,
+    pub noise: bool,
+    pub bit_depth: u8,
+    pub black_level_dn: f32,
+    pub iso: f32,
+    pub iso_base: f32,
+    pub dn_per_electron_at_base_iso: f32,
+    pub read_noise_dn_at_base_iso: f32,
+}
+
+/// One LQ/GT pair (`pairs.jsonl`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PairRow {
+    /// Also the file name stem in `SPLIT/lq/` and `SPLIT/gt/`.
+    pub pair_id: String,
+    pub split: String,
+    pub lens_id: String,
+    pub image_id: String,
+    /// The scene: a file path as given, or `dead-leaves:SEED:WxH`.
+    pub image_source: String,
+    /// Relative paths of the degraded and ground-truth PNGs.
+    pub lq: String,
+    pub gt: String,
+    /// The pair's seed; every draw below derives from it.
+    pub seed: u64,
+    /// The rendered sensor frame [W, H] (px).
+    pub frame_px: [usize; 2],
+    /// Where the frame came from in the scene image: [x0, y0, w, h] (px).
+    pub scene_crop: [usize; 4],
+    /// Where this pair sits in the frame: [x0, y0, w, h] (px); the whole frame for test pairs.
+    pub crop: [usize; 4],
+    pub pixel_pitch_um: f64,
+    pub distortion: bool,
+    pub illumination: bool,
+    pub isp_draw: IspRecord,
+    /// The lens's PSF table folder and the frame's FoV map (relative paths).
+    pub psf: String,
+    pub fov: String,
+}
+
+/// One slanted-edge patch of a test lens's ODE (`edges.jsonl`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EdgeRow {
+    pub edge_id: String,
+    pub lens_id: String,
+    pub level: Option<u32>,
+    /// Normalised image height of the ODE field (0 = centre, 1 = half-diagonal).
+    pub field_fraction: f64,
+    pub field_deg: f64,
+    /// `R`, `G` or `B`: the channel whose kernel blurred the (grey) edge.
+    pub channel: String,
+    /// `sagittal` (near-vertical edge) or `tangential` (its transpose).
+    pub direction: String,
+    pub lq: String,
+    pub gt: String,
+    pub size_px: usize,
+    pub slant_deg: f64,
+    pub pixel_pitch_um: f64,
+}
+
+/// One level of a stratification.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LevelSummary {
+    /// 1 = mildest.
+    pub level: u32,
+    pub lenses: usize,
+    /// The level holds the lenses whose metric lies in [lower, upper].
+    pub lower: f64,
+    pub upper: f64,
+    /// Distribution of the four scores over the level's lenses: [min, mean, max].
+    pub ode: [f64; 3],
+    pub oiq: [f64; 3],
+    pub u_s: [f64; 3],
+    pub u_c: [f64; 3],
+}
+
+/// How lenses were stratified by one metric (`ode`, `u_s` or `u_c`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Stratification {
+    pub metric: String,
+    /// The rule, in words (docs/dataset.md has the full statement).
+    pub rule: String,
+    /// Level boundaries, descending (mild to severe): level k holds [thresholds[k], thresholds[k-1]].
+    pub thresholds: Vec<f64>,
+    pub levels: Vec<LevelSummary>,
+}
+
+/// `dataset.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DatasetManifest {
+    pub format: String,
+    pub format_version: u32,
+    pub unicac_version: String,
+    /// The build's settings (the command's options, with defaults filled in).
+    pub settings: serde_json::Value,
+    pub seed: u64,
+    /// Rendered sensor frame [W, H] (px).
+    pub frame_px: [usize; 2],
+    /// `ode`, then `u_s` and `u_c` when built with sub-benchmarks.
+    pub stratifications: Vec<Stratification>,
+    /// Lenses per split, pairs per split, edge patches.
+    pub counts: Counts,
+}
+
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Counts {
+    pub lenses: BTreeMap<String, usize>,
+    pub pairs: BTreeMap<String, usize>,
+    pub edges: usize,
+    pub train_images: usize,
+    pub test_images: usize,
+}
+
+/// An opened dataset directory whose `dataset.json` was checked.
+#[derive(Debug, Clone)]
+pub struct Dataset {
+    pub dir: PathBuf,
+    pub manifest: DatasetManifest,
+}
+
+impl Dataset {
+    /// Opens DIR: a clear error when it holds no `dataset.json` of this format, or a newer version.
+    pub fn open(dir: &Path) -> Result<Dataset> {
+        Ok(Dataset {
+            dir: dir.to_path_buf(),
+            manifest: read_manifest(dir)?,
+        })
+    }
+
+    pub fn lenses(&self) -> Result<Vec<LensRow>> {
+        read_jsonl(&self.dir.join(LENSES_JSONL))
+    }
+
+    pub fn pairs(&self) -> Result<Vec<PairRow>> {
+        read_jsonl(&self.dir.join(PAIRS_JSONL))
+    }
+
+    pub fn edges(&self) -> Result<Vec<EdgeRow>> {
+        read_jsonl(&self.dir.join(EDGES_JSONL))
+    }
+
+    /// A path from a manifest row, resolved against DIR (refusing absolute paths and `..`).
+    pub fn resolve(&self, relative: &str) -> Result<PathBuf> {
+        let path = Path::new(relative);
+        if path.is_absolute()
+            || path
+                .components()
+                .any(|c| !matches!(c, std::path::Component::Normal(_)))
+        {
+            return Err(DatasetError::format(
+                &self.dir,
+                format!("manifest path {relative:?} must be relative to the dataset folder"),
+            ));
+        }
+        Ok(self.dir.join(path))
+    }
+}
+
+/// Reads and checks `DIR/dataset.json`.
+pub fn read_manifest(dir: &Path) -> Result<DatasetManifest> {
+    let path = dir.join(DATASET_JSON);
+    let bytes = match std::fs::read(&path) {
+        Ok(bytes) => bytes,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(DatasetError::NotADataset {
+                path: dir.to_path_buf(),
+            })
+        }
+        Err(e) => return Err(DatasetError::io(path, e)),
+    };
+    let value: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|e| DatasetError::format(&path, e.to_string()))?;
+    if value.get("format").and_then(|f| f.as_str()) != Some(FORMAT_NAME) {
+        return Err(DatasetError::NotADataset {
+            path: dir.to_path_buf(),
+        });
+    }
+    let found = value
+        .get("format_version")
+        .and_then(|v| v.as_u64())
+        .ok_or_else(|| DatasetError::format(&path, "missing field `format_version`"))?;
+    if found > FORMAT_VERSION as u64 {
+        return Err(DatasetError::NewerFormat {
+            path,
+            found: found.min(u32::MAX as u64) as u32,
+            supported: FORMAT_VERSION,
+        });
+    }
+    serde_json::from_value(value).map_err(|e| DatasetError::format(&path, e.to_string()))
+}
+
+/// Rows of a JSON-lines file (blank lines skipped); errors name the file and line.
+pub fn read_jsonl<T: DeserializeOwned>(path: &Path) -> Result<Vec<T>> {
+    let text = std::fs::read_to_string(path).map_err(|e| DatasetError::io(path, e))?;
+    text.lines()
+        .enumerate()
+        .filter(|(_, line)| !line.trim().is_empty())
+        .map(|(i, line)| {
+            serde_json::from_str(line).map_err(|e| DatasetError::format(path, format!("line {}: {e}", i + 1)))
+        })
+        .collect()
+}
+
+/// The bytes of a JSON-lines file: one compact row per line, in the given order.
+pub fn jsonl_bytes<T: Serialize>(rows: &[T]) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    for row in rows {
+        serde_json::to_writer(&mut bytes, row).expect("rows serialise");
+        bytes.push(b'\n');
+    }
+    bytes
+}
+
+/// Writes rows as JSON lines, atomically.
+pub fn write_jsonl<T: Serialize>(path: &Path, rows: &[T]) -> Result<()> {
+    write_atomically(path, &jsonl_bytes(rows))
+}
+
+/// Pretty JSON with a final newline, atomically.
+pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    let mut bytes = serde_json::to_vec_pretty(value).expect("value serialises");
+    bytes.push(b'\n');
+    write_atomically(path, &bytes)
+}
+
+/// `lenses.csv`: the columns of `lenses.jsonl`, empty cells for absent levels.
+pub fn lenses_csv(rows: &[LensRow]) -> Vec<u8> {
+    let mut out = Vec::new();
+    writeln!(
+        out,
+        "lens_id,source,lens_sha256,ode,oiq,u_s,u_c,oiqe,psnr_db,ssim,rms_radius_um,split,level,us_level,uc_level,pixel_pitch_um,psf"
+    )
+    .expect("in memory");
+    let level = |l: Option<u32>| l.map(|v| v.to_string()).unwrap_or_default();
+    for r in rows {
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            r.lens_id,
+            csv_field(&r.source),
+            r.lens_sha256,
+            r.ode,
+            r.oiq,
+            r.u_s,
+            r.u_c,
+            r.oiqe,
+            r.psnr_db,
+            r.ssim,
+            r.rms_radius_um,
+            r.split,
+            level(r.level),
+            level(r.us_level),
+            level(r.uc_level),
+            r.pixel_pitch_um,
+            r.psf
+        )
+        .expect("in memory");
+    }
+    out
+}
+
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// Temporary files of this crate and of the image writers are dot-named and contain `.tmp`.
+pub fn is_temporary(name: &str) -> bool {
+    name.starts_with('.') && name.contains(".tmp")
+}
+
+/// Writes `bytes` to `path` through a dot-named temporary sibling and a rename (parent folders made).
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|e| DatasetError::io(parent, e))?;
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let temporary = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let mut file = std::fs::File::create(&temporary)?;
+        file.write_all(bytes)?;
+        std::fs::rename(&temporary, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&temporary);
+        return Err(DatasetError::io(path, e));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn manifest() -> DatasetManifest {
+        DatasetManifest {
+            format: FORMAT_NAME.into(),
+            format_version: FORMAT_VERSION,
+            unicac_version: "0.1.0".into(),
+            settings: serde_json::json!({"seed": 1}),
+            seed: 1,
+            frame_px: [64, 48],
+            stratifications: vec![],
+            counts: Counts::default(),
+        }
+    }
+
+    #[test]
+    fn opening_checks_the_format_and_its_version() {
+        let dir = std::env::temp_dir().join(format!("unicac-dataset-manifest-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let error = Dataset::open(&dir).unwrap_err().to_string();
+        assert!(error.contains("is not a unicac dataset"), "{error}");
+        std::fs::write(dir.join(DATASET_JSON), r#"{"format": "something-else"}"#).unwrap();
+        assert!(matches!(
+            Dataset::open(&dir),
+            Err(DatasetError::NotADataset { .. })
+        ));
+        let mut newer = serde_json::to_value(manifest()).unwrap();
+        newer["format_version"] = serde_json::json!(FORMAT_VERSION + 1);
+        write_json(&dir.join(DATASET_JSON), &newer).unwrap();
+        let error = Dataset::open(&dir).unwrap_err().to_string();
+        assert!(error.contains("newer"), "{error}");
+        write_json(&dir.join(DATASET_JSON), &manifest()).unwrap();
+        let dataset = Dataset::open(&dir).unwrap();
+        assert_eq!(dataset.manifest, manifest());
+        assert!(dataset.resolve("../x").is_err() && dataset.resolve("/etc/passwd").is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn jsonl_round_trips_and_names_the_bad_line() {
+        let dir = std::env::temp_dir().join(format!("unicac-dataset-jsonl-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let row = EdgeRow {
+            edge_id: "a".into(),
+            lens_id: "l".into(),
+            level: Some(2),
+            field_fraction: 0.25,
+            field_deg: 3.5,
+            channel: "G".into(),
+            direction: "sagittal".into(),
+            lq: "edges/lq/a.png".into(),
+            gt: "edges/gt/a.png".into(),
+            size_px: 64,
+            slant_deg: 5.0,
+            pixel_pitch_um: 1.1,
+        };
+        let path = dir.join(EDGES_JSONL);
+        write_jsonl(&path, &[row.clone(), row.clone()]).unwrap();
+        assert_eq!(read_jsonl::<EdgeRow>(&path).unwrap(), vec![row.clone(), row]);
+        std::fs::write(&path, "{}\n").unwrap();
+        let error = read_jsonl::<EdgeRow>(&path).unwrap_err().to_string();
+        assert!(
+            error.contains("line 1") && error.contains("edges.jsonl"),
+            "{error}"
+        );
+        assert!(std::fs::read_dir(&dir)
+            .unwrap()
+            .all(|e| !is_temporary(&e.unwrap().file_name().to_string_lossy())));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
