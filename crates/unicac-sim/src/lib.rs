@@ -18,6 +18,6 @@ pub mod simulate;
 pub use chief::ChiefRayMap;
 pub use error::{SimError, SimResult};
 pub use geometry::SensorGrid;
-pub use psf_cache::{lens_fingerprint, PsfCache};
+pub use psf_cache::{cache_root, lens_fingerprint, PsfCache};
 pub use psf_map::RadialPsfs;
 pub use simulate::{crop, LensSimulator, PixelWindow, SimulationSettings, MAX_SIMULATE_PIXELS};

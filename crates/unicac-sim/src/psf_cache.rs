@@ -39,23 +39,27 @@ fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// unicac's cache folder (PSFs, converted metric weights): `$UNICAC_CACHE_DIR`, else
+/// `$XDG_CACHE_HOME/unicac`, else `$HOME/.cache/unicac`; `None` when none of them is set.
+pub fn cache_root() -> Option<PathBuf> {
+    let from = |name: &str| {
+        std::env::var_os(name)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    from("UNICAC_CACHE_DIR")
+        .or_else(|| from("XDG_CACHE_HOME").map(|d| d.join("unicac")))
+        .or_else(|| from("HOME").map(|d| d.join(".cache").join("unicac")))
+}
+
 impl PsfCache {
     pub fn new(dir: impl Into<PathBuf>) -> PsfCache {
         PsfCache { dir: dir.into() }
     }
 
-    /// `$UNICAC_CACHE_DIR`, else `$XDG_CACHE_HOME/unicac`, else `$HOME/.cache/unicac`; `None` when
-    /// none of them is set.
+    /// The PSF cache in [`cache_root`].
     pub fn default_location() -> Option<PsfCache> {
-        let from = |name: &str| {
-            std::env::var_os(name)
-                .filter(|v| !v.is_empty())
-                .map(PathBuf::from)
-        };
-        from("UNICAC_CACHE_DIR")
-            .or_else(|| from("XDG_CACHE_HOME").map(|d| d.join("unicac")))
-            .or_else(|| from("HOME").map(|d| d.join(".cache").join("unicac")))
-            .map(PsfCache::new)
+        cache_root().map(PsfCache::new)
     }
 
     /// The key of a PSF set: each part is length-prefixed so that no two part lists collide.

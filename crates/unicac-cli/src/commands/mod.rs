@@ -1,5 +1,6 @@
 //! One module per command.
 
+mod bench;
 mod chart;
 mod crops;
 pub(crate) mod design;
@@ -34,6 +35,9 @@ pub fn run(command: Command) -> Result<()> {
         Command::Mtf(args) => mtf::run(&args),
         Command::Gpu(command) => gpu::run(&command),
         Command::Design(args) => design::run(&args),
+        Command::Bench(args) => bench::run(&args),
+        Command::Metrics(args) => bench::metrics(&args),
+        Command::Weights(command) => bench::weights(&command),
     }
 }
 

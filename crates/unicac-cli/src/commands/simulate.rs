@@ -124,6 +124,8 @@ fn plan_outputs(args: &SimulateArgs) -> Result<Vec<(PathBuf, FileFormat)>> {
             (None, Some(format)) => format,
             (None, None) => sniff_format(input)?,
         };
+        // BMP is read only (pyiqa's calibration images): a BMP input gives PNG output.
+        let format = if format == FileFormat::Bmp { FileFormat::Png } else { format };
         let out = match named {
             Some(n) if n == format => args.out.join(name),
             Some(_) => args.out.join(name).with_extension(format.extension()),
@@ -243,7 +245,7 @@ fn write_encoded(image: &Planar, path: &Path, format: FileFormat, bit_depth: u8)
         SampleDepth::Eight
     };
     match format {
-        FileFormat::Png => unicac_image::io::write_png(path, image, depth)?,
+        FileFormat::Png | FileFormat::Bmp => unicac_image::io::write_png(path, image, depth)?,
         FileFormat::Tiff => unicac_image::io::write_tiff(path, image, SampleDepth::Sixteen)?,
         FileFormat::OpenExr => {
             unicac_image::io::write_exr(path, &unicac_image::color::srgb_to_linear(image))?

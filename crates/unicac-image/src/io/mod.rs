@@ -1,5 +1,5 @@
-//! Image files: PNG (8/16-bit grey, grey + alpha, RGB, RGBA), TIFF (8/16-bit, and 32-bit float on read)
-//! and OpenEXR (f16/f32/u32 on read, f32 with named channels on write), to and from [`Planar`].
+//! Image files: PNG (8/16-bit grey, grey + alpha, RGB, RGBA), TIFF (8/16-bit, and 32-bit float on read),
+//! BMP (read only: pyiqa's calibration pairs are BMP) and OpenEXR (f16/f32/u32 on read, f32 with named channels on write), to and from [`Planar`].
 //!
 //! The codecs are the `image` crate (PNG, TIFF) and the `exr` crate (OpenEXR, which also gives named
 //! multi-channel layers); this module only picks the codec from the file's first bytes, converts samples,
@@ -30,6 +30,7 @@ pub const MAX_DECODED_SAMPLES: usize = 1 << 28;
 pub enum FileFormat {
     Png,
     Tiff,
+    Bmp,
     OpenExr,
 }
 
@@ -39,15 +40,17 @@ impl FileFormat {
         match self {
             FileFormat::Png => "PNG",
             FileFormat::Tiff => "TIFF",
+            FileFormat::Bmp => "BMP",
             FileFormat::OpenExr => "OpenEXR",
         }
     }
 
-    /// The format a file name's extension names (case-insensitive): png, tif/tiff, exr.
+    /// The format a file name's extension names (case-insensitive): png, tif/tiff, bmp, exr.
     pub fn from_extension(extension: &str) -> Option<FileFormat> {
         match extension.to_ascii_lowercase().as_str() {
             "png" => Some(FileFormat::Png),
             "tif" | "tiff" => Some(FileFormat::Tiff),
+            "bmp" => Some(FileFormat::Bmp),
             "exr" => Some(FileFormat::OpenExr),
             _ => None,
         }
@@ -58,12 +61,13 @@ impl FileFormat {
         match self {
             FileFormat::Png => "png",
             FileFormat::Tiff => "tiff",
+            FileFormat::Bmp => "bmp",
             FileFormat::OpenExr => "exr",
         }
     }
 
     /// The format whose signature starts `bytes`: PNG (ISO/IEC 15948, 8-byte signature), TIFF (TIFF 6.0
-    /// header `II*\0` or `MM\0*`), OpenEXR (magic number 20000630 as little-endian `76 2f 31 01`).
+    /// header `II*\0` or `MM\0*`), BMP (`BM`), OpenEXR (magic number 20000630 as little-endian `76 2f 31 01`).
     pub fn sniff(bytes: &[u8]) -> Option<FileFormat> {
         const PNG: &[u8] = b"\x89PNG\r\n\x1a\n";
         const EXR: &[u8] = &[0x76, 0x2f, 0x31, 0x01];
@@ -71,6 +75,8 @@ impl FileFormat {
             Some(FileFormat::Png)
         } else if bytes.starts_with(b"II*\0") || bytes.starts_with(b"MM\0*") {
             Some(FileFormat::Tiff)
+        } else if bytes.starts_with(b"BM") {
+            Some(FileFormat::Bmp)
         } else if bytes.starts_with(EXR) {
             Some(FileFormat::OpenExr)
         } else {
@@ -144,7 +150,7 @@ impl LoadedImage {
     }
 }
 
-/// Reads a PNG, TIFF or OpenEXR file, choosing the decoder from the file's signature (not its extension).
+/// Reads a PNG, TIFF, BMP or OpenEXR file, choosing the decoder from the file's signature (not its extension).
 pub fn read_image(path: impl AsRef<Path>) -> Result<LoadedImage> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|source| ImageError::Io {
@@ -165,6 +171,7 @@ pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<LoadedImage> {
     match FileFormat::sniff(bytes) {
         Some(FileFormat::Png) => raster::decode(path, bytes, Raster::Png),
         Some(FileFormat::Tiff) => raster::decode(path, bytes, Raster::Tiff),
+        Some(FileFormat::Bmp) => raster::decode(path, bytes, Raster::Bmp),
         Some(FileFormat::OpenExr) => openexr::decode(path, bytes),
         None => Err(ImageError::UnknownFormat {
             path: path.to_path_buf(),

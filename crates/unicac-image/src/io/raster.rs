@@ -15,6 +15,8 @@ use std::path::Path;
 pub(super) enum Raster {
     Png,
     Tiff,
+    /// Read only.
+    Bmp,
 }
 
 impl Raster {
@@ -22,6 +24,7 @@ impl Raster {
         match self {
             Raster::Png => FileFormat::Png,
             Raster::Tiff => FileFormat::Tiff,
+            Raster::Bmp => FileFormat::Bmp,
         }
     }
 }
@@ -38,6 +41,7 @@ pub(super) fn decode(path: &Path, bytes: &[u8], raster: Raster) -> Result<Loaded
     let codec = match raster {
         Raster::Png => image::ImageFormat::Png,
         Raster::Tiff => image::ImageFormat::Tiff,
+        Raster::Bmp => image::ImageFormat::Bmp,
     };
     let decoded =
         image::load_from_memory_with_format(bytes, codec).map_err(|e| decode_error(e.to_string()))?;
@@ -133,6 +137,7 @@ pub(super) fn encode(path: &Path, image: &Planar, depth: SampleDepth, raster: Ra
             Raster::Tiff => {
                 image::codecs::tiff::TiffEncoder::new(sink).write_image(&bytes, width, height, colour)
             }
+            Raster::Bmp => return Err("BMP is read only".to_string()),
         };
         result.map_err(|e| e.to_string())
     })

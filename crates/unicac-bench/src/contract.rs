@@ -1,0 +1,227 @@
+//! The restoration-model contract of docs/models.md, checked on the ONNX file itself before any work:
+//! the file must decode as an ONNX `ModelProto` with a graph; its graph inputs (initializers excluded,
+//! as older exporters list them) must be `lq` plus any of `fov`, `psf`, float32, rank 4, with 3, 2 and
+//! 15 channels where the channel dimension is fixed; exactly one output, `restored`, float32, rank 4,
+//! 3 channels; default-domain opset >= 17; metadata `unicac_contract`, when present, an integer not
+//! newer than [`CONTRACT_VERSION`], and `inputs`, when present, equal to the graph's inputs.
+//!
+//! Models without the metadata keys are accepted (hand-made ONNX files follow the contract through
+//! their graph alone); the report records which keys were present.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use prost::Message;
+use serde::Serialize;
+
+use crate::error::{BenchError, Result};
+use crate::onnx::proto::{data_type, tensor_shape_proto, type_proto, ModelProto, ValueInfoProto};
+
+/// The contract version this reader knows (`unicac_contract` metadata).
+pub const CONTRACT_VERSION: u32 = 1;
+/// The lowest default-domain opset the contract allows.
+pub const MIN_OPSET: i64 = 17;
+
+/// A model input the contract defines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelInput {
+    /// The degraded image, N x 3 x H x W.
+    Lq,
+    /// The field-of-view map, N x 2 x H x W.
+    Fov,
+    /// The PSF-feature map, N x 15 x H x W.
+    Psf,
+}
+
+impl ModelInput {
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelInput::Lq => "lq",
+            ModelInput::Fov => "fov",
+            ModelInput::Psf => "psf",
+        }
+    }
+
+    pub fn channels(self) -> usize {
+        match self {
+            ModelInput::Lq => 3,
+            ModelInput::Fov => 2,
+            ModelInput::Psf => 15,
+        }
+    }
+
+    fn from_name(name: &str) -> Option<ModelInput> {
+        match name {
+            "lq" => Some(ModelInput::Lq),
+            "fov" => Some(ModelInput::Fov),
+            "psf" => Some(ModelInput::Psf),
+            _ => None,
+        }
+    }
+}
+
+/// A model that passed the contract checks.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelContract {
+    pub path: PathBuf,
+    /// The inputs the graph declares, in graph order.
+    pub inputs: Vec<ModelInput>,
+    /// The default-domain opset.
+    pub opset: i64,
+    /// `metadata_props` as stored.
+    pub metadata: BTreeMap<String, String>,
+}
+
+impl ModelContract {
+    pub fn wants(&self, input: ModelInput) -> bool {
+        self.inputs.contains(&input)
+    }
+}
+
+/// Reads and checks `path`; returns the contract and the decoded model.
+pub fn load_model(path: &Path) -> Result<(ModelContract, ModelProto, Vec<u8>)> {
+    let bytes = std::fs::read(path).map_err(|source| BenchError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let model = decode(path, &bytes)?;
+    let contract = check(path, &model)?;
+    Ok((contract, model, bytes))
+}
+
+/// Decodes ONNX bytes; a file that is not a protobuf `ModelProto` with a graph is refused.
+pub fn decode(path: &Path, bytes: &[u8]) -> Result<ModelProto> {
+    let refuse = |why: String| BenchError::NotOnnx {
+        path: path.to_path_buf(),
+        why,
+    };
+    let model = ModelProto::decode(bytes).map_err(|e| refuse(format!("protobuf decoding failed ({e})")))?;
+    match &model.graph {
+        Some(graph) if !graph.node.is_empty() || !graph.output.is_empty() => {}
+        _ => return Err(refuse("no graph".into())),
+    }
+    if model.ir_version <= 0 || model.opset_import.is_empty() {
+        return Err(refuse("no IR version or opset".into()));
+    }
+    Ok(model)
+}
+
+/// Checks a decoded model against docs/models.md.
+pub fn check(path: &Path, model: &ModelProto) -> Result<ModelContract> {
+    let refuse = |why: String| BenchError::Contract {
+        path: path.to_path_buf(),
+        why,
+    };
+    let graph = model.graph.as_ref().expect("decode checked the graph");
+    let opset = model
+        .opset_import
+        .iter()
+        .find(|o| o.domain.is_empty() || o.domain == "ai.onnx")
+        .map(|o| o.version)
+        .ok_or_else(|| refuse("no default-domain (ai.onnx) opset".into()))?;
+    if opset < MIN_OPSET {
+        return Err(refuse(format!(
+            "opset {opset} is older than the contract's {MIN_OPSET}"
+        )));
+    }
+    let initializers: Vec<&str> = graph.initializer.iter().map(|t| t.name.as_str()).collect();
+    let mut inputs = Vec::new();
+    for value in graph
+        .input
+        .iter()
+        .filter(|v| !initializers.contains(&v.name.as_str()))
+    {
+        let input = ModelInput::from_name(&value.name).ok_or_else(|| {
+            refuse(format!(
+                "input `{}` is not in the contract (allowed: lq, fov, psf)",
+                value.name
+            ))
+        })?;
+        if inputs.contains(&input) {
+            return Err(refuse(format!("input `{}` is declared twice", value.name)));
+        }
+        check_image_value(value, input.channels())
+            .map_err(|why| refuse(format!("input `{}`: {why}", value.name)))?;
+        inputs.push(input);
+    }
+    if !inputs.contains(&ModelInput::Lq) {
+        return Err(refuse("the graph has no `lq` input".into()));
+    }
+    match graph.output.as_slice() {
+        [only] if only.name == "restored" => {
+            check_image_value(only, 3).map_err(|why| refuse(format!("output `restored`: {why}")))?
+        }
+        [only] => return Err(refuse(format!("the output is `{}`, not `restored`", only.name))),
+        outputs => {
+            let names: Vec<&str> = outputs.iter().map(|o| o.name.as_str()).collect();
+            return Err(refuse(format!(
+                "the graph has {} outputs ({}); the contract has one, `restored`",
+                outputs.len(),
+                names.join(", ")
+            )));
+        }
+    }
+    let metadata: BTreeMap<String, String> = model
+        .metadata_props
+        .iter()
+        .map(|e| (e.key.clone(), e.value.clone()))
+        .collect();
+    if let Some(version) = metadata.get("unicac_contract") {
+        let version: u32 = version.trim().parse().map_err(|_| {
+            refuse(format!(
+                "metadata unicac_contract = `{version}` is not an integer"
+            ))
+        })?;
+        if version > CONTRACT_VERSION {
+            return Err(refuse(format!(
+                "metadata unicac_contract = {version} is newer than this reader's {CONTRACT_VERSION}; update unicac"
+            )));
+        }
+    }
+    if let Some(declared) = metadata.get("inputs") {
+        let mut declared: Vec<&str> = declared
+            .split(',')
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .collect();
+        let mut actual: Vec<&str> = inputs.iter().map(|i| i.name()).collect();
+        declared.sort_unstable();
+        actual.sort_unstable();
+        if declared != actual {
+            return Err(refuse(format!(
+                "metadata inputs = `{}` but the graph's inputs are `{}`",
+                declared.join(","),
+                actual.join(",")
+            )));
+        }
+    }
+    Ok(ModelContract {
+        path: path.to_path_buf(),
+        inputs,
+        opset,
+        metadata,
+    })
+}
+
+/// float32, rank 4, and `channels` in dimension 1 when that dimension is fixed.
+fn check_image_value(value: &ValueInfoProto, channels: usize) -> std::result::Result<(), String> {
+    let tensor = match value.r#type.as_ref().and_then(|t| t.value.as_ref()) {
+        Some(type_proto::Value::TensorType(t)) => t,
+        _ => return Err("not a tensor".into()),
+    };
+    if tensor.elem_type != data_type::FLOAT {
+        return Err(format!("element type {} is not float32", tensor.elem_type));
+    }
+    if let Some(shape) = &tensor.shape {
+        if shape.dim.len() != 4 {
+            return Err(format!("rank {} is not 4 (N x C x H x W)", shape.dim.len()));
+        }
+        if let Some(tensor_shape_proto::dimension::Value::DimValue(c)) = &shape.dim[1].value {
+            if *c != channels as i64 {
+                return Err(format!("{c} channels, the contract says {channels}"));
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,285 @@
+//! The files of REPORT_DIR: `results.json`, `pairs.csv`, `tables.md`, `tables/{ode,us,uc}.tex`, and the
+//! pictures `ranking_trend.png` (the paper's Fig. 5), `metric_{psnr,ssim,lpips,op}.png` (per-metric
+//! lines across the `ode` levels) and `analysis.png` (per-lens O.P. against ODE and RMS radius with the
+//! least-squares lines), and `report.html` (all of it on one self-contained page). Every file is written
+//! atomically.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::{tables, PairScore, ResultRow, Results};
+use crate::cost::ModelCost;
+use crate::error::Result;
+use crate::npz::write_atomically;
+
+/// One benchmarked method as the report describes it.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelInfo {
+    pub name: String,
+    /// `identity`, `wiener` or `onnx`.
+    pub kind: String,
+    pub path: Option<PathBuf>,
+    pub inputs: Vec<String>,
+    pub metadata: std::collections::BTreeMap<String, String>,
+    pub cost: Option<ModelCost>,
+    /// Pairs that failed (image named, with the reason); the others went on.
+    pub failures: Vec<String>,
+}
+
+/// Everything `results.json` holds.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub unicac_version: &'static str,
+    pub dataset: PathBuf,
+    pub split: String,
+    pub benchmarks: Vec<String>,
+    /// Metric name -> available (false: reported as null, see `notices`).
+    pub metrics: std::collections::BTreeMap<String, bool>,
+    pub notices: Vec<String>,
+    pub models: Vec<ModelInfo>,
+    #[serde(flatten)]
+    pub results: Results,
+}
+
+fn csv_number(v: Option<f64>) -> String {
+    v.map(|v| format!("{v:.6}")).unwrap_or_default()
+}
+
+/// `pairs.csv`: `model,pair_id,lens_id,level,psnr_db,ssim,lpips` (empty = unavailable).
+pub fn pairs_csv(pairs: &[PairScore]) -> String {
+    let mut out = String::from("model,pair_id,lens_id,level,psnr_db,ssim,lpips\n");
+    for p in pairs {
+        out.push_str(&format!(
+            "{},{},{},{},{:.6},{:.6},{}\n",
+            p.model,
+            p.pair_id,
+            p.lens_id,
+            p.level,
+            p.psnr_db,
+            p.ssim,
+            csv_number(p.lpips)
+        ));
+    }
+    out
+}
+
+fn cost_table(models: &[ModelInfo]) -> String {
+    let mut out = String::from("### Model cost (1 x 3 x 256 x 256)\n\n| model | inputs | params | GFLOPs | latency (ms) |\n|---|---|---:|---:|---:|\n");
+    for m in models {
+        let (params, flops, latency) = match &m.cost {
+            Some(c) => (
+                c.params.to_string(),
+                format!("{:.3}", c.flops_g),
+                format!("{:.1}", c.latency_ms),
+            ),
+            None => ("-".into(), "-".into(), "-".into()),
+        };
+        out.push_str(&format!(
+            "| {} | {} | {params} | {flops} | {latency} |\n",
+            m.name,
+            m.inputs.join(", ")
+        ));
+    }
+    out
+}
+
+fn overall_table(report: &Report) -> String {
+    let mut out = String::from("### Overall (all test pairs)\n\n| rank | model | PSNR | SSIM | LPIPS | OIQE | FID | ClipIQA | O.P. | O.P. terms |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|---|\n");
+    let mut rows: Vec<_> = report.results.overall.iter().collect();
+    rows.sort_by_key(|r| r.rank);
+    let f = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |v| format!("{v:.d$}"));
+    for r in rows {
+        let x = &r.row;
+        out.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            r.rank,
+            x.model,
+            f(x.psnr_db, 2),
+            f(x.ssim, 4),
+            f(x.lpips, 4),
+            f(x.oiqe, 4),
+            f(x.fid, 2),
+            f(x.clipiqa, 4),
+            f(x.op, 4),
+            if x.op_complete {
+                "all".to_string()
+            } else {
+                x.op_terms.join("+")
+            }
+        ));
+    }
+    out
+}
+
+/// Writes every report file into `dir`; returns the paths written.
+pub fn write_report(dir: &Path, report: &Report, pairs: &[PairScore]) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).map_err(|e| crate::error::BenchError::io(dir, e))?;
+    let mut written = Vec::new();
+    let mut put = |name: &str, bytes: &[u8]| -> Result<()> {
+        let path = dir.join(name);
+        write_atomically(&path, bytes)?;
+        written.push(path);
+        Ok(())
+    };
+    let json = serde_json::to_string_pretty(report).expect("report serialises");
+    put("results.json", json.as_bytes())?;
+    put("pairs.csv", pairs_csv(pairs).as_bytes())?;
+    let names: Vec<String> = report.models.iter().map(|m| m.name.clone()).collect();
+    let mut md = format!(
+        "# unicac bench: {}\n\nsplit `{}`; metrics as pyiqa's defaults (docs/bench.md). Best **bold**, second <u>underlined</u>.\n\n",
+        report.dataset.display(),
+        report.split
+    );
+    md.push_str(&overall_table(report));
+    md.push('\n');
+    for benchmark in &report.benchmarks {
+        md.push_str(&tables::markdown(&report.results.rows, &names, benchmark));
+        md.push('\n');
+        put(
+            &format!("tables/{benchmark}.tex"),
+            tables::latex(&report.results.rows, &names, benchmark).as_bytes(),
+        )?;
+    }
+    md.push_str(&cost_table(&report.models));
+    let a = &report.results.analysis;
+    let r2 = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
+    md.push_str(&format!(
+        "\n### Which lens metric predicts restorability?\n\nPer-lens mean O.P. of {} over {} lenses: R^2 against ODE = {}, against RMS spot radius = {}.\n",
+        a.models.join(", "),
+        a.lenses,
+        r2(a.r2_ode),
+        r2(a.r2_rms)
+    ));
+    if !report.notices.is_empty() {
+        md.push_str("\n### Notices\n\n");
+        for n in &report.notices {
+            md.push_str(&format!("- {n}\n"));
+        }
+    }
+    put("tables.md", md.as_bytes())?;
+    let pictures = plots(dir, report)?;
+    let names: Vec<String> = pictures
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    written.extend(pictures);
+    let html = super::html::page(&md, dir, &names);
+    let path = dir.join("report.html");
+    write_atomically(&path, html.as_bytes())?;
+    written.push(path);
+    Ok(written)
+}
+
+fn level_series(
+    rows: &[ResultRow],
+    models: &[String],
+    value: impl Fn(&ResultRow) -> Option<f64>,
+) -> Vec<unicac_plot::LevelSeries> {
+    models
+        .iter()
+        .map(|m| unicac_plot::LevelSeries {
+            label: m.clone(),
+            values: (1..=super::LEVELS)
+                .map(|l| {
+                    rows.iter()
+                        .find(|r| &r.model == m && r.benchmark == "ode" && r.level == l)
+                        .and_then(&value)
+                })
+                .collect(),
+        })
+        .collect()
+}
+
+fn plots(dir: &Path, report: &Report) -> Result<Vec<PathBuf>> {
+    let rows = &report.results.rows;
+    let models: Vec<String> = report.models.iter().map(|m| m.name.clone()).collect();
+    let mut written = Vec::new();
+    if !rows.iter().any(|r| r.benchmark == "ode") {
+        return Ok(written);
+    }
+    // Rank by O.P. at each level, 1 = best.
+    let ops = level_series(rows, &models, |r| r.op);
+    let ranks: Vec<unicac_plot::LevelSeries> = ops
+        .iter()
+        .map(|s| unicac_plot::LevelSeries {
+            label: s.label.clone(),
+            values: s
+                .values
+                .iter()
+                .enumerate()
+                .map(|(l, v)| {
+                    v.map(|v| 1.0 + ops.iter().filter(|o| o.values[l].is_some_and(|w| w > v)).count() as f64)
+                })
+                .collect(),
+        })
+        .collect();
+    let path = dir.join("ranking_trend.png");
+    unicac_plot::level_lines(
+        "Ranking by O.P. across ODE levels",
+        "rank (1 = best)",
+        &ranks,
+        true,
+        &path,
+    )?;
+    written.push(path);
+    type Metric = (&'static str, &'static str, fn(&ResultRow) -> Option<f64>);
+    let metrics: [Metric; 4] = [
+        ("psnr", "PSNR (dB)", |r| r.psnr_db),
+        ("ssim", "SSIM", |r| r.ssim),
+        ("lpips", "LPIPS", |r| r.lpips),
+        ("op", "O.P.", |r| r.op),
+    ];
+    for (key, label, value) in metrics {
+        let series = level_series(rows, &models, value);
+        if series.iter().all(|s| s.values.iter().all(Option::is_none)) {
+            continue;
+        }
+        let path = dir.join(format!("metric_{key}.png"));
+        unicac_plot::level_lines(
+            &format!("{label} across ODE levels"),
+            label,
+            &series,
+            false,
+            &path,
+        )?;
+        written.push(path);
+    }
+    let a = &report.results.analysis;
+    if a.lenses >= 2 {
+        let r2 = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
+        let panel =
+            |title: String, x_desc: &str, points: Vec<(f64, f64)>, fit: Option<crate::analysis::LineFit>| {
+                unicac_plot::ScatterPanel {
+                    title,
+                    x_desc: x_desc.into(),
+                    y_desc: "mean O.P. of the models".into(),
+                    points,
+                    fit: fit.map(|f| (f.intercept, f.slope)),
+                }
+            };
+        let panels = [
+            panel(
+                format!("O.P. vs ODE, R^2 = {}", r2(a.r2_ode)),
+                "ODE of the lens",
+                a.points.iter().map(|p| (p.ode, p.op)).collect(),
+                a.fit_ode,
+            ),
+            panel(
+                format!("O.P. vs RMS radius, R^2 = {}", r2(a.r2_rms)),
+                "RMS spot radius (um)",
+                a.points.iter().map(|p| (p.rms_radius_um, p.op)).collect(),
+                a.fit_rms,
+            ),
+        ];
+        let path = dir.join("analysis.png");
+        unicac_plot::scatter_fits(
+            &format!("Per-lens restorability, {} lenses", a.lenses),
+            &panels,
+            &path,
+        )?;
+        written.push(path);
+    }
+    Ok(written)
+}

