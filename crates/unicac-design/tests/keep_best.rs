@@ -75,7 +75,10 @@ fn more_search_keeps_better_or_equal_designs_with_the_edge_gap_held() {
         short[0].stop_reason, long[0].stop_reason, long[0].rounds
     );
     assert!(!rms_short.is_empty() && rms_short.len() <= 2, "{rms_short:?}");
-    assert!(rms_long.len() >= rms_short.len() && rms_long.len() <= 2, "{rms_long:?}");
+    assert!(
+        rms_long.len() >= rms_short.len() && rms_long.len() <= 2,
+        "{rms_long:?}"
+    );
     // Same seed, so the longer search saw every design of the shorter one: it keeps the best two of a
     // superset.
     for (l, s) in rms_long.iter().zip(&rms_short) {

@@ -125,7 +125,11 @@ fn plan_outputs(args: &SimulateArgs) -> Result<Vec<(PathBuf, FileFormat)>> {
             (None, None) => sniff_format(input)?,
         };
         // BMP is read only (pyiqa's calibration images): a BMP input gives PNG output.
-        let format = if format == FileFormat::Bmp { FileFormat::Png } else { format };
+        let format = if format == FileFormat::Bmp {
+            FileFormat::Png
+        } else {
+            format
+        };
         let out = match named {
             Some(n) if n == format => args.out.join(name),
             Some(_) => args.out.join(name).with_extension(format.extension()),
