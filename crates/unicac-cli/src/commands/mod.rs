@@ -1,6 +1,7 @@
 //! One module per command.
 
 mod chart;
+mod dataset;
 pub(crate) mod design;
 mod fan;
 pub(crate) mod gpu;
@@ -13,7 +14,7 @@ mod simulate;
 mod spot;
 mod trace;
 
-use crate::args::{Command, LensCommand};
+use crate::args::{Command, DatasetCommand, LensCommand};
 use anyhow::Result;
 use serde::Serialize;
 
@@ -33,6 +34,9 @@ pub fn run(command: Command) -> Result<()> {
         Command::Mtf(args) => mtf::run(&args),
         Command::Gpu(command) => gpu::run(&command),
         Command::Design(args) => design::run(&args),
+        Command::Dataset(DatasetCommand::Build(args)) => dataset::build(&args),
+        Command::Dataset(DatasetCommand::Info(args)) => dataset::info(&args),
+        Command::Dataset(DatasetCommand::Plot(args)) => dataset::plot(&args),
     }
 }
 
