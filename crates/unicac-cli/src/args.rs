@@ -50,6 +50,83 @@ pub enum Command {
     /// Metric weights converted once into the cache (`unicac weights fetch lpips`).
     #[command(subcommand)]
     Weights(WeightsCommand),
+    /// ODE-stratified benchmark and training pairs from a lens library (docs/dataset.md).
+    #[command(subcommand)]
+    Dataset(DatasetCommand),
+}
+
+#[derive(Subcommand)]
+pub enum DatasetCommand {
+    /// Grade every lens, choose splits and ODE levels, render the pairs (resumable, shardable).
+    Build(DatasetBuildArgs),
+    /// Counts per split and level, ODE range per level, disk size.
+    Info(DatasetInfoArgs),
+    /// Histograms of ODE, OIQ, U_s and U_c per ODE level (.png or .svg).
+    Plot(DatasetPlotArgs),
+}
+
+#[derive(Args)]
+pub struct DatasetBuildArgs {
+    /// Lens files (.json/.zmx), folders of them, `unicac design` library folders, or builtin:NAME.
+    #[arg(long, required = true, num_args = 1..)]
+    pub lenses: Vec<String>,
+    /// Scenes of the training and validation pairs: a folder or file (PNG/TIFF/EXR) or dead-leaves:N[:WxH].
+    #[arg(long)]
+    pub images: String,
+    /// Scenes of the test pairs (disjoint from --images): a folder or file, or dead-leaves:N[:WxH].
+    #[arg(long)]
+    pub test_images: String,
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Sensor frame WxH (px); default: the first test image's size. Larger scenes are centre-cropped.
+    #[arg(long)]
+    pub frame: Option<String>,
+    /// Pixel pitch (um) for the ODE and the pairs; default: each lens's largest field fills the frame.
+    #[arg(long)]
+    pub pixel_um: Option<f64>,
+    /// ODE levels (1 = mildest).
+    #[arg(long, default_value_t = 5)]
+    pub levels: usize,
+    #[arg(long, default_value_t = 24)]
+    pub test_lenses_per_level: usize,
+    #[arg(long, default_value_t = 75)]
+    pub val_lenses: usize,
+    /// Also level the test lenses by U_s and by U_c (sub-benchmarks).
+    #[arg(long)]
+    pub sub_benchmarks: bool,
+    /// Training/validation pairs per lens (at most 100000).
+    #[arg(long, default_value_t = 8)]
+    pub pairs_per_lens: usize,
+    /// Training/validation patch WxH, or "full" for the whole frame.
+    #[arg(long, default_value = "256x256")]
+    pub crop: String,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Build part I of N (I from 1 to N); N parts in one folder equal the single build.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Worker threads (default: all cores); the output does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    #[arg(long)]
+    pub no_isp: bool,
+    #[arg(long)]
+    pub no_noise: bool,
+    #[arg(long)]
+    pub no_illumination: bool,
+    #[arg(long)]
+    pub no_distortion: bool,
+    /// Standard deviation of the per-pair white-balance gain perturbation.
+    #[arg(long, default_value_t = 0.1)]
+    pub wb_jitter: f32,
+    #[arg(long, default_value_t = 100.0)]
+    pub iso: f32,
+    /// PNG sample depth of the pairs.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(8..=16))]
+    pub bit_depth: u8,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args)]
@@ -135,6 +212,20 @@ fn parse_model(text: &str) -> Result<(String, PathBuf), String> {
         }
         _ => Err(format!("`{text}`: expected NAME=MODEL.onnx")),
     }
+}
+
+#[derive(Args)]
+pub struct DatasetInfoArgs {
+    pub dir: PathBuf,
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct DatasetPlotArgs {
+    pub dir: PathBuf,
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 #[derive(Args)]

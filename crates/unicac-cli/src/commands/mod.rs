@@ -3,6 +3,7 @@
 mod bench;
 mod chart;
 mod crops;
+mod dataset;
 pub(crate) mod design;
 mod fan;
 pub(crate) mod gpu;
@@ -15,7 +16,7 @@ mod simulate;
 mod spot;
 mod trace;
 
-use crate::args::{Command, LensCommand};
+use crate::args::{Command, DatasetCommand, LensCommand};
 use anyhow::Result;
 use serde::Serialize;
 
@@ -38,6 +39,9 @@ pub fn run(command: Command) -> Result<()> {
         Command::Bench(args) => bench::run(&args),
         Command::Metrics(args) => bench::metrics(&args),
         Command::Weights(command) => bench::weights(&command),
+        Command::Dataset(DatasetCommand::Build(args)) => dataset::build(&args),
+        Command::Dataset(DatasetCommand::Info(args)) => dataset::info(&args),
+        Command::Dataset(DatasetCommand::Plot(args)) => dataset::plot(&args),
     }
 }
 

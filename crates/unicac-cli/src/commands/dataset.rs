@@ -1,0 +1,169 @@
+//! `unicac dataset build|info|plot` (docs/dataset.md).
+
+use crate::args::{DatasetBuildArgs, DatasetInfoArgs, DatasetPlotArgs};
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::sync::Mutex;
+use unicac_dataset::build::{self, sources::parse_size, BuildSettings, Progress, Shard};
+
+/// A bar per stage on a terminal (pairs/s and ETA); notes only otherwise.
+struct Bar {
+    bar: Mutex<Option<ProgressBar>>,
+    terminal: bool,
+}
+
+impl Progress for Bar {
+    fn stage(&self, name: &str, total: usize) {
+        let mut slot = self.bar.lock().expect("progress lock");
+        if let Some(old) = slot.take() {
+            old.finish_and_clear();
+        }
+        if self.terminal && total > 0 {
+            let bar = ProgressBar::new(total as u64);
+            bar.set_style(
+                ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {per_sec} eta {eta}")
+                    .expect("template")
+                    .progress_chars("=> "),
+            );
+            bar.set_message(name.to_string());
+            *slot = Some(bar);
+        }
+    }
+
+    fn advance(&self, done: usize) {
+        if let Some(bar) = self.bar.lock().expect("progress lock").as_ref() {
+            bar.inc(done as u64);
+        }
+    }
+
+    fn note(&self, message: &str) {
+        match self.bar.lock().expect("progress lock").as_ref() {
+            Some(bar) => bar.suspend(|| eprintln!("{message}")),
+            None => eprintln!("{message}"),
+        }
+    }
+}
+
+pub fn build(args: &DatasetBuildArgs) -> Result<()> {
+    let mut settings = BuildSettings::new(args.lenses.clone(), args.images.clone(), args.test_images.clone());
+    settings.frame_px = args
+        .frame
+        .as_deref()
+        .map(|f| parse_size(f).map_err(|m| anyhow::anyhow!("--frame: {m}")))
+        .transpose()?;
+    settings.pixel_um = args.pixel_um;
+    settings.levels = args.levels;
+    settings.test_lenses_per_level = args.test_lenses_per_level;
+    settings.val_lenses = args.val_lenses;
+    settings.sub_benchmarks = args.sub_benchmarks;
+    settings.pairs_per_lens = args.pairs_per_lens;
+    settings.crop_px = match args.crop.as_str() {
+        "full" => None,
+        size => Some(parse_size(size).map_err(|m| anyhow::anyhow!("--crop: {m}"))?),
+    };
+    settings.seed = args.seed;
+    settings.isp = !args.no_isp;
+    settings.noise = !args.no_noise;
+    settings.illumination = !args.no_illumination;
+    settings.distortion = !args.no_distortion;
+    settings.white_balance_jitter = args.wb_jitter;
+    settings.iso = args.iso;
+    settings.bit_depth = args.bit_depth;
+    let shard = match &args.shard {
+        Some(text) => Shard::parse(text)?,
+        None => Shard::ALL,
+    };
+    let threads = args.threads.unwrap_or(0);
+    if threads > 1024 {
+        anyhow::bail!("--threads {threads}: at most 1024");
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("starting the worker threads")?;
+    let progress = Bar {
+        bar: Mutex::new(None),
+        terminal: std::io::stderr().is_terminal(),
+    };
+    let start = std::time::Instant::now();
+    let report = pool.install(|| build::build(&settings, &args.out, shard, &progress))?;
+    progress.stage("", 0);
+    let seconds = start.elapsed().as_secs_f64();
+    if args.json {
+        let mut value = serde_json::to_value(&report)?;
+        value["seconds"] = serde_json::json!(seconds);
+        value["pairs_per_s"] = serde_json::json!(report.pairs_rendered as f64 / seconds.max(1e-9));
+        super::print_json(&value)?;
+    } else {
+        let total: usize = report.pairs.values().sum();
+        println!(
+            "{} {}: {} lenses ({}), {} pairs ({}), {} edge patches; this run: {} ODEs ({} cached), {} PSF tables, {} pairs in {:.1} s ({:.2} pairs/s){}",
+            if report.complete { "built" } else { "partial" },
+            args.out.display(),
+            report.lenses.values().sum::<usize>(),
+            counts(&report.lenses),
+            total,
+            counts(&report.pairs),
+            report.edges,
+            report.odes_computed + report.odes_from_cache,
+            report.odes_from_cache,
+            report.psf_tables_written,
+            report.pairs_rendered,
+            seconds,
+            report.pairs_rendered as f64 / seconds.max(1e-9),
+            if report.complete { String::new() } else { format!(" (shard {}; dataset.json is written when every shard is done)", report.shard) }
+        );
+    }
+    Ok(())
+}
+
+fn counts(map: &std::collections::BTreeMap<String, usize>) -> String {
+    map.iter()
+        .filter(|(_, n)| **n > 0)
+        .map(|(k, n)| format!("{k} {n}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+pub fn info(args: &DatasetInfoArgs) -> Result<()> {
+    let info = unicac_dataset::info::info(&args.dir)?;
+    if args.json {
+        return super::print_json(&info);
+    }
+    println!(
+        "{} (unicac {}), frame {} x {} px",
+        info.dir, info.unicac_version, info.frame_px[0], info.frame_px[1]
+    );
+    println!("lenses: {}", counts(&info.lenses));
+    println!("pairs:  {}; edge patches: {}", counts(&info.pairs), info.edges);
+    println!(
+        "{:<6} {:>5} {:>7} {:>10} {:>21} {:>21}",
+        "metric", "level", "lenses", "test pairs", "thresholds", "ODE range"
+    );
+    for level in &info.levels {
+        println!(
+            "{:<6} {:>5} {:>7} {:>10} {:>10.4}..{:<10.4} {:>10.4}..{:<10.4}",
+            level.metric,
+            level.level,
+            level.lenses,
+            level.test_pairs,
+            level.lower,
+            level.upper,
+            level.ode_range[0],
+            level.ode_range[1]
+        );
+    }
+    println!(
+        "disk: {:.1} MB ({:.1} MB cache)",
+        info.disk_bytes as f64 / 1e6,
+        info.cache_bytes as f64 / 1e6
+    );
+    Ok(())
+}
+
+pub fn plot(args: &DatasetPlotArgs) -> Result<()> {
+    unicac_dataset::info::plot(&args.dir, &args.out)?;
+    eprintln!("wrote {}", args.out.display());
+    Ok(())
+}
