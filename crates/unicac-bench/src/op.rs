@@ -1,7 +1,9 @@
 //! O.P., the paper's overall performance score of a restoration (UniCAC, Sec. 5):
 //!
-//!     O.P. = 0.4 PSNR/50 + 0.3 (SSIM - 0.5)/0.5 + 0.4 (1 - LPIPS)/0.4 + 0.3 OIQE
-//!            + 0.1 (100 - FID)/100 + 0.1 ClipIQA
+//! ```text
+//! O.P. = 0.4 PSNR/50 + 0.3 (SSIM - 0.5)/0.5 + 0.4 (1 - LPIPS)/0.4 + 0.3 OIQE
+//!        + 0.1 (100 - FID)/100 + 0.1 ClipIQA
+//! ```
 //!
 //! with the paper's coefficients, PSNR in dB and the other metrics as pyiqa reports them. A metric that
 //! is unavailable (weights not installed, no edge patches) leaves its term out: the score is then the

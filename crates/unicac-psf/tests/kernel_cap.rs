@@ -9,7 +9,7 @@
 
 use unicac_optics::examples;
 use unicac_psf::{check_kernel_cap, Kernel, PsfSettings, PsfTracer, SpectralWeights, KERNEL_PX_LIMIT};
-use unicac_trace::{spots, Aiming, PupilSampling};
+use unicac_trace::{spots, Aiming};
 
 const FIELD_DEG: f64 = 14.0;
 const PIXEL_UM: f64 = 0.5;

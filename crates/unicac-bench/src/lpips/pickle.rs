@@ -387,7 +387,18 @@ impl<'a> Machine<'a> {
                 b'b' => {
                     let state = self.pop()?;
                     let object = self.pop()?;
+                    let unbuilt_dtype = matches!(object, Value::Dtype { little_endian: None });
                     let v = self.build(object, state)?;
+                    // BUILD mutates its object in place in Python, and the pickle refers back to it
+                    // through the memo (a dtype is memoized before its BUILD and fetched by later
+                    // arrays): give memo entries of the object the built value, as Python would see.
+                    if unbuilt_dtype {
+                        for memoized in self.memo.values_mut() {
+                            if matches!(memoized, Value::Dtype { little_endian: None }) {
+                                *memoized = v.clone();
+                            }
+                        }
+                    }
                     self.stack.push(v)
                 }
                 b's' => {

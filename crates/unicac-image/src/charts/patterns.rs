@@ -271,6 +271,10 @@ mod tests {
                 ..
             })
         ));
-        assert_eq!(checkerboard(0, 5, 8.0, 1.0, 0.0).unwrap().data.len(), 0);
+        // An empty chart is refused (MAX_CHART_PIXELS and at least one pixel), not returned empty.
+        assert!(matches!(
+            checkerboard(0, 5, 8.0, 1.0, 0.0),
+            Err(ImageError::InvalidParameter { field: "size", .. })
+        ));
     }
 }
