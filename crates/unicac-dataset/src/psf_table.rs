@@ -71,7 +71,7 @@ impl PsfTable {
         if f == 0 {
             return Err("the table has no fields".into());
         }
-        if m.kernel_px == 0 || m.kernel_px % 2 == 0 {
+        if m.kernel_px == 0 || m.kernel_px.is_multiple_of(2) {
             return Err(format!("kernel_px {} must be odd and positive", m.kernel_px));
         }
         for (name, len) in [
@@ -84,7 +84,9 @@ impl PsfTable {
                 return Err(format!("{name} has {len} entries for {f} fields"));
             }
         }
-        if m.field_radius_norm.windows(2).any(|w| !(w[0] < w[1]))
+        if m.field_radius_norm
+            .windows(2)
+            .any(|w| w[0].partial_cmp(&w[1]) != Some(std::cmp::Ordering::Less))
             || m.field_radius_norm.iter().any(|r| !r.is_finite() || *r < 0.0)
         {
             return Err("field_radius_norm must be finite, non-negative and strictly ascending".into());
@@ -184,6 +186,8 @@ pub fn raw_moments(kernel: &[f32], k: usize) -> [f64; 5] {
     [m[1] / m[0], m[2] / m[0], m[3] / m[0], m[4] / m[0], m[5] / m[0]]
 }
 
+// `channel` indexes the two field tables and the output at once.
+#[allow(clippy::needless_range_loop)]
 fn features_from(moments: &[[[f64; 5]; 3]], radii: &[f64], x: f64, y: f64) -> [f32; PSF_FEATURES] {
     let radius = x.hypot(y);
     let last = radii.len() - 1;

@@ -25,7 +25,7 @@ pub const KERNEL_PX_LIMIT: usize = 4095;
 
 /// A requested kernel cap, checked: odd and 1..=`KERNEL_PX_LIMIT` pixels.
 pub fn check_kernel_cap(max_kernel_px: usize) -> Result<usize, String> {
-    if max_kernel_px % 2 == 0 || !(1..=KERNEL_PX_LIMIT).contains(&max_kernel_px) {
+    if max_kernel_px.is_multiple_of(2) || !(1..=KERNEL_PX_LIMIT).contains(&max_kernel_px) {
         return Err(format!(
             "{max_kernel_px}: expected an odd number of pixels from 1 to {KERNEL_PX_LIMIT}"
         ));

@@ -9,6 +9,7 @@
 //! - shards: `--shard I/N` renders the pairs, tables and edges whose index is I-1 modulo N and writes
 //!   the same manifests; whichever run finds every file present writes `dataset.json` (last, the
 //!   completion mark), so N shards in one folder equal the single run byte for byte.
+//!
 //! Everything that can fail on bad input (lens files, images, the ODE, PSF maps larger than the
 //! frame, a library too small) is checked before the first dataset file is written.
 
