@@ -51,6 +51,7 @@ fn real_aimed_rays_cross_the_stop_where_the_convention_says_at_every_field() {
 }
 
 #[test]
+#[allow(clippy::needless_range_loop)] // axis indexes three arrays
 fn real_aimed_rays_match_the_stop_aimed_references() {
     let lens = wide_angle();
     let r = reference();
