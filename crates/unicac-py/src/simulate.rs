@@ -174,7 +174,7 @@ impl PySimulator {
     /// window plus the PSF and distortion margin only (`source_window`), not over the whole frame. The
     /// sensor/ISP chain runs on the window (its Bayer pattern starts at the window's corner). GIL
     /// released.
-    #[pyo3(signature = (image, x0, y0, width_px, height_px, seed=0, isp=true, noise=true))]
+    #[pyo3(signature = (image, x0, y0, width_px, height_px, seed=0, isp=true, noise=true, sensor_bits=DEFAULT_SENSOR_BITS))]
     #[allow(clippy::too_many_arguments)]
     fn render_pair_window<'py>(
         &self,
@@ -187,6 +187,7 @@ impl PySimulator {
         seed: u64,
         isp: bool,
         noise: bool,
+        sensor_bits: u8,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let (linear, _) = image_linear(image, "image")?;
         self.check_dims(&linear, "image")?;
@@ -196,7 +197,7 @@ impl PySimulator {
             width: width_px,
             height: height_px,
         };
-        let pipeline = pipeline(isp, noise);
+        let pipeline = pipeline(isp, noise, sensor_bits)?;
         let (degraded, target) = crate::pool::detach(py, || -> PyResult<(Planar, Planar)> {
             let degraded = self
                 .sim
