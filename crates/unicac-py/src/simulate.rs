@@ -15,7 +15,11 @@ use unicac_image::isp::{Pipeline, SensorNoise};
 use unicac_image::Planar;
 use unicac_sim::{crop, LensSimulator, PixelWindow, SimulationSettings};
 
-use unicac_image::isp::DEFAULT_BIT_DEPTH as DEFAULT_SENSOR_BITS;
+use unicac_image::isp::DEFAULT_BIT_DEPTH;
+
+// The `#[pyo3(signature)]` defaults below are the literal 10 so that Python's `inspect.signature` (and
+// the stub test) shows the value rather than `...`; this keeps them tied to the library default.
+const _: () = assert!(DEFAULT_BIT_DEPTH == 10);
 
 /// A lens prepared for images of one size: PSF map, distortion and relative illumination.
 #[pyclass(module = "unicac", name = "Simulator", frozen)]
@@ -128,7 +132,7 @@ impl PySimulator {
     /// or read noise; both off: no read-out, the optics at full precision). `sensor_bits`: read-out bit
     /// depth (1-16, default 10 as `--sensor-bits`). Returns the degraded image in the input's
     /// representation. GIL released.
-    #[pyo3(signature = (image, seed=0, isp=true, noise=true, sensor_bits=DEFAULT_SENSOR_BITS))]
+    #[pyo3(signature = (image, seed=0, isp=true, noise=true, sensor_bits=10))]
     fn simulate<'py>(
         &self,
         py: Python<'py>,
@@ -148,7 +152,7 @@ impl PySimulator {
     /// A training pair from one sharp image: `(degraded, target)`, both float32 H x W x 3 in the ISP's
     /// output encoding (sRGB, values in [0, 1]); the target is the sharp image through the same
     /// encoding (no optics, no noise). Same chain and seed rule as `simulate`. GIL released.
-    #[pyo3(signature = (image, seed=0, isp=true, noise=true, sensor_bits=DEFAULT_SENSOR_BITS))]
+    #[pyo3(signature = (image, seed=0, isp=true, noise=true, sensor_bits=10))]
     fn render_pair<'py>(
         &self,
         py: Python<'py>,
@@ -174,7 +178,7 @@ impl PySimulator {
     /// window plus the PSF and distortion margin only (`source_window`), not over the whole frame. The
     /// sensor/ISP chain runs on the window (its Bayer pattern starts at the window's corner). GIL
     /// released.
-    #[pyo3(signature = (image, x0, y0, width_px, height_px, seed=0, isp=true, noise=true, sensor_bits=DEFAULT_SENSOR_BITS))]
+    #[pyo3(signature = (image, x0, y0, width_px, height_px, seed=0, isp=true, noise=true, sensor_bits=10))]
     #[allow(clippy::too_many_arguments)]
     fn render_pair_window<'py>(
         &self,
@@ -313,7 +317,7 @@ impl PySimulator {
 /// (linear); the result has the same dtype and representation. For many images of one size, build a
 /// `Simulator` once instead (the PSFs are traced per call here). GIL released.
 #[pyfunction]
-#[pyo3(signature = (lens, image, pixel_um=None, seed=0, isp=true, noise=true, illumination=true, distortion=true, sensor_bits=DEFAULT_SENSOR_BITS))]
+#[pyo3(signature = (lens, image, pixel_um=None, seed=0, isp=true, noise=true, illumination=true, distortion=true, sensor_bits=10))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
