@@ -168,54 +168,71 @@ fn decode(code: u64) -> RayStatus {
     }
 }
 
-/// One block of rays as structure of arrays, plus the per-surface scratch of the phases.
-struct Block {
+/// Three coordinates of a block's rays, structure of arrays.
+struct Points {
     x: [f64; LANE_BLOCK],
     y: [f64; LANE_BLOCK],
     z: [f64; LANE_BLOCK],
+}
+
+/// One block of rays as structure of arrays, plus the per-surface scratch of the phases.
+///
+/// The two point sets swap roles at every surface: one holds the rays' global positions, the other
+/// receives their start points in the surface's frame (conic phase), and then their new global
+/// positions (finish phase: the new point where the ray arrived, the old one from the other set where
+/// it did not). Updating a position in place instead, `x = select(arrived, hit, x)`, is what LLVM turns
+/// into a masked store (`vmaskmovpd`), which is microcoded and several times slower on AMD cores.
+struct Block {
+    points: [Points; 2],
+    /// Which of `points` holds the global positions.
+    global: usize,
     l: [f64; LANE_BLOCK],
     m: [f64; LANE_BLOCK],
     n: [f64; LANE_BLOCK],
     code: [u64; LANE_BLOCK],
-    /// The ray in the current surface's frame after the transfer (Newton's and the hit's start point)
-    /// and the intersection parameter.
-    start_x: [f64; LANE_BLOCK],
-    start_y: [f64; LANE_BLOCK],
-    start_z: [f64; LANE_BLOCK],
+    /// The intersection parameter along the ray from its start point in the surface's frame.
     t: [f64; LANE_BLOCK],
     /// Newton: !0 while a lane still iterates.
     pending: [u64; LANE_BLOCK],
 }
 
-impl Block {
-    fn new() -> Box<Block> {
-        Box::new(Block {
+impl Points {
+    fn zero() -> Points {
+        Points {
             x: [0.0; LANE_BLOCK],
             y: [0.0; LANE_BLOCK],
             z: [0.0; LANE_BLOCK],
+        }
+    }
+}
+
+impl Block {
+    fn new() -> Box<Block> {
+        Box::new(Block {
+            points: [Points::zero(), Points::zero()],
+            global: 0,
             l: [0.0; LANE_BLOCK],
             m: [0.0; LANE_BLOCK],
             n: [0.0; LANE_BLOCK],
             code: [PADDING; LANE_BLOCK],
-            start_x: [0.0; LANE_BLOCK],
-            start_y: [0.0; LANE_BLOCK],
-            start_z: [0.0; LANE_BLOCK],
             t: [0.0; LANE_BLOCK],
             pending: [0; LANE_BLOCK],
         })
     }
 
     fn load(&mut self, rays: &[Ray]) {
+        self.global = 0;
+        let p = &mut self.points[0];
         for i in 0..LANE_BLOCK {
             match rays.get(i) {
                 Some(ray) => {
-                    [self.x[i], self.y[i], self.z[i]] = ray.position_mm;
+                    [p.x[i], p.y[i], p.z[i]] = ray.position_mm;
                     [self.l[i], self.m[i], self.n[i]] = ray.direction;
                     self.code[i] = if ray.is_finite() { ALIVE } else { INVALID_INPUT };
                 }
                 None => {
                     // Harmless finite values: padding lanes compute alongside the others.
-                    [self.x[i], self.y[i], self.z[i], self.l[i], self.m[i]] = [0.0; 5];
+                    [p.x[i], p.y[i], p.z[i], self.l[i], self.m[i]] = [0.0; 5];
                     self.n[i] = 1.0;
                     self.code[i] = PADDING;
                 }
@@ -224,11 +241,22 @@ impl Block {
     }
 
     fn store(&self, rays: &mut [Ray], statuses: &mut [RayStatus]) {
+        let p = &self.points[self.global];
         for (i, (ray, status)) in rays.iter_mut().zip(statuses.iter_mut()).enumerate() {
-            ray.position_mm = [self.x[i], self.y[i], self.z[i]];
+            ray.position_mm = [p.x[i], p.y[i], p.z[i]];
             ray.direction = [self.l[i], self.m[i], self.n[i]];
             *status = decode(self.code[i]);
         }
+    }
+}
+
+/// The point set holding the global positions (`global`) and the other one.
+fn split_points(points: &mut [Points; 2], global: usize) -> (&mut Points, &mut Points) {
+    let [p0, p1] = points;
+    if global == 0 {
+        (p0, p1)
+    } else {
+        (p1, p0)
     }
 }
 
@@ -284,6 +312,7 @@ impl WithSimd for TraceBlocks<'_> {
                     newton_phase(simd, surface, index, &mut block);
                 }
                 finish_phase(simd, surface, index, &mut block);
+                block.global ^= 1;
             }
             block.store(rays, statuses);
         }
@@ -417,16 +446,17 @@ impl<S: Simd> Lanes<S> {
 #[inline(always)]
 fn conic_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
     let v = Lanes(simd);
-    let (xs, _) = S::as_simd_f64s(&b.x);
-    let (ys, _) = S::as_simd_f64s(&b.y);
-    let (zs, _) = S::as_simd_f64s(&b.z);
+    let (global, start) = split_points(&mut b.points, b.global);
+    let (xs, _) = S::as_simd_f64s(&global.x);
+    let (ys, _) = S::as_simd_f64s(&global.y);
+    let (zs, _) = S::as_simd_f64s(&global.z);
+    let (sxs, _) = S::as_mut_simd_f64s(&mut start.x);
+    let (sys, _) = S::as_mut_simd_f64s(&mut start.y);
+    let (szs, _) = S::as_mut_simd_f64s(&mut start.z);
     let (ls, _) = S::as_simd_f64s(&b.l);
     let (ms, _) = S::as_simd_f64s(&b.m);
     let (ns, _) = S::as_simd_f64s(&b.n);
     let (codes, _) = S::as_mut_simd_u64s(&mut b.code);
-    let (sxs, _) = S::as_mut_simd_f64s(&mut b.start_x);
-    let (sys, _) = S::as_mut_simd_f64s(&mut b.start_y);
-    let (szs, _) = S::as_mut_simd_f64s(&mut b.start_z);
     let (ts, _) = S::as_mut_simd_f64s(&mut b.t);
     let c = v.splat(s.c);
     let k1 = v.splat(s.k1);
@@ -482,12 +512,13 @@ fn conic_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
 #[inline(always)]
 fn newton_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
     let v = Lanes(simd);
+    let (_, start) = split_points(&mut b.points, b.global);
+    let (sxs, _) = S::as_simd_f64s(&start.x);
+    let (sys, _) = S::as_simd_f64s(&start.y);
+    let (szs, _) = S::as_simd_f64s(&start.z);
     let (ls, _) = S::as_simd_f64s(&b.l);
     let (ms, _) = S::as_simd_f64s(&b.m);
     let (ns, _) = S::as_simd_f64s(&b.n);
-    let (sxs, _) = S::as_simd_f64s(&b.start_x);
-    let (sys, _) = S::as_simd_f64s(&b.start_y);
-    let (szs, _) = S::as_simd_f64s(&b.start_z);
     let (codes, _) = S::as_mut_simd_u64s(&mut b.code);
     let (ts, _) = S::as_mut_simd_f64s(&mut b.t);
     let (pendings, _) = S::as_mut_simd_u64s(&mut b.pending);
@@ -533,7 +564,10 @@ fn newton_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
             let converged = v.le(v.abs(dt), v.add(v.mul(tolerance, scale), v.splat(1e-300)));
             let stepped = v.and(active, v.not(failed));
             ts[j] = v.select(stepped, t_next, t);
-            codes[j] = v.fail(failed, MISSED, index, codes[j]);
+            // Failures are rare: a branch instead of a store of every code (see `Block`).
+            if v.any(failed) {
+                codes[j] = v.fail(failed, MISSED, index, codes[j]);
+            }
             let still = v.and(stepped, v.not(converged));
             pendings[j] = simd.select_u64s(still, all, none);
             any_pending |= v.any(still);
@@ -541,7 +575,9 @@ fn newton_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
     }
     for j in 0..codes.len() {
         let still = simd.equal_u64s(pendings[j], all);
-        codes[j] = v.fail(still, NO_CONVERGENCE, index, codes[j]);
+        if v.any(still) {
+            codes[j] = v.fail(still, NO_CONVERGENCE, index, codes[j]);
+        }
     }
 }
 
@@ -550,16 +586,18 @@ fn newton_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
 #[inline(always)]
 fn finish_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
     let v = Lanes(simd);
-    let (xs, _) = S::as_mut_simd_f64s(&mut b.x);
-    let (ys, _) = S::as_mut_simd_f64s(&mut b.y);
-    let (zs, _) = S::as_mut_simd_f64s(&mut b.z);
+    // The start points are replaced by the new global positions (see `Block`).
+    let (global, start) = split_points(&mut b.points, b.global);
+    let (xs, _) = S::as_simd_f64s(&global.x);
+    let (ys, _) = S::as_simd_f64s(&global.y);
+    let (zs, _) = S::as_simd_f64s(&global.z);
+    let (sxs, _) = S::as_mut_simd_f64s(&mut start.x);
+    let (sys, _) = S::as_mut_simd_f64s(&mut start.y);
+    let (szs, _) = S::as_mut_simd_f64s(&mut start.z);
     let (ls, _) = S::as_mut_simd_f64s(&mut b.l);
     let (ms, _) = S::as_mut_simd_f64s(&mut b.m);
     let (ns, _) = S::as_mut_simd_f64s(&mut b.n);
     let (codes, _) = S::as_mut_simd_u64s(&mut b.code);
-    let (sxs, _) = S::as_simd_f64s(&b.start_x);
-    let (sys, _) = S::as_simd_f64s(&b.start_y);
-    let (szs, _) = S::as_simd_f64s(&b.start_z);
     let (ts, _) = S::as_simd_f64s(&b.t);
     let zero = v.splat(0.0);
     let one = v.splat(1.0);
@@ -576,9 +614,9 @@ fn finish_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
         let mut code = v.fail(clipped, CLIPPED, index, codes[j]);
         code = v.fail(missed, MISSED, index, code);
         let arrived = v.and(alive, v.and(v.not(clipped), finite));
-        xs[j] = v.select(arrived, hx, xs[j]);
-        ys[j] = v.select(arrived, hy, ys[j]);
-        zs[j] = v.select(arrived, v.add(hz, v.splat(s.z_mm)), zs[j]);
+        sxs[j] = v.select(arrived, hx, xs[j]);
+        sys[j] = v.select(arrived, hy, ys[j]);
+        szs[j] = v.select(arrived, v.add(hz, v.splat(s.z_mm)), zs[j]);
         if s.refract {
             let (nx, ny, nz) = if s.terms > 0 {
                 let slope = v.sag_and_slope(s, rho, false).1;
