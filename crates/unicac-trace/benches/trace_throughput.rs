@@ -43,7 +43,13 @@ fn bench_lens(c: &mut Criterion, name: &str) {
     group.bench_function("scalar step", |b| {
         b.iter_batched_ref(
             || rays.clone(),
-            |batch| batch.iter_mut().map(|ray| system.trace(ray).is_ok()).filter(|ok| *ok).count(),
+            |batch| {
+                batch
+                    .iter_mut()
+                    .map(|ray| system.trace(ray).is_ok())
+                    .filter(|ok| *ok)
+                    .count()
+            },
             criterion::BatchSize::LargeInput,
         )
     });
