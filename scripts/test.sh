@@ -7,7 +7,7 @@ source scripts/setup.sh
 source scripts/setup_python.sh dev   # PyTorch, onnx, onnxruntime (ORT_DYLIB_PATH for the bench tests), ...
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --quiet -- -D warnings
-cargo test --workspace --quiet 2>&1 | tee /tmp/unicac-test.log
+cargo test --workspace --quiet --no-fail-fast 2>&1 | tee /tmp/unicac-test.log
 # One closing line with the totals over every test binary.
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i; if ($(i+1) ~ /^ignored/) s += $i } }
      END { printf "unicac: %d passed, %d failed, %d skipped\n", p, f, s; exit (f > 0) }' /tmp/unicac-test.log

@@ -56,6 +56,10 @@ fn shrink(args: &[&str], scratch: &Path) -> Vec<String> {
             (Some("--images"), _) => "dead-leaves:2:80x60".to_string(),
             (Some("--test-images"), _) => "dead-leaves:1:64x48".to_string(),
             (Some("--crop"), _) => "32x24".to_string(),
+            (Some("--model"), a) if a.contains("=models/") => {
+                let (name, path) = a.split_once('=').unwrap();
+                format!("{name}={}", Path::new(ROOT).join(path).display())
+            }
             (_, a) if a.starts_with("lenses/") || a.starts_with("models/") => {
                 Path::new(ROOT).join(a).display().to_string()
             }
