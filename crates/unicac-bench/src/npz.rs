@@ -47,11 +47,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
     std::fs::create_dir_all(folder).map_err(|e| BenchError::io(folder, e))?;
-    let mut temp = tempfile::NamedTempFile::new_in(folder).map_err(|e| BenchError::io(folder, e))?;
-    temp.write_all(bytes).map_err(|e| BenchError::io(path, e))?;
-    temp.as_file().sync_all().map_err(|e| BenchError::io(path, e))?;
-    temp.persist(path).map_err(|e| BenchError::io(path, e.error))?;
-    Ok(())
+    unicac_io::write_atomically(path, bytes).map_err(|e| BenchError::io(path, e))
 }
 
 /// Reads every member of an NPZ file as float32 arrays, keyed by name (without `.npy`).

@@ -120,7 +120,15 @@ fn check_settings(s: &BenchSettings) -> Result<()> {
         }
         names.push(name);
     }
-    Ok(())
+    // The report folder is neither the dataset nor a model file (the report would mix with the
+    // dataset's own files, or replace a model).
+    let mut plan = unicac_io::OutputPlan::new();
+    plan.input(&s.dataset);
+    for (_, path) in &s.models {
+        plan.input(path);
+    }
+    plan.output("--out", &s.out);
+    plan.check().map_err(|e| invalid(e.to_string()))
 }
 
 fn asked(s: &BenchSettings, metric: &str) -> bool {

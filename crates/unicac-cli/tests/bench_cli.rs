@@ -107,3 +107,40 @@ fn bench_refuses_a_non_onnx_model_before_any_work() {
     );
     assert!(!dir.join("report").exists());
 }
+
+#[test]
+fn bench_refuses_a_report_folder_that_is_the_dataset_or_a_model() {
+    let dir = scratch("out-is-input");
+    let dataset = dir.join("dataset");
+    std::fs::create_dir_all(&dataset).unwrap();
+    std::fs::write(dataset.join("keep.txt"), b"the user's file").unwrap();
+    let model = dir.join("model.onnx");
+    std::fs::write(&model, b"not a model").unwrap();
+    for out in [&dataset, &model] {
+        let result = unicac(
+            &[
+                "bench",
+                "--dataset",
+                dataset.to_str().unwrap(),
+                "--model",
+                &format!("m={}", model.display()),
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            &dir.join("cache"),
+        );
+        assert!(!result.status.success());
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert!(
+            stderr.contains("--out") && stderr.contains("would overwrite the input"),
+            "{stderr}"
+        );
+    }
+    // Nothing was written into the dataset folder, and the model is untouched.
+    let names: Vec<_> = std::fs::read_dir(&dataset)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["keep.txt"]);
+    assert_eq!(std::fs::read(&model).unwrap(), b"not a model");
+}
