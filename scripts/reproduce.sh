@@ -18,15 +18,18 @@ cd "$(dirname "$0")/.."
 scale=tiny out= ray_workers= images= test_images=
 while [ $# -gt 0 ]; do
   case "$1" in
-    --scale) scale=$2; shift 2 ;;
-    --out) out=$2; shift 2 ;;
-    --ray) ray_workers=$2; shift 2 ;;
-    --images) images=$2; shift 2 ;;
-    --test-images) test_images=$2; shift 2 ;;
+    --scale) scale=${2:?--scale needs a value}; shift 2 ;;
+    --out) out=${2:?--out needs a value}; shift 2 ;;
+    --ray) ray_workers=${2:?--ray needs a value}; shift 2 ;;
+    --images) images=${2:?--images needs a value}; shift 2 ;;
+    --test-images) test_images=${2:?--test-images needs a value}; shift 2 ;;
     *) echo "reproduce.sh: unknown argument '$1' (see the usage at the top of scripts/reproduce.sh)" >&2; exit 2 ;;
   esac
 done
 out=${out:-out/reproduce-$scale}
+if [ -n "$ray_workers" ] && ! { [[ "$ray_workers" =~ ^[0-9]{1,5}$ ]] && ((10#$ray_workers >= 1 && 10#$ray_workers <= 4096)); }; then
+  echo "reproduce.sh: --ray takes a number of workers from 1 to 4096 (unicac-ray --workers), not '$ray_workers'" >&2; exit 2
+fi
 
 # Sizes per scale. design: the specification grid and designs kept per specification (each also made
 # aspheric); dataset: levels x test lenses per level, validation lenses, scenes, frame, training pairs;
