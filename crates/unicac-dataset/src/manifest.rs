@@ -331,31 +331,12 @@ fn csv_field(text: &str) -> String {
     }
 }
 
-/// Temporary files of this crate and of the image writers are dot-named and contain `.tmp`.
-pub fn is_temporary(name: &str) -> bool {
-    name.starts_with('.') && name.contains(".tmp")
-}
-
-/// Writes `bytes` to `path` through a dot-named temporary sibling and a rename (parent folders made).
+/// Writes `bytes` to `path` atomically with unicac-io (parent folders made).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).map_err(|e| DatasetError::io(parent, e))?;
     }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let temporary = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    let result = (|| {
-        let mut file = std::fs::File::create(&temporary)?;
-        file.write_all(bytes)?;
-        std::fs::rename(&temporary, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&temporary);
-        return Err(DatasetError::io(path, e));
-    }
-    Ok(())
+    unicac_io::write_atomically(path, bytes).map_err(|e| DatasetError::io(path, e))
 }
 
 #[cfg(test)]
@@ -428,7 +409,7 @@ mod tests {
         );
         assert!(std::fs::read_dir(&dir)
             .unwrap()
-            .all(|e| !is_temporary(&e.unwrap().file_name().to_string_lossy())));
+            .all(|e| !unicac_io::is_temporary_name(&e.unwrap().file_name().to_string_lossy())));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -1,9 +1,15 @@
 //! Atomic writes and the clean-up of what killed runs left behind.
 //!
-//! A temporary is `.{file name}.tmp-{pid}-{n}.{extension}` next to its target: dot-named (hidden from
-//! globs such as `*.png`), carrying the writer's process id (so the next run can tell a live writer's
-//! file from debris) and ending in the target's extension (encoders that pick their format from the
-//! name, such as the plotters bitmap backend, see the right one).
+//! A temporary is `.{file name}.tmp-{pid}-{n}-h{host}.{extension}` next to its target: dot-named
+//! (hidden from globs such as `*.png`), carrying the writer's process id and a hash of its host name
+//! (so a later or concurrent run, on this machine or another one sharing the folder, can tell a live
+//! writer's file from debris) and ending in the target's extension (encoders that pick their format
+//! from the name, such as the plotters bitmap backend, see the right one).
+//!
+//! Clean-up never removes a live writer's temporary: concurrent shards of one dataset build write into
+//! one folder, and each starts by cleaning it (removing another shard's temporary made its rename
+//! fail). A temporary from another host is removed only when older than [`STALE_TEMPORARY_AGE`],
+//! since its writer's liveness cannot be checked from here.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -31,9 +37,20 @@ pub fn temporary_sibling(path: &Path) -> PathBuf {
         .unwrap_or_default();
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
     path.with_file_name(format!(
-        ".{name}{TEMPORARY_MARKER}{}-{n}{extension}",
-        std::process::id()
+        ".{name}{TEMPORARY_MARKER}{}-{n}-h{:08x}{extension}",
+        std::process::id(),
+        this_host()
     ))
+}
+
+/// A 32-bit FNV-1a hash of this machine's host name (0 where it cannot be read).
+fn this_host() -> u32 {
+    let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .or_else(|_| std::env::var("HOSTNAME"))
+        .unwrap_or_default();
+    name.trim().bytes().fold(0x811c_9dc5_u32, |h, b| {
+        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+    })
 }
 
 /// Writes `bytes` to `path` atomically.
@@ -82,6 +99,13 @@ fn writer_pid(name: &str) -> Option<u32> {
     digits.parse().ok()
 }
 
+/// The writer's host hash a temporary's name carries (`None` in the older forms without one).
+fn writer_host(name: &str) -> Option<u32> {
+    let after = &name[name.rfind(TEMPORARY_MARKER)? + TEMPORARY_MARKER.len()..];
+    let host = after.split('-').nth(2)?.strip_prefix('h')?;
+    u32::from_str_radix(host.get(..8)?, 16).ok()
+}
+
 /// Whether process `pid` is alive: `/proc` on Linux; elsewhere unknown (`None`).
 fn process_alive(pid: u32) -> Option<bool> {
     let proc_root = Path::new("/proc");
@@ -106,7 +130,8 @@ pub fn clean_stale_temporaries(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
             continue;
         }
         let Some(pid) = writer_pid(&name) else { continue };
-        let stale = match process_alive(pid) {
+        let same_host = writer_host(&name).is_none_or(|host| host == this_host());
+        let stale = match process_alive(pid).filter(|_| same_host) {
             Some(alive) => !alive,
             None => entry
                 .metadata()
@@ -118,6 +143,24 @@ pub fn clean_stale_temporaries(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
         if stale && entry.file_type().is_ok_and(|t| t.is_file()) {
             std::fs::remove_file(entry.path())?;
             removed.push(entry.path());
+        }
+    }
+    Ok(removed)
+}
+
+/// [`clean_stale_temporaries`] in `root` and every folder below it (symbolic links not followed).
+pub fn clean_stale_temporaries_under(root: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut removed = Vec::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        removed.extend(clean_stale_temporaries(&dir)?);
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            if entry.file_type().is_ok_and(|t| t.is_dir()) {
+                stack.push(entry.path());
+            }
         }
     }
     Ok(removed)
@@ -185,6 +228,31 @@ mod tests {
             assert!(live.exists() && ordinary.exists());
         }
         assert!(clean_stale_temporaries(&dir.join("absent")).unwrap().is_empty());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_live_writers_temporary_survives_cleaning_from_another_process_view() {
+        // What a concurrent shard sees: this process's in-flight temporary, one folder down.
+        let dir = folder("nested");
+        let target = dir.join("edges").join("lq").join("a.png");
+        std::fs::create_dir_all(target.parent().unwrap()).unwrap();
+        let temporary = temporary_sibling(&target);
+        std::fs::write(&temporary, b"x").unwrap();
+        let dead = target.with_file_name(format!(".b.png.tmp-4294967-0-h{:08x}.png", this_host()));
+        let other_host = target.with_file_name(".c.png.tmp-4294967-0-h00000000.png");
+        std::fs::write(&dead, b"x").unwrap();
+        std::fs::write(&other_host, b"x").unwrap();
+        let removed = clean_stale_temporaries_under(&dir).unwrap();
+        if Path::new("/proc/self").exists() && this_host() != 0 {
+            assert_eq!(removed, vec![dead]);
+            assert!(temporary.exists(), "a live writer's temporary was removed");
+            assert!(
+                other_host.exists(),
+                "a fresh temporary of another host was removed"
+            );
+        }
+        std::fs::rename(&temporary, &target).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -9,7 +9,8 @@
 //!   the extension: the caller picks it with [`extension_of`]);
 //! - [`write_atomically`] / [`write_with`] / [`write_via_path`]: a file appears complete or not at all
 //!   (a dot-named temporary sibling, synced, then renamed over the target);
-//! - [`clean_stale_temporaries`]: temporaries left by killed runs are removed on the next run.
+//! - [`clean_stale_temporaries`] / [`clean_stale_temporaries_under`]: temporaries left by killed runs
+//!   are removed on the next run; a live writer's (a concurrent shard's) are kept.
 //!
 //! std only, so that every crate (optics, image, plot, sim, dataset, bench) can depend on it.
 
@@ -17,7 +18,7 @@ mod atomic;
 mod plan;
 
 pub use atomic::{
-    clean_stale_temporaries, is_temporary_name, temporary_sibling, write_atomically, write_via_path,
-    write_with,
+    clean_stale_temporaries, clean_stale_temporaries_under, is_temporary_name, temporary_sibling,
+    write_atomically, write_via_path, write_with,
 };
 pub use plan::{extension_of, require_extension, OutputError, OutputPlan};

@@ -752,26 +752,11 @@ fn check_output(out: &Path, settings: &serde_json::Value) -> Result<()> {
     }
 }
 
-/// Removes dot-named temporaries left by an interrupted run, anywhere under `out`.
+/// Removes the temporaries under `out` that interrupted runs left (a concurrent shard's are kept).
 fn remove_temporaries(out: &Path) -> Result<usize> {
-    let mut removed = 0;
-    let mut stack = vec![out.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        let Ok(entries) = std::fs::read_dir(&dir) else {
-            continue;
-        };
-        for entry in entries.flatten() {
-            let path = entry.path();
-            let name = entry.file_name().to_string_lossy().into_owned();
-            if path.is_dir() {
-                stack.push(path);
-            } else if manifest::is_temporary(&name) {
-                std::fs::remove_file(&path).map_err(|e| DatasetError::io(&path, e))?;
-                removed += 1;
-            }
-        }
-    }
-    Ok(removed)
+    Ok(unicac_io::clean_stale_temporaries_under(out)
+        .map_err(|e| DatasetError::io(out, e))?
+        .len())
 }
 
 /// The manifests (identical in every run and shard); rewritten only when their bytes differ.
