@@ -44,7 +44,7 @@ fn psf_kernel(settings: PsfSettings) -> (Kernel, f64) {
     let lens = examples::lens("cooke_triplet").unwrap();
     let tracer = PsfTracer::new(&lens, SpectralWeights::monochromatic(D_LINE_UM), settings).unwrap();
     let reference = tracer.reference_point_mm(FIELD_DEG).unwrap();
-    let hits = tracer.hits(FIELD_DEG, reference);
+    let hits = tracer.hits(FIELD_DEG, reference).unwrap();
     let size = tracer.kernel_size_for(&hits);
     let psf = tracer.kernels_from_hits(FIELD_DEG, reference, &hits, size, true);
     (psf.kernels[0].clone(), psf.energy_cut[0])

@@ -19,6 +19,7 @@ pub mod aim;
 pub mod apertures;
 pub mod batch;
 pub mod error;
+pub mod params;
 pub mod pupil;
 pub mod ray;
 pub mod spot;
@@ -29,6 +30,9 @@ pub mod workload;
 pub use aim::{Aimer, Aiming, AutoAiming, AUTO_REAL_AIMING_STOP_MISS};
 pub use batch::{trace_rays, trace_rays_serial};
 pub use error::{TraceError, TraceResult};
+pub use params::{
+    check_field_deg, check_fields_deg, check_wavelength_um, check_wavelengths_um, InvalidParameter,
+};
 pub use pupil::PupilSampling;
 pub use ray::{Ray, RayStatus, StatusCounts};
 pub use spot::{spots, Spot, SpotTracer};
