@@ -6,11 +6,10 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
-use unicac_optics::{examples, format, Lens, LensSpec};
+use unicac_optics::{examples, Lens, LensSpec};
 use unicac_trace::LensSummary;
 
 /// Prefix naming a lens bundled with unicac, as on the command line.
-pub use unicac_optics::examples::BUILTIN_PREFIX;
 
 /// A validated lens (from a `.json` or `.zmx` file or `builtin:NAME`). Immutable.
 #[pyclass(module = "unicac", name = "Lens", frozen)]

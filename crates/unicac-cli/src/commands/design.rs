@@ -9,7 +9,7 @@ use unicac_design::run::{run_specs, Event, RunSettings, StopReason};
 use unicac_design::spec::{
     focal_length_for_sensor, paper_grid, GRID_ELEMENTS, GRID_F_NUMBERS, GRID_HALF_FOV_DEG, GRID_STOPS,
 };
-use unicac_design::{DesignSpec, StopPosition};
+use unicac_design::DesignSpec;
 
 fn focal_length(args: &DesignArgs, half_fov_deg: f64) -> Result<f64> {
     match (&args.sensor, args.focal_length_mm) {
