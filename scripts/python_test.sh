@@ -3,25 +3,14 @@
 # "unicac-python: N passed, N failed, N skipped". Called by scripts/test.sh after the cargo tests.
 #
 # The extension is built by cargo with the `test` profile (optimised, see Cargo.toml), which reuses
-# everything `cargo test --workspace` has just compiled (only the bindings crate itself is new), and is
-# installed the way `maturin develop` installs a mixed Rust/Python project: the module next to the
-# Python sources (python/unicac/_native.abi3.so) and a .pth file putting python/ on the venv's path.
-# (`maturin develop --profile test` cannot be used: cargo builds a test harness for that profile.)
-# Users install with `pip install ./python` (a maturin release build of the same crate).
+# everything `cargo test --workspace` has just compiled (only the bindings crate itself is new), and
+# linked into the venv by scripts/link_python_package.sh. Users install with `pip install ./python`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 VENV=.venv
 source scripts/setup_python.sh dev   # the venv with the pinned test packages (idempotent)
-# A wheel installed earlier (pip install ./python) would shadow the build under test.
-"$VENV/bin/python" -m pip uninstall --quiet --yes unicac >/dev/null 2>&1 || true
-
-# The venv is never activated: pyo3's build script would see VIRTUAL_ENV change and rebuild.
-cargo build --profile test --quiet -p unicac-py -p unicac-cli
-rm -f python/unicac/_native*.so
-cp target/debug/lib_native.so python/unicac/_native.abi3.so
-site=$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
-echo "$PWD/python" > "$site/unicac-dev.pth"
+source scripts/link_python_package.sh test
 
 log=$(mktemp)
 status=0

@@ -4,7 +4,7 @@
 set -euo pipefail
 
 APT_PACKAGES=(pkg-config libfontconfig1-dev libfreetype-dev fonts-dejavu-core mesa-vulkan-drivers libvulkan1 python3-venv)
-MIN_RUST_MINOR=87   # workspace rust-version 1.87
+MIN_RUST_MINOR=89   # workspace rust-version 1.89 (AVX-512 target features, pulp x86-v4)
 
 missing=()
 for package in "${APT_PACKAGES[@]}"; do

@@ -148,3 +148,34 @@ def test_ray_driver_rejects_bad_arguments_before_starting_ray(binary, capsys):
     assert status == 1
     assert "elements" in capsys.readouterr().err
     assert ray_cli.main(["render", "--unicac-bin", binary]) == 2
+
+
+# Four built-in lenses: the fewest a 2-level dataset with one validation lens accepts.
+DATASET_ARGS = [
+    "--lenses", "builtin:achromat", "builtin:cooke_triplet", "builtin:double_gauss", "builtin:petzval",
+    "--images", "dead-leaves:2:80x60", "--test-images", "dead-leaves:1", "--frame", "64x48",
+    "--levels", "2", "--test-lenses-per-level", "1", "--val-lenses", "1", "--pairs-per-lens", "2",
+    "--crop", "32x24", "--seed", "3",
+]  # fmt: skip
+
+
+def folder_files(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def test_ray_dataset_equals_the_cli_with_every_task_killed_once(binary, local_ray, tmp_path, capsys, monkeypatch):
+    reference = tmp_path / "cli"
+    run_cli(binary, "dataset", "build", *DATASET_ARGS, "--out", str(reference))
+    expected = {k: v for k, v in folder_files(reference).items() if not k.startswith(".")}
+    assert any(name.startswith("test/lq/") for name in expected)
+
+    monkeypatch.setenv(FAULT_ENV, str(tmp_path / "faults"))
+    out = tmp_path / "ray"
+    summary = run_driver(binary, capsys, monkeypatch, "dataset", "build", *DATASET_ARGS, "--shards", "3",
+                         "--out", str(out))
+    assert "built" in summary or "complete" in summary, summary
+    assert len(list((tmp_path / "faults").iterdir())) >= 2   # shards 2 and 3 ran as tasks, each killed once
+    got = {k: v for k, v in folder_files(out).items() if not k.startswith(".")}
+    assert sorted(got) == sorted(expected)
+    for name, data in expected.items():
+        assert got[name] == data, name

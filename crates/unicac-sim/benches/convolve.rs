@@ -4,7 +4,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use unicac_psf::Kernel;
-use unicac_sim::convolve::{convolve_varying_with, Blend, KernelGrid, Method};
+use unicac_sim::convolve::{convolve_varying_with, Blend, KernelGrid, Method, KERNEL_TAIL_TOLERANCE};
 
 const WIDTH: usize = 768;
 const HEIGHT: usize = 512;
@@ -42,7 +42,17 @@ fn bench(c: &mut Criterion) {
             let grid = grid(spacing, size);
             for method in [Method::Direct, Method::Fft, Method::Auto] {
                 group.bench_with_input(BenchmarkId::new(format!("{method:?}"), size), &grid, |b, grid| {
-                    b.iter(|| convolve_varying_with(&plane, WIDTH, HEIGHT, grid, method, Blend::Bilinear))
+                    b.iter(|| {
+                        convolve_varying_with(
+                            &plane,
+                            WIDTH,
+                            HEIGHT,
+                            grid,
+                            method,
+                            Blend::Bilinear,
+                            KERNEL_TAIL_TOLERANCE,
+                        )
+                    })
                 });
             }
         }

@@ -67,6 +67,13 @@ fn knobs() -> Vec<Knob> {
             ],
         },
         Knob {
+            name: "kernel tail cropped per tile",
+            values: [0.0, 1e-2, 1e-3, 1e-4, 1e-5]
+                .iter()
+                .map(|&tail| (tail.to_string(), with(|s| s.kernel_tail = tail)))
+                .collect(),
+        },
+        Knob {
             name: "convolution method",
             values: vec![
                 ("direct".into(), with(|s| s.method = Method::Direct)),

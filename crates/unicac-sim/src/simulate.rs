@@ -7,7 +7,9 @@
 //! (chief-ray mapping and vignetting).
 
 use crate::chief::ChiefRayMap;
-use crate::convolve::{convolve_varying_with, node_positions, Blend, KernelGrid, Method};
+use crate::convolve::{
+    convolve_varying_with, node_positions, Blend, KernelGrid, Method, KERNEL_TAIL_TOLERANCE,
+};
 use crate::error::{SimError, SimResult};
 use crate::geometry::SensorGrid;
 use crate::psf_map::RadialPsfs;
@@ -33,6 +35,10 @@ pub struct SimulationSettings {
     pub node_intervals: usize,
     /// Direct or FFT corner convolutions (same result; `Auto` takes the cheaper).
     pub method: Method,
+    /// Share of each kernel's L1 mass that a tile's convolution may crop away, so that tiles with small
+    /// PSFs convolve with small kernels (`convolve::extent`: every output pixel moves by at most this
+    /// times the image's largest value; 0 crops exact zeros only).
+    pub kernel_tail: f64,
     pub blend: Blend,
     pub distortion: bool,
     pub illumination: bool,
@@ -59,6 +65,7 @@ impl Default for SimulationSettings {
             radial_samples: 17,
             node_intervals: 20,
             method: Method::Auto,
+            kernel_tail: KERNEL_TAIL_TOLERANCE,
             blend: Blend::Bilinear,
             distortion: true,
             illumination: true,
@@ -222,6 +229,11 @@ impl LensSimulator {
         }
     }
 
+    /// The kernel grids of the whole frame, one per channel (R, G, B).
+    pub fn kernel_grids(&self) -> &[KernelGrid] {
+        &self.kernels
+    }
+
     /// Distance between kernel nodes (pixels) for this image size.
     pub fn node_spacing_px(&self) -> usize {
         let longer = self.grid.width_px.max(self.grid.height_px);
@@ -241,6 +253,7 @@ impl LensSimulator {
                 &self.kernels[c],
                 self.settings.method,
                 self.settings.blend,
+                self.settings.kernel_tail,
             );
             out.plane_mut(c).copy_from_slice(&blurred);
         }
@@ -371,6 +384,7 @@ impl LensSimulator {
                 &grid,
                 self.settings.method,
                 self.settings.blend,
+                self.settings.kernel_tail,
             );
             blurred.plane_mut(c).copy_from_slice(&plane);
         }

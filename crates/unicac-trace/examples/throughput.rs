@@ -1,19 +1,23 @@
 //! Ray-surface intersection throughput on the bundled Cooke triplet and phone lens, for
 //! docs/performance.md: the same workload as bench/peers/optiland_throughput.py (1,000,000 rays,
 //! half on axis and half at the largest field, uniform over the paraxial entrance pupil, primary
-//! wavelength, paraxial aiming), timed on 1 and on 2 threads (median of 5 runs after one warm-up).
+//! wavelength, paraxial aiming), timed on 1 and on 2 threads (median of 5 runs after one warm-up), at
+//! every SIMD level the CPU supports (`"simd"`; the widest is what `trace_rays` uses).
 //!
 //! Run: cargo run --release -p unicac-trace --example throughput [LENS...]
 
+use rayon::prelude::*;
 use std::time::Instant;
 use unicac_optics::examples;
 use unicac_trace::workload::axis_and_edge_rays;
-use unicac_trace::{trace_rays, Clipping, Ray, TraceSystem};
+use unicac_trace::{Clipping, Ray, RayStatus, SimdLevel, TraceSystem};
 
 const RAYS: usize = 1_000_000;
 const RUNS: usize = 5;
+/// Rays per rayon task, as in `trace_rays`.
+const CHUNK: usize = 2048;
 
-fn median_seconds(system: &TraceSystem, rays: &[Ray], threads: usize) -> (f64, usize) {
+fn median_seconds(system: &TraceSystem, rays: &[Ray], threads: usize, level: SimdLevel) -> (f64, usize) {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -23,7 +27,13 @@ fn median_seconds(system: &TraceSystem, rays: &[Ray], threads: usize) -> (f64, u
         .map(|_| {
             let mut batch = rays.to_vec();
             let start = Instant::now();
-            let statuses = pool.install(|| trace_rays(system, &mut batch));
+            let mut statuses = vec![RayStatus::Ok; batch.len()];
+            pool.install(|| {
+                batch
+                    .par_chunks_mut(CHUNK)
+                    .zip(statuses.par_chunks_mut(CHUNK))
+                    .for_each(|(rays, statuses)| system.trace_chunk_at(level, rays, statuses))
+            });
             let seconds = start.elapsed().as_secs_f64();
             ok = statuses.iter().filter(|s| s.is_ok()).count();
             seconds
@@ -44,12 +54,15 @@ fn main() {
         let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
         let rays = axis_and_edge_rays(&lens, RAYS, 12345).unwrap();
         let surfaces = lens.surfaces.len();
-        for threads in [1, 2] {
-            let (seconds, ok) = median_seconds(&system, &rays, threads);
-            println!(
-                "{{\"lens\": \"{name}\", \"rays\": {RAYS}, \"rays_ok\": {ok}, \"surfaces_traced_per_ray\": {surfaces}, \"threads\": {threads}, \"seconds\": {seconds:.5}, \"ray_surface_intersections_per_s\": {:.4e}}}",
-                (RAYS * surfaces) as f64 / seconds
-            );
+        for level in SimdLevel::supported() {
+            for threads in [1, 2] {
+                let (seconds, ok) = median_seconds(&system, &rays, threads, level);
+                println!(
+                    "{{\"lens\": \"{name}\", \"simd\": \"{}\", \"rays\": {RAYS}, \"rays_ok\": {ok}, \"surfaces_traced_per_ray\": {surfaces}, \"threads\": {threads}, \"seconds\": {seconds:.5}, \"ray_surface_intersections_per_s\": {:.4e}}}",
+                    level.name(),
+                    (RAYS * surfaces) as f64 / seconds
+                );
+            }
         }
     }
 }

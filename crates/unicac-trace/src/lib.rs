@@ -5,12 +5,15 @@
 //! - `system`: a lens prepared at one wavelength and the per-surface step (cancellation-free conic
 //!   intersection, Newton for even aspheres, aperture clipping, vector Snell refraction, TIR);
 //! - `ray`: rays and per-ray outcomes (`RayStatus`, counted in `StatusCounts`; no NaN ever leaves);
+//! - `lanes`: the batch tracer, SIMD over ray lanes (AVX-512 / AVX2 / portable, chosen at run time),
+//!   bit for bit the scalar `system` step;
 //! - `batch`: many rays in parallel (rayon);
 //! - `aim`: paraxial and real ray aiming; `pupil`: pupil sampling patterns;
 //! - `spot`: spot diagrams, RMS radii, ray fans, distortion, working F/#;
 //! - `apertures`: clear semi-diameters computed from the beams.
 //!
-//! Everything here is the product's own optics, hence hand-written; parallelism is rayon's.
+//! Everything here is the product's own optics, hence hand-written; parallelism is rayon's, the SIMD
+//! vector types and their run-time dispatch are `pulp`'s (see `lanes` for why).
 
 // `!(x >= 0.0)` and friends are deliberate: they reject NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -19,6 +22,7 @@ pub mod aim;
 pub mod apertures;
 pub mod batch;
 pub mod error;
+pub mod lanes;
 pub mod params;
 pub mod pupil;
 pub mod ray;
@@ -30,6 +34,7 @@ pub mod workload;
 pub use aim::{Aimer, Aiming, AutoAiming, AUTO_REAL_AIMING_STOP_MISS};
 pub use batch::{trace_rays, trace_rays_serial};
 pub use error::{TraceError, TraceResult};
+pub use lanes::SimdLevel;
 pub use params::{
     check_field_deg, check_fields_deg, check_wavelength_um, check_wavelengths_um, InvalidParameter,
 };

@@ -18,6 +18,7 @@
 //!
 //! Refraction is vector Snell's law; a negative radicand is total internal reflection.
 
+use crate::lanes::{trace_lanes, LaneSurface, SimdLevel};
 use crate::ray::{Ray, RayStatus};
 use unicac_optics::{Lens, Profile, Result};
 
@@ -27,14 +28,14 @@ pub const MAX_NEWTON_ITERATIONS: usize = 40;
 pub const LANE_BLOCK: usize = 64;
 
 /// Relative size of the last Newton step at which the intersection counts as converged (see module docs).
-const NEWTON_STEP_TOLERANCE: f64 = 1e-9;
+pub(crate) const NEWTON_STEP_TOLERANCE: f64 = 1e-9;
 
 /// Relative distance a ray may "travel backwards" to a surface before `trace_path_from_start` calls it
 /// missed (rounding of a ray that starts on the surface).
 const BACKWARDS_TOLERANCE: f64 = 1e-12;
 
 /// Below this |N| a ray counts as parallel to a surface's tangent plane (angle > 89.99994 deg).
-const GRAZING_N: f64 = 1e-6;
+pub(crate) const GRAZING_N: f64 = 1e-6;
 
 /// Whether clear semi-diameters clip rays (aiming and aperture sizing trace without clipping).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -129,26 +130,30 @@ impl TraceSystem {
         RayStatus::Ok
     }
 
-    /// Traces a chunk of rays to the image surface, surface by surface: the rays of one surface are
-    /// independent, so the CPU overlaps their long division/square-root chains, where ray-by-ray
-    /// order would serialise them. Rays that failed are skipped from then on. Same results, bit for bit,
-    /// as `trace` on each ray.
+    /// Traces a chunk of rays to the image surface with the lane tracer (`lanes.rs`: SIMD over rays at
+    /// the widest instruction set the CPU has, surface by surface over blocks of `LANE_BLOCK` rays).
+    /// Same results, bit for bit, as `trace` on each ray.
     pub fn trace_chunk(&self, rays: &mut [Ray], statuses: &mut [RayStatus]) {
-        for (ray, status) in rays.iter().zip(statuses.iter_mut()) {
-            *status = if ray.is_finite() {
-                RayStatus::Ok
-            } else {
-                RayStatus::InvalidInput
-            };
-        }
+        self.trace_chunk_at(SimdLevel::detected(), rays, statuses);
+    }
+
+    /// `trace_chunk` at a chosen instruction-set level (clamped to what the CPU supports): for the
+    /// tests that hold every level to the scalar path, and for the benches.
+    pub fn trace_chunk_at(&self, level: SimdLevel, rays: &mut [Ray], statuses: &mut [RayStatus]) {
+        debug_assert_eq!(rays.len(), statuses.len(), "one status per ray");
         let last = self.image_index();
-        for (rays, statuses) in rays.chunks_mut(LANE_BLOCK).zip(statuses.chunks_mut(LANE_BLOCK)) {
-            let mut n_before = self.object_index;
-            for (i, surface) in self.surfaces.iter().enumerate() {
-                step_block(surface, i as u32, rays, statuses, n_before, i < last);
+        let mut n_before = self.object_index;
+        let surfaces: Vec<LaneSurface> = self
+            .surfaces
+            .iter()
+            .enumerate()
+            .map(|(i, surface)| {
+                let lane = LaneSurface::new(surface, n_before, i < last);
                 n_before = surface.index_after;
-            }
-        }
+                lane
+            })
+            .collect();
+        trace_lanes(level, &surfaces, rays, statuses);
     }
 
     /// Traces to the image surface (the last surface).
@@ -376,62 +381,6 @@ fn finish(
         }
     }
     RayStatus::Ok
-}
-
-/// `step` for a block of rays, phase by phase, so that independent rays' arithmetic overlaps. The
-/// arithmetic per ray is exactly `step`'s (same functions, same order), so results are identical.
-fn step_block(
-    surface: &TraceSurface,
-    index: u32,
-    rays: &mut [Ray],
-    statuses: &mut [RayStatus],
-    n_before: f64,
-    refract: bool,
-) {
-    debug_assert!(rays.len() <= LANE_BLOCK);
-    let mut hits = [LocalHit::default(); LANE_BLOCK];
-    let mut pending = [0u8; LANE_BLOCK];
-    let mut pending_count = 0;
-    for (i, (ray, status)) in rays.iter().zip(statuses.iter_mut()).enumerate() {
-        if status.is_ok() {
-            match conic_hit(surface, index, ray) {
-                Ok(hit) => {
-                    hits[i] = hit;
-                    pending[pending_count] = i as u8;
-                    pending_count += 1;
-                }
-                Err(failure) => *status = failure,
-            }
-        }
-    }
-    if surface.profile.has_polynomial() {
-        for _ in 0..MAX_NEWTON_ITERATIONS {
-            let mut still = 0;
-            for k in 0..pending_count {
-                let i = pending[k] as usize;
-                match newton_step(surface, index, &mut hits[i]) {
-                    NewtonStep::Converged => {}
-                    NewtonStep::Continue => {
-                        pending[still] = i as u8;
-                        still += 1;
-                    }
-                    NewtonStep::Failed(failure) => statuses[i] = failure,
-                }
-            }
-            pending_count = still;
-            if pending_count == 0 {
-                break;
-            }
-        }
-        for &i in &pending[..pending_count] {
-            statuses[i as usize] = RayStatus::NoConvergence { surface: index };
-        }
-    }
-    for ((ray, status), hit) in rays.iter_mut().zip(statuses.iter_mut()).zip(&hits) {
-        if status.is_ok() {
-            *status = finish(surface, index, ray, hit, n_before, refract);
-        }
-    }
 }
 
 /// Vector Snell's law. `normal` need not be unit length or face the ray; `mu` = n_before / n_after.

@@ -134,6 +134,14 @@ pub fn write_report(dir: &Path, report: &Report, pairs: &[PairScore]) -> Result<
     md.push_str(&overall_table(report));
     md.push('\n');
     for benchmark in &report.benchmarks {
+        // A dataset built without --sub-benchmarks has no U_s / U_c levels: say so rather than print an
+        // empty table.
+        if !report.results.rows.iter().any(|r| &r.benchmark == benchmark) {
+            md.push_str(&format!(
+                "### Benchmark `{benchmark}`\n\nNo test lens has a `{benchmark}` level in this dataset (sub-benchmarks are built by `unicac dataset build --sub-benchmarks`).\n\n"
+            ));
+            continue;
+        }
         md.push_str(&tables::markdown(&report.results.rows, &names, benchmark));
         md.push('\n');
         put(

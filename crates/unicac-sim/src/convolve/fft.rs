@@ -11,7 +11,6 @@
 //! four corner kernels therefore cost two inverse transforms, and its left and right corner pairs are
 //! each one transform shared with the neighbouring tile.
 
-use super::KernelGrid;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftNum, FftPlanner};
@@ -45,7 +44,10 @@ struct Fft2<T: FftNum> {
 
 impl<T: FftNum> Fft2<T> {
     fn new(width: usize, height: usize) -> Fft2<T> {
-        let mut planner = FftPlanner::<T>::new();
+        Fft2::with_planner(&mut FftPlanner::<T>::new(), width, height)
+    }
+
+    fn with_planner(planner: &mut FftPlanner<T>, width: usize, height: usize) -> Fft2<T> {
         Fft2 {
             width,
             height,
@@ -112,14 +114,21 @@ fn fill_patch<T: FftNum>(
     }
 }
 
-/// The zero-padded transform of `real` + i `imaginary` (either may be absent) on `fft`'s grid.
-fn kernel_spectrum<T: FftNum>(fft: &Fft2<T>, real: &Kernel, imaginary: Option<&Kernel>) -> Vec<Complex<T>> {
+/// The zero-padded transform of the centred `size` x `size` parts of `real` + i `imaginary` (either
+/// may be absent; `size` is at most their size) on `fft`'s grid.
+fn kernel_spectrum<T: FftNum>(
+    fft: &Fft2<T>,
+    real: &Kernel,
+    imaginary: Option<&Kernel>,
+    size: usize,
+) -> Vec<Complex<T>> {
     let to_t = |v: f32| T::from_f32(v).expect("f32 converts");
+    let offset = (real.size - size) / 2;
     let mut grid = vec![Complex::new(T::zero(), T::zero()); fft.len()];
-    for y in 0..real.size {
-        for x in 0..real.size {
-            let im = imaginary.map_or(0.0, |k| k.at(x, y));
-            grid[y * fft.width + x] = Complex::new(to_t(real.at(x, y)), to_t(im));
+    for y in 0..size {
+        for x in 0..size {
+            let im = imaginary.map_or(0.0, |k| k.at(x + offset, y + offset));
+            grid[y * fft.width + x] = Complex::new(to_t(real.at(x + offset, y + offset)), to_t(im));
         }
     }
     let mut spectrum = vec![Complex::new(T::zero(), T::zero()); fft.len()];
@@ -149,7 +158,7 @@ pub(super) fn convolve_invariant_fft(
     );
     let mut spectrum = vec![Complex::new(0.0, 0.0); fft.len()];
     fft.forward(&mut grid, &mut spectrum);
-    let filter = kernel_spectrum(&fft, kernel, None);
+    let filter = kernel_spectrum(&fft, kernel, None, kernel.size);
     spectrum.iter_mut().zip(&filter).for_each(|(a, b)| *a *= b);
     fft.inverse(&mut spectrum, &mut grid);
     let scale = 1.0 / fft.len() as f64;
@@ -158,88 +167,119 @@ pub(super) fn convolve_invariant_fft(
         .collect()
 }
 
-/// The FFT state of one band of tiles (between node rows `j` and `j + 1`): one transform size for all
-/// its tiles and, per node column, the shared spectrum of its top and bottom kernels.
-pub(super) struct BandFft {
-    fft: Fft2<f32>,
-    kernel_size: usize,
-    column_spectra: Vec<Vec<Complex<f32>>>,
+/// The corner kernels of one tile: [top-left, top-right, bottom-left, bottom-right], and the node
+/// columns of its left and right pairs (a tile's right pair is the next tile's left pair).
+pub(super) struct TileKernels<'a> {
+    pub corners: [&'a Kernel; 4],
+    pub columns: (usize, usize),
+}
+
+/// Which kernel-pair spectrum a buffer holds: node column, crop size and transform size.
+type PairKey = (usize, usize, (usize, usize));
+
+/// The FFT state of one band of tiles (between two node rows), reused from tile to tile. Every tile
+/// gets its own transform size, from its own kernel size (`extent`): a small PSF costs a small FFT.
+pub(super) struct TileFft {
+    planner: FftPlanner<f32>,
+    plans: Vec<Fft2<f32>>,
     grid: Vec<Complex<f32>>,
     spectrum: Vec<Complex<f32>>,
     product: Vec<Complex<f32>>,
     left: Vec<Complex<f32>>,
     right: Vec<Complex<f32>>,
+    /// The previous tile's right pair spectrum, reused as this tile's left one when the keys match.
+    previous_right: Option<(PairKey, Vec<Complex<f32>>)>,
 }
 
-impl BandFft {
-    pub(super) fn new(grid: &KernelGrid, j: usize, widest_tile: usize, band_height: usize) -> BandFft {
-        let kernel_size = grid.kernels[0].size;
-        let fft = Fft2::<f32>::new(
-            fast_len(widest_tile + kernel_size - 1),
-            fast_len(band_height + kernel_size - 1),
-        );
-        let column_spectra = (0..grid.nodes_x)
-            .map(|i| {
-                let top = &grid.kernels[j * grid.nodes_x + i];
-                let bottom = &grid.kernels[(j + 1) * grid.nodes_x + i];
-                kernel_spectrum(&fft, top, Some(bottom))
-            })
-            .collect();
-        let n = fft.len();
-        BandFft {
-            fft,
-            kernel_size,
-            column_spectra,
-            grid: vec![Complex::default(); n],
-            spectrum: vec![Complex::default(); n],
-            product: vec![Complex::default(); n],
-            left: vec![Complex::default(); n],
-            right: vec![Complex::default(); n],
+impl TileFft {
+    pub(super) fn new() -> TileFft {
+        TileFft {
+            planner: FftPlanner::new(),
+            plans: Vec::new(),
+            grid: Vec::new(),
+            spectrum: Vec::new(),
+            product: Vec::new(),
+            left: Vec::new(),
+            right: Vec::new(),
+            previous_right: None,
         }
     }
 
-    /// Convolves the tile between node columns `i` and `i + 1` over `columns` x `rows` with its four
-    /// corner kernels; afterwards `corners(column, row)` gives [top-left, top-right, bottom-left,
-    /// bottom-right] at a pixel of the tile.
+    /// The plan for a `width` x `height` transform (planned once per band and size).
+    fn plan(&mut self, width: usize, height: usize) -> usize {
+        if let Some(index) = self
+            .plans
+            .iter()
+            .position(|p| (p.width, p.height) == (width, height))
+        {
+            return index;
+        }
+        self.plans
+            .push(Fft2::with_planner(&mut self.planner, width, height));
+        self.plans.len() - 1
+    }
+
+    /// Convolves the tile over `columns` x `rows` with its four corner kernels cropped to `size` (odd);
+    /// afterwards `corners(column, row)` gives [top-left, top-right, bottom-left, bottom-right] at a
+    /// pixel of the tile.
     pub(super) fn convolve_tile(
         &mut self,
         plane: &[f32],
         (width, height): (usize, usize),
-        i: usize,
+        kernels: &TileKernels,
+        size: usize,
         columns: &Range<usize>,
         rows: &Range<usize>,
     ) -> TileCorners<'_> {
-        let reach = self.kernel_size - 1;
-        let half = (self.kernel_size / 2) as i64;
+        let reach = size - 1;
+        let half = (size / 2) as i64;
+        let plan = self.plan(fast_len(columns.len() + reach), fast_len(rows.len() + reach));
+        let fft = &self.plans[plan];
+        let n = fft.len();
+        for buffer in [
+            &mut self.grid,
+            &mut self.spectrum,
+            &mut self.product,
+            &mut self.left,
+            &mut self.right,
+        ] {
+            buffer.resize(n, Complex::default());
+        }
         fill_patch(
             plane,
             (width, height),
             (columns.start as i64 - half, rows.start as i64 - half),
             (columns.len() + reach, rows.len() + reach),
             &mut self.grid,
-            self.fft.width,
+            fft.width,
         );
-        self.fft.forward(&mut self.grid, &mut self.spectrum);
-        for (pair, target) in [(i, 0), (i + 1, 1)] {
-            let kernels = &self.column_spectra[pair];
+        fft.forward(&mut self.grid, &mut self.spectrum);
+        let [top_left, top_right, bottom_left, bottom_right] = kernels.corners;
+        let key = |column| (column, size, (fft.width, fft.height));
+        let left_key = key(kernels.columns.0);
+        let left_spectrum = match self.previous_right.take() {
+            Some((k, spectrum)) if k == left_key => spectrum,
+            _ => kernel_spectrum(fft, top_left, Some(bottom_left), size),
+        };
+        let right_spectrum = kernel_spectrum(fft, top_right, Some(bottom_right), size);
+        for (spectrum, out) in [
+            (&left_spectrum, &mut self.left),
+            (&right_spectrum, &mut self.right),
+        ] {
             self.product
                 .iter_mut()
-                .zip(self.spectrum.iter().zip(kernels))
+                .zip(self.spectrum.iter().zip(spectrum))
                 .for_each(|(p, (a, b))| *p = a * b);
-            let out = if target == 0 {
-                &mut self.left
-            } else {
-                &mut self.right
-            };
-            self.fft.inverse(&mut self.product, out);
+            fft.inverse(&mut self.product, out);
         }
+        self.previous_right = Some((key(kernels.columns.1), right_spectrum));
         TileCorners {
             left: &self.left,
             right: &self.right,
-            stride: self.fft.width,
+            stride: fft.width,
             origin: (columns.start, rows.start),
             reach,
-            scale: 1.0 / self.fft.len() as f32,
+            scale: 1.0 / n as f32,
         }
     }
 }

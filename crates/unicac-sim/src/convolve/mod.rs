@@ -10,11 +10,20 @@
 //! A tile (the pixels between two node columns and two node rows) needs the convolutions of its four
 //! corner kernels over its own pixels only. They come from direct summation (`direct`, 4 K^2
 //! multiply-adds per pixel) or from overlap-save FFTs (`fft`, four transforms of (T + K - 1)^2 per
-//! tile of T^2 pixels, whatever K); `Method::Auto` picks the cheaper per band from a measured cost
+//! tile of T^2 pixels, whatever K); `Method::Auto` picks the cheaper per tile from a measured cost
 //! model. Bands of tiles run in parallel.
+//!
+//! The work follows the scene (`extent`): each tile's K is the size its own four corner kernels need
+//! (all but a `tail` share of their mass, error bound in `extent`), not the field's largest kernel, so
+//! the axis tiles of a lens whose corner PSF is large cost a fraction of the corner tiles; tiles whose
+//! kernels are deltas need one multiply per corner and pixel, and tiles whose input patch is flat
+//! are filled with the constant times the kernels' sums without any convolution.
 
 mod direct;
+mod extent;
 mod fft;
+
+pub use extent::{centre_crop, half_width_holding, KERNEL_TAIL_TOLERANCE};
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -109,12 +118,22 @@ fn fft_is_cheaper(tile_width: usize, tile_height: usize, kernel: usize) -> bool 
     FFT_OP_COST * transforms < direct
 }
 
-/// Convolves one plane with the kernel grid, choosing the method per band.
+/// Convolves one plane with the kernel grid, choosing the method per tile.
 pub fn convolve_varying(plane: &[f32], width: usize, height: usize, grid: &KernelGrid) -> Vec<f32> {
-    convolve_varying_with(plane, width, height, grid, Method::Auto, Blend::Bilinear)
+    convolve_varying_with(
+        plane,
+        width,
+        height,
+        grid,
+        Method::Auto,
+        Blend::Bilinear,
+        KERNEL_TAIL_TOLERANCE,
+    )
 }
 
-/// Convolves one plane with the kernel grid by the given method.
+/// Convolves one plane with the kernel grid by the given method; `kernel_tail` is the share of each
+/// kernel's L1 mass a tile may crop away (`extent`: every output pixel moves by at most
+/// `kernel_tail * max|I|` for unit-sum kernels; 0 crops exact zeros only).
 pub fn convolve_varying_with(
     plane: &[f32],
     width: usize,
@@ -122,6 +141,7 @@ pub fn convolve_varying_with(
     grid: &KernelGrid,
     method: Method,
     blend: Blend,
+    kernel_tail: f64,
 ) -> Vec<f32> {
     assert_eq!(plane.len(), width * height);
     assert!(
@@ -129,12 +149,15 @@ pub fn convolve_varying_with(
         "need at least 2 x 2 nodes"
     );
     assert_eq!(grid.kernels.len(), grid.nodes_x * grid.nodes_y);
-    let kernel_size = grid.kernels[0].size;
+    let reaches: Vec<usize> = grid
+        .kernels
+        .par_iter()
+        .map(|k| half_width_holding(k, kernel_tail))
+        .collect();
     let xs = node_positions(width, grid.nodes_x);
     let ys = node_positions(height, grid.nodes_y);
     let columns = intervals(&xs, width);
     let bands = intervals(&ys, height);
-    let widest = columns.iter().map(|c| c.len()).max().unwrap_or(1);
     let mut out = vec![0.0f32; width * height];
     let mut slices: Vec<&mut [f32]> = Vec::with_capacity(bands.len());
     let mut rest = out.as_mut_slice();
@@ -147,15 +170,12 @@ pub fn convolve_varying_with(
         .into_par_iter()
         .zip(bands.par_iter().enumerate())
         .for_each(|(band, (j, rows))| {
-            let use_fft = match method {
-                Method::Direct => false,
-                Method::Fft => true,
-                Method::Auto => fft_is_cheaper(widest, rows.len(), kernel_size),
-            };
-            let mut band_fft = use_fft.then(|| fft::BandFft::new(grid, j, widest, rows.len()));
+            let mut tile_fft = fft::TileFft::new();
             for (i, tile_columns) in columns.iter().enumerate() {
-                let kernel = |di: usize, dj: usize| &grid.kernels[(j + dj) * grid.nodes_x + i + di];
-                let corners = [kernel(0, 0), kernel(1, 0), kernel(0, 1), kernel(1, 1)];
+                let node = |di: usize, dj: usize| (j + dj) * grid.nodes_x + i + di;
+                let nodes = [node(0, 0), node(1, 0), node(0, 1), node(1, 1)];
+                let corners = nodes.map(|n| &grid.kernels[n]);
+                let size = 2 * nodes.iter().map(|&n| reaches[n]).max().unwrap_or(0) + 1;
                 let tile = Tile {
                     columns: tile_columns,
                     rows,
@@ -163,25 +183,59 @@ pub fn convolve_varying_with(
                     y: (ys[j], ys[j + 1]),
                     blend,
                 };
-                match band_fft.as_mut() {
-                    Some(band_fft) => {
-                        let values = band_fft.convolve_tile(plane, (width, height), i, tile_columns, rows);
-                        tile.blend(band, width, |column, row, _| values.at(column, row));
-                    }
-                    None => tile.blend(band, width, |column, row, weights| {
+                if let Some(value) = flat_value(plane, (width, height), tile_columns, rows, size) {
+                    // Flat input: each corner convolution is the value times the (cropped) kernel's sum.
+                    let sums = corners.map(|k| value * centre_crop(k, size).data.iter().sum::<f32>());
+                    tile.blend(band, width, |_, _, _| sums);
+                    continue;
+                }
+                let use_fft = match method {
+                    Method::Direct => false,
+                    Method::Fft => true,
+                    Method::Auto => fft_is_cheaper(tile_columns.len(), rows.len(), size),
+                };
+                if use_fft {
+                    let kernels = fft::TileKernels {
+                        corners,
+                        columns: (i, i + 1),
+                    };
+                    let values =
+                        tile_fft.convolve_tile(plane, (width, height), &kernels, size, tile_columns, rows);
+                    tile.blend(band, width, |column, row, _| values.at(column, row));
+                } else {
+                    let cropped = corners.map(|k| centre_crop(k, size));
+                    tile.blend(band, width, |column, row, weights| {
                         let mut values = [0.0; 4];
-                        for ((value, kernel), w) in values.iter_mut().zip(corners).zip(weights) {
+                        for ((value, kernel), w) in values.iter_mut().zip(&cropped).zip(weights) {
                             // A corner whose weight is zero here costs nothing.
                             if w != 0.0 {
                                 *value = direct::convolve_at(plane, width, height, kernel, column, row);
                             }
                         }
                         values
-                    }),
+                    });
                 }
             }
         });
     out
+}
+
+/// The value of the input patch a tile's `size` px kernels read (the tile grown by size / 2 on every
+/// side, clamped to the image like the replicated borders), if every pixel of it has that value.
+fn flat_value(
+    plane: &[f32],
+    (width, height): (usize, usize),
+    columns: &Range<usize>,
+    rows: &Range<usize>,
+    size: usize,
+) -> Option<f32> {
+    let half = size / 2;
+    let x = columns.start.saturating_sub(half)..(columns.end + half).min(width);
+    let y = rows.start.saturating_sub(half)..(rows.end + half).min(height);
+    let value = plane[y.start * width + x.start];
+    y.into_iter()
+        .all(|row| plane[row * width..][x.clone()].iter().all(|&v| v == value))
+        .then_some(value)
 }
 
 /// The pixels between node columns x.0..x.1 and node rows y.0..y.1.
@@ -289,8 +343,8 @@ mod tests {
             nodes_y: 2,
             kernels: vec![delta(1), zero.clone(), delta(1), zero],
         };
-        let nearest = convolve_varying_with(&plane, w, h, &grid, Method::Direct, Blend::Nearest);
-        let bilinear = convolve_varying_with(&plane, w, h, &grid, Method::Direct, Blend::Bilinear);
+        let nearest = convolve_varying_with(&plane, w, h, &grid, Method::Direct, Blend::Nearest, 0.0);
+        let bilinear = convolve_varying_with(&plane, w, h, &grid, Method::Direct, Blend::Bilinear, 0.0);
         assert_eq!(&nearest[..w], &[[1.0; 10].as_slice(), &[0.0; 11]].concat());
         assert!((bilinear[5] - 0.75).abs() < 1e-6);
     }
@@ -305,8 +359,8 @@ mod tests {
                 nodes_y,
                 kernels: (0..nodes_x * nodes_y).map(|n| textured(size, n)).collect(),
             };
-            let direct = convolve_varying_with(&plane, w, h, &grid, Method::Direct, Blend::Bilinear);
-            let fft = convolve_varying_with(&plane, w, h, &grid, Method::Fft, Blend::Bilinear);
+            let direct = convolve_varying_with(&plane, w, h, &grid, Method::Direct, Blend::Bilinear, 0.0);
+            let fft = convolve_varying_with(&plane, w, h, &grid, Method::Fft, Blend::Bilinear, 0.0);
             let worst = fft
                 .iter()
                 .zip(&direct)
@@ -314,6 +368,109 @@ mod tests {
             // f32 transforms of ~1e4 points: rounding near 1e-6 of the signal.
             assert!(worst < 2e-5, "{w}x{h}, K={size}: {worst}");
         }
+    }
+
+    /// A normalised kernel of `size` px: a textured core of half-width `core` plus a faint tail of
+    /// total mass `tail_mass` spread over the outer ring.
+    fn cored(size: usize, core: usize, tail_mass: f32, seed: usize) -> Kernel {
+        let mut k = Kernel::zeros(size, 1.0);
+        let half = size / 2;
+        let ring = 8 * half;
+        for y in 0..size {
+            for x in 0..size {
+                let d = x.abs_diff(half).max(y.abs_diff(half));
+                k.data[y * size + x] = if d <= core {
+                    1.0 + ((x * 31 + y * 7 + seed * 17) % 11) as f32
+                } else {
+                    0.0
+                };
+            }
+        }
+        k.normalise();
+        for y in 0..size {
+            for x in 0..size {
+                if x.abs_diff(half).max(y.abs_diff(half)) == half {
+                    k.data[y * size + x] += tail_mass / ring as f32;
+                }
+            }
+        }
+        k
+    }
+
+    #[test]
+    fn cropping_to_the_local_extent_stays_within_its_stated_bound() {
+        // Kernels whose cores range from a delta (axis) to the full size (corner), each with a faint
+        // tail; an image with a flat half (flat tiles are filled without convolving) and a textured one.
+        let (w, h, size) = (97, 71, 25);
+        let plane: Vec<f32> = (0..w * h)
+            .map(|i| {
+                if i % w < 40 {
+                    0.6
+                } else {
+                    ((i * 7919) % 101) as f32 / 101.0
+                }
+            })
+            .collect();
+        let (nodes_x, nodes_y) = (5, 4);
+        let kernels: Vec<Kernel> = (0..nodes_x * nodes_y)
+            .map(|n| cored(size, [0, 1, 3, 6, 12][n % nodes_x].min(size / 2), 1e-4, n))
+            .collect();
+        let grid = KernelGrid {
+            nodes_x,
+            nodes_y,
+            kernels,
+        };
+        let l1 = grid
+            .kernels
+            .iter()
+            .map(|k| k.data.iter().map(|v| v.abs() as f64).sum::<f64>());
+        let largest_l1 = l1.fold(0.0f64, f64::max);
+        let max_input = plane.iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
+        let reference = full_kernel_reference(&plane, w, h, &grid);
+        // 1e-3 crops the 1e-4 tails (kernels shrink to their cores), 1e-5 must keep them.
+        for (tail, crops) in [(1e-3, true), (1e-5, false)] {
+            assert_eq!(
+                half_width_holding(&grid.kernels[0], tail) < size / 2,
+                crops,
+                "tail {tail}"
+            );
+            // The stated bound plus f32 rounding of the FFT (as in the tests above).
+            let bound = tail * largest_l1 * max_input + 2e-5;
+            for method in [Method::Direct, Method::Fft, Method::Auto] {
+                let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear, tail);
+                let worst = out
+                    .iter()
+                    .zip(&reference)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs() as f64));
+                assert!(worst <= bound, "tail {tail}, {method:?}: {worst} > {bound}");
+            }
+        }
+    }
+
+    /// Every pixel by direct summation with the four full corner kernels, blended: no cropping, no
+    /// flat-tile shortcut.
+    fn full_kernel_reference(plane: &[f32], w: usize, h: usize, grid: &KernelGrid) -> Vec<f32> {
+        let xs = node_positions(w, grid.nodes_x);
+        let ys = node_positions(h, grid.nodes_y);
+        let mut out = vec![0.0f32; w * h];
+        for (j, rows) in intervals(&ys, h).iter().enumerate() {
+            let band = &mut out[rows.start * w..rows.end * w];
+            for (i, columns) in intervals(&xs, w).iter().enumerate() {
+                let node = |di: usize, dj: usize| &grid.kernels[(j + dj) * grid.nodes_x + i + di];
+                let corners = [node(0, 0), node(1, 0), node(0, 1), node(1, 1)];
+                let tile = Tile {
+                    columns,
+                    rows,
+                    x: (xs[i], xs[i + 1]),
+                    y: (ys[j], ys[j + 1]),
+                    blend: Blend::Bilinear,
+                };
+                tile.blend(band, w, |column, row, _| {
+                    corners.map(|k| direct::convolve_at(plane, w, h, k, column, row))
+                });
+            }
+        }
+        out
     }
 
     #[test]
@@ -326,7 +483,7 @@ mod tests {
             kernels: (0..12).map(|_| delta(5)).collect(),
         };
         for (method, tolerance) in METHODS {
-            let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear);
+            let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear, 0.0);
             // Bilinear weights sum to one up to f32 rounding.
             assert!(
                 out.iter().zip(&plane).all(|(a, b)| (a - b).abs() < tolerance),
@@ -348,7 +505,7 @@ mod tests {
             kernels,
         };
         for (method, tolerance) in METHODS {
-            let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear);
+            let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear, 0.0);
             assert!(out.iter().all(|v| (v - 0.37).abs() < tolerance), "{method:?}");
         }
     }
@@ -366,7 +523,7 @@ mod tests {
             kernels: vec![k.clone(), k.clone(), k.clone(), k],
         };
         for (method, tolerance) in METHODS {
-            let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear);
+            let out = convolve_varying_with(&plane, w, h, &grid, method, Blend::Bilinear, 0.0);
             // Values up to 15: the FFT's rounding is relative to the signal.
             assert!((out[3 * w + 5] - 4.0).abs() < 15.0 * tolerance, "{method:?}");
             assert!(out[3 * w].abs() < 15.0 * tolerance, "{method:?}");

