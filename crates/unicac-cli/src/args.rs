@@ -2,6 +2,7 @@
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
+use unicac_design::StopPosition;
 use unicac_trace::{Aiming, PupilSampling};
 
 #[derive(Parser)]
@@ -40,9 +41,9 @@ pub enum Command {
     Mtf(MtfArgs),
     /// GPU adapters, backends and features (`unicac gpu info`).
     #[command(subcommand)]
-    Gpu(crate::commands::gpu::GpuCommand),
+    Gpu(GpuCommand),
     /// Automatic lens design (spherical and aspheric) into a lens library; resumes an existing one.
-    Design(crate::commands::design::DesignArgs),
+    Design(DesignArgs),
     /// Benchmark restoration models (ONNX, docs/models.md) and classical methods on a dataset's test split.
     Bench(BenchArgs),
     /// PSNR, SSIM and LPIPS (pyiqa's defaults) of one image pair or two folders matched by file name.
@@ -299,8 +300,8 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub no_cache: bool,
     /// Output format; default: the input's.
-    #[arg(long, value_parser = ["png", "tiff", "exr"])]
-    pub format: Option<String>,
+    #[arg(long, value_enum)]
+    pub format: Option<OutputFormat>,
     /// Picture of the PSF map used (a 7 x 5 grid over the sensor), .png or .svg.
     #[arg(long)]
     pub psf_plot: Option<PathBuf>,
@@ -310,10 +311,27 @@ pub struct SimulateArgs {
     pub crops: Option<PathBuf>,
 }
 
+/// `simulate --format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OutputFormat {
+    Png,
+    Tiff,
+    Exr,
+}
+
+/// `chart KIND`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ChartKind {
+    DeadLeaves,
+    Checkerboard,
+    SlantedEdge,
+    SiemensStar,
+}
+
 #[derive(Args)]
 pub struct ChartArgs {
-    #[arg(value_parser = ["dead-leaves", "checkerboard", "slanted-edge", "siemens-star"])]
-    pub kind: String,
+    #[arg(value_enum)]
+    pub kind: ChartKind,
     /// WIDTHxHEIGHT in pixels.
     #[arg(long, value_parser = parse_size)]
     pub size: [usize; 2],
@@ -548,4 +566,89 @@ fn parse_aiming(text: &str) -> Result<Aiming, String> {
 
 fn parse_sampling(text: &str) -> Result<PupilSampling, String> {
     text.parse()
+}
+
+#[derive(Subcommand)]
+pub enum GpuCommand {
+    /// List GPU adapters (Vulkan), their backends and features, and what `--device auto` would use.
+    Info(GpuInfoArgs),
+}
+
+#[derive(Args)]
+pub struct GpuInfoArgs {
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct DesignArgs {
+    /// Number of elements (1-6).
+    #[arg(long)]
+    pub elements: Option<usize>,
+    /// Half field of view (deg).
+    #[arg(long)]
+    pub half_fov_deg: Option<f64>,
+    #[arg(long)]
+    pub f_number: Option<f64>,
+    /// Aperture stop position: front, middle or back.
+    #[arg(long)]
+    pub stop: Option<StopPosition>,
+    /// Focal length (mm); default 50, or from --sensor.
+    #[arg(long, conflicts_with = "sensor")]
+    pub focal_length_mm: Option<f64>,
+    /// Sensor size WIDTHxHEIGHT in mm (e.g. 36x24): the full field fills its half diagonal.
+    #[arg(long)]
+    pub sensor: Option<String>,
+    /// Also make an aspheric version of each design (conic + r^4..r^10 on two surfaces).
+    #[arg(long)]
+    pub aspheric: bool,
+    /// Designs kept per specification (spherical ones): the COUNT best distinct designs found within the
+    /// budget (the search stops early only when it has converged).
+    #[arg(long, default_value_t = 4)]
+    pub count: usize,
+    /// Stop at the first COUNT acceptable designs instead of keeping the best (fast).
+    #[arg(long)]
+    pub first_acceptable: bool,
+    /// Smallest air gap between neighbouring surfaces over the beam heights (mm); default 0.1 mm at
+    /// f = 50 mm, scaled with the focal length.
+    #[arg(long)]
+    pub min_air_edge_mm: Option<f64>,
+    /// Smallest glass edge thickness at an element's semi-diameter (mm); default 0.7 mm at f = 50 mm,
+    /// scaled with the focal length.
+    #[arg(long)]
+    pub min_glass_edge_mm: Option<f64>,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Wall-clock budget for the whole run (s); work stops cleanly with the designs so far written.
+    #[arg(long)]
+    pub time_budget_s: Option<f64>,
+    /// Accept only designs whose mean RMS spot radius is at most this (um).
+    #[arg(long)]
+    pub max_rms_um: Option<f64>,
+    /// Gradients of the local refinement: exact (dual numbers) or fd (central differences, the baseline).
+    #[arg(long, default_value = "exact", value_parser = ["exact", "fd"])]
+    pub gradient: String,
+    /// Run the specification grid (elements 1-6 x half field 20/30/40 x F/2,3,4 x stop front/middle/back);
+    /// the --grid-* options narrow it.
+    #[arg(long)]
+    pub grid: bool,
+    #[arg(long, value_delimiter = ',')]
+    pub grid_elements: Vec<usize>,
+    #[arg(long, value_delimiter = ',')]
+    pub grid_half_fov_deg: Vec<f64>,
+    #[arg(long, value_delimiter = ',')]
+    pub grid_f_numbers: Vec<f64>,
+    #[arg(long, value_delimiter = ',')]
+    pub grid_stops: Vec<StopPosition>,
+    /// Library directory (lenses/, manifest.jsonl, manifest.csv); an existing one is resumed.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Print the run summary as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Print the specifications this command would design, in the order it designs them (JSON lines:
+    /// slug and the options selecting each as a one-cell grid), and write nothing. Lets a distributed
+    /// driver (unicac-ray design) run one task per specification and merge in the same order.
+    #[arg(long)]
+    pub list_specs: bool,
 }

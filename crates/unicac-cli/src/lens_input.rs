@@ -2,15 +2,11 @@
 
 use anyhow::Result;
 use std::path::Path;
-use unicac_optics::{examples, format, Lens, LensSpec};
-
-pub const BUILTIN_PREFIX: &str = "builtin:";
+pub use unicac_optics::examples::BUILTIN_PREFIX;
+use unicac_optics::{examples, Lens, LensSpec};
 
 pub fn load_spec(argument: &str) -> Result<LensSpec> {
-    if let Some(name) = argument.strip_prefix(BUILTIN_PREFIX) {
-        return Ok(examples::spec(name)?);
-    }
-    let loaded = format::read_spec(Path::new(argument))?;
+    let loaded = examples::resolve_spec(Path::new(argument))?;
     for warning in &loaded.warnings {
         eprintln!("warning: {argument}: {warning}");
     }

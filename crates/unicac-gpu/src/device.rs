@@ -9,7 +9,7 @@ use serde::Serialize;
 pub enum GpuError {
     #[error("no GPU adapter found (Vulkan); on Debian `apt-get install mesa-vulkan-drivers libvulkan1` provides lavapipe, a CPU implementation")]
     NoAdapter,
-    #[error("the adapter '{adapter}' does not offer SHADER_F64; use --gpu-precision f32")]
+    #[error("the adapter '{adapter}' does not offer SHADER_F64 (f64 precision); trace in f32 precision")]
     F64Unsupported { adapter: String },
     #[error("could not open the GPU device: {0}")]
     RequestDevice(String),

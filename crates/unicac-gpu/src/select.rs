@@ -1,6 +1,6 @@
 //! `--device cpu|gpu|auto`: which path a job runs on, decided per job size, with the device opened
 //! lazily (small jobs under `auto` never pay for adapter discovery) and every failure ending on the CPU
-//! with a message, never an error.
+//! with a note for the user (`HitTracer::take_notes`; the face prints it), never an error.
 //!
 //! `auto` takes the GPU only when (a) an adapter exists, (b) it is a real GPU, not a CPU implementation
 //! such as lavapipe (measured slower than the CPU path at every batch size on the same cores, see
@@ -11,9 +11,8 @@ use crate::device::GpuContext;
 use crate::real::Precision;
 use crate::trace::GpuTracer;
 use crate::RaySource;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, OnceLock};
-use unicac_psf::HitTracer;
+use std::sync::{Arc, Mutex, OnceLock};
+use unicac_psf::{HitTracer, PsfResult, RayBackend};
 use unicac_trace::{trace_rays, Ray, RayStatus, TraceSystem};
 
 /// Smallest batch `auto` sends to a GPU. A batch pays a fixed ~0.3-0.5 ms (submit, wait, map; measured
@@ -47,7 +46,8 @@ pub struct DeviceSelection {
     choice: DeviceChoice,
     precision: Precision,
     tracer: OnceLock<Option<GpuTracer>>,
-    warned: AtomicBool,
+    /// Fallbacks to the CPU not yet reported, and whether a trace failure was already noted (once).
+    notes: Mutex<(Vec<String>, bool)>,
 }
 
 impl DeviceSelection {
@@ -56,8 +56,20 @@ impl DeviceSelection {
             choice,
             precision,
             tracer: OnceLock::new(),
-            warned: AtomicBool::new(false),
+            notes: Mutex::new((Vec::new(), false)),
         }
+    }
+
+    /// This policy as the ray backend of PSF settings: the plain CPU tracer for `cpu`.
+    pub fn backend(choice: DeviceChoice, precision: Precision) -> RayBackend {
+        match choice {
+            DeviceChoice::Cpu => RayBackend::cpu(),
+            _ => RayBackend::new(Arc::new(DeviceSelection::new(choice, precision))),
+        }
+    }
+
+    fn note(&self, text: String) {
+        self.notes.lock().unwrap_or_else(|e| e.into_inner()).0.push(text);
     }
 
     pub fn choice(&self) -> DeviceChoice {
@@ -85,7 +97,9 @@ impl DeviceSelection {
                     Ok(tracer) => Some(tracer),
                     Err(error) => {
                         if self.choice == DeviceChoice::Gpu {
-                            eprintln!("warning: --device gpu: {error}; tracing on the CPU instead");
+                            self.note(format!(
+                                "GPU requested but not available ({error}); tracing on the CPU instead"
+                            ));
                         }
                         None
                     }
@@ -95,24 +109,31 @@ impl DeviceSelection {
     }
 
     fn fall_back(&self, error: impl std::fmt::Display) {
-        if !self.warned.swap(true, Ordering::Relaxed) {
-            eprintln!("warning: GPU trace failed ({error}); continuing on the CPU");
+        let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
+        if !std::mem::replace(&mut notes.1, true) {
+            notes
+                .0
+                .push(format!("GPU trace failed ({error}); continuing on the CPU"));
         }
     }
 }
 
 impl HitTracer for DeviceSelection {
-    fn trace(&self, system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
+    fn trace(&self, system: &TraceSystem, rays: &mut [Ray]) -> PsfResult<Vec<RayStatus>> {
         if let Some(tracer) = self.tracer_for(rays.len()) {
             match tracer.trace(system, &RaySource::Host(rays)) {
                 Ok(traced) => {
                     rays.copy_from_slice(&traced.rays);
-                    return traced.statuses;
+                    return Ok(traced.statuses);
                 }
                 Err(error) => self.fall_back(error),
             }
         }
-        trace_rays(system, rays)
+        Ok(trace_rays(system, rays))
+    }
+
+    fn take_notes(&self) -> Vec<String> {
+        std::mem::take(&mut self.notes.lock().unwrap_or_else(|e| e.into_inner()).0)
     }
 
     fn describe(&self) -> String {

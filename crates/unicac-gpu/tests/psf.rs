@@ -168,9 +168,9 @@ fn psf_tracer_with_the_gpu_hit_tracer_matches_the_cpu() {
         &unicac_psf::visible_wavelengths_um(7),
     );
     let settings = PsfSettings::new(1.5);
-    let cpu = PsfTracer::new(&lens, weights.clone(), settings).unwrap();
-    let mut gpu = PsfTracer::new(&lens, weights, settings).unwrap();
-    gpu.set_hit_tracer(std::sync::Arc::new(unicac_gpu::GpuHitTracer::new(tracer, 0)));
+    let cpu = PsfTracer::new(&lens, weights.clone(), settings.clone()).unwrap();
+    let backend = unicac_psf::RayBackend::new(std::sync::Arc::new(unicac_gpu::GpuHitTracer::new(tracer, 0)));
+    let gpu = PsfTracer::new(&lens, weights, settings.with_backend(backend)).unwrap();
     let field = 25.0;
     let expected = cpu.field_psf(field, 41, false).unwrap();
     let got = gpu.field_psf(field, 41, false).unwrap();

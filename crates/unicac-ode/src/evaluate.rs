@@ -8,7 +8,10 @@ use unicac_metrics::{
     OdeWeights, OiqeWeights, Roi, SlantedEdgeOptions,
 };
 use unicac_optics::Lens;
-use unicac_psf::{visible_wavelengths_um, Kernel, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights};
+use unicac_psf::{
+    visible_wavelengths_um, DarkFields, Kernel, PsfError, PsfSettings, PsfTracer, RayBackend,
+    SpectralResponse, SpectralWeights,
+};
 use unicac_sim::ChiefRayMap;
 use unicac_trace::{spots, Aiming, PupilSampling};
 
@@ -53,6 +56,9 @@ pub struct OdeSettings {
     pub contrast: f64,
     pub weights: OdeWeights,
     pub oiqe_weights: OiqeWeights,
+    /// Who traces the PSF rays (CPU or GPU), chosen by the face.
+    #[serde(skip)]
+    pub backend: RayBackend,
 }
 
 impl Default for OdeSettings {
@@ -68,6 +74,7 @@ impl Default for OdeSettings {
             contrast: 1.0,
             weights: OdeWeights::default(),
             oiqe_weights: OiqeWeights::default(),
+            backend: RayBackend::cpu(),
         }
     }
 }
@@ -108,6 +115,15 @@ pub struct OdeReport {
     pub times: StageTimes,
 }
 
+/// One lens's report under the name it was given (a `builtin:NAME` or a path): an entry of
+/// `unicac ode --json`'s `lenses` list and the dict of Python's `unicac.ode`.
+#[derive(Debug, Clone, Serialize)]
+pub struct LensOde {
+    pub lens: String,
+    #[serde(flatten)]
+    pub report: OdeReport,
+}
+
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
 /// Wall-clock seconds spent per stage of one evaluation.
@@ -144,7 +160,7 @@ impl EvaluationSetup {
                 )
             }
         };
-        let mut psf_settings = PsfSettings::new(pixel_um);
+        let mut psf_settings = PsfSettings::new(pixel_um).with_backend(settings.backend.clone());
         psf_settings.pupil_sampling = PupilSampling::Fibonacci {
             n: settings.rays_per_psf,
         };
@@ -167,38 +183,27 @@ impl EvaluationSetup {
             .iter()
             .map(|f| self.chief.angle_for_height(f * self.half_diagonal_mm))
             .collect();
-        let traced: Vec<_> = angles
-            .par_iter()
-            .map(|&angle| {
-                let reference = self.tracer.reference_point_mm(angle)?;
-                Ok((reference, self.tracer.hits(angle, reference)))
-            })
-            .collect::<Result<Vec<_>, OdeError>>()?;
-        for ((&fraction, &angle), (_, hits)) in fractions.iter().zip(&angles).zip(&traced) {
-            if hits.iter().all(|h| h.offsets_um.is_empty()) {
-                return Err(OdeError::Vignetted {
-                    field_fraction: fraction,
-                    field_deg: angle,
-                });
-            }
-        }
-        let kernel_px = traced
-            .iter()
-            .map(|(_, hits)| self.tracer.kernel_size_for(hits))
-            .max()
-            .unwrap_or(1)
-            .min(self.tracer.settings().max_kernel_px);
+        let set = self
+            .tracer
+            .common_size_psfs(&angles, false, DarkFields::Refused)
+            .map_err(|error| match error {
+                PsfError::FieldVignetted { field_deg, .. } => OdeError::Vignetted {
+                    field_fraction: angles
+                        .iter()
+                        .position(|&a| a == field_deg)
+                        .map_or(f64::NAN, |i| fractions[i]),
+                    field_deg,
+                },
+                other => other.into(),
+            })?;
         Ok(fractions
             .iter()
             .zip(&angles)
-            .zip(&traced)
-            .map(|((&fraction, &angle), (reference, hits))| FieldKernels {
+            .zip(set.psfs)
+            .map(|((&fraction, &angle), psf)| FieldKernels {
                 fraction,
                 angle_deg: angle,
-                kernels: self
-                    .tracer
-                    .kernels_from_hits(angle, *reference, hits, kernel_px, false)
-                    .kernels,
+                kernels: psf.kernels,
             })
             .collect())
     }

@@ -13,5 +13,5 @@ pub mod evaluate;
 
 pub use evaluate::{
     edge_patches, evaluate, lens_mtf, score_fields, EdgePatch, EvaluationSetup, FieldChannelScore,
-    FieldKernels, LensMtf, OdeError, OdeReport, OdeSettings,
+    FieldKernels, LensMtf, LensOde, OdeError, OdeReport, OdeSettings,
 };

@@ -24,6 +24,26 @@ pub const LENSES: &[(&str, &str)] = &[
     ),
 ];
 
+/// How a LENS argument names a bundled lens: `builtin:NAME`.
+pub const BUILTIN_PREFIX: &str = "builtin:";
+
+/// A LENS argument as every face takes it: `builtin:NAME` (a bundled lens) or the path of a `.json` /
+/// `.zmx` file, read into its spec with the reader's warnings (which the face shows).
+pub fn resolve_spec(argument: &Path) -> Result<crate::format::LoadedSpec> {
+    if let Some(name) = argument.to_str().and_then(|a| a.strip_prefix(BUILTIN_PREFIX)) {
+        return Ok(crate::format::LoadedSpec {
+            spec: spec(name)?,
+            warnings: Vec::new(),
+        });
+    }
+    crate::format::read_spec(argument)
+}
+
+/// Whether a LENS argument names a bundled lens rather than a file.
+pub fn is_builtin(argument: &str) -> bool {
+    argument.starts_with(BUILTIN_PREFIX)
+}
+
 pub fn names() -> impl Iterator<Item = &'static str> {
     LENSES.iter().map(|(name, _)| *name)
 }

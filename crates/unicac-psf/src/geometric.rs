@@ -11,11 +11,10 @@
 //! sensor -y (the sensor's +y is up, image rows go down).
 
 use crate::error::{PsfError, PsfResult};
-use crate::hit_tracer::{default_hit_tracer, HitTracer};
+use crate::hit_tracer::RayBackend;
 use crate::kernel::{rasterise, size_for_fraction, Kernel};
 use crate::spectrum::{combine_channels, SpectralWeights};
 use serde::{Deserialize, Serialize};
-use std::sync::Arc;
 use unicac_optics::Lens;
 use unicac_trace::{Aimer, Aiming, Clipping, PupilSampling, StatusCounts, TraceSystem};
 
@@ -34,7 +33,7 @@ pub fn check_kernel_cap(max_kernel_px: usize) -> Result<usize, String> {
 }
 
 /// Fidelity knobs of a geometric PSF (defaults from the sweep in docs/performance.md).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PsfSettings {
     pub pupil_sampling: PupilSampling,
     pub aiming: Aiming,
@@ -46,6 +45,10 @@ pub struct PsfSettings {
     pub energy_fraction: f64,
     /// Largest kernel size (odd); bigger spots are cut, with a warning naming the lost energy.
     pub max_kernel_px: usize,
+    /// Who traces the rays (CPU or GPU), chosen by the face; its description is part of every cache
+    /// key built from these settings.
+    #[serde(skip)]
+    pub backend: RayBackend,
 }
 
 impl PsfSettings {
@@ -57,7 +60,13 @@ impl PsfSettings {
             pixel_um,
             energy_fraction: 0.995,
             max_kernel_px: 127,
+            backend: RayBackend::cpu(),
         }
+    }
+
+    /// These settings traced by `backend`.
+    pub fn with_backend(self, backend: RayBackend) -> PsfSettings {
+        PsfSettings { backend, ..self }
     }
 
     /// These settings, or, given a size, the whole PSF: the kernel sized to hold every ray (energy
@@ -133,8 +142,6 @@ pub struct PsfTracer {
     weights: SpectralWeights,
     systems: Vec<(TraceSystem, Aimer)>,
     reference: ChiefReference,
-    /// Who traces the rays (CPU or GPU; `hit_tracer::default_hit_tracer` unless set).
-    hit_tracer: Arc<dyn HitTracer>,
 }
 
 impl PsfTracer {
@@ -161,18 +168,12 @@ impl PsfTracer {
             weights,
             systems,
             reference,
-            hit_tracer: default_hit_tracer(),
         })
-    }
-
-    /// Traces this tracer's rays with `tracer` (e.g. the GPU) instead of the process default.
-    pub fn set_hit_tracer(&mut self, tracer: Arc<dyn HitTracer>) {
-        self.hit_tracer = tracer;
     }
 
     /// Which device traces the rays ("cpu", "gpu (f32, ...)"): part of a PSF's provenance and cache key.
     pub fn device(&self) -> String {
-        self.hit_tracer.describe()
+        self.settings.backend.describe()
     }
 
     pub fn settings(&self) -> &PsfSettings {
@@ -189,7 +190,7 @@ impl PsfTracer {
     }
 
     /// Hits of every wavelength for one field, relative to `reference_mm`.
-    pub fn hits(&self, field_deg: f64, reference_mm: [f64; 2]) -> Vec<FieldHits> {
+    pub fn hits(&self, field_deg: f64, reference_mm: [f64; 2]) -> PsfResult<Vec<FieldHits>> {
         self.systems
             .iter()
             .map(|(system, aimer)| {
@@ -198,7 +199,7 @@ impl PsfTracer {
                     .iter()
                     .filter_map(|[px, py]| aimer.ray(field_deg, *px, *py).ok())
                     .collect();
-                let statuses = self.hit_tracer.trace(system, &mut rays);
+                let statuses = self.settings.backend.trace(system, &mut rays)?;
                 let mut counts = StatusCounts::from_statuses(&statuses);
                 counts.missed += self.pupil.len() - rays.len();
                 let offsets_um = rays
@@ -212,11 +213,11 @@ impl PsfTracer {
                         ]
                     })
                     .collect();
-                FieldHits {
+                Ok(FieldHits {
                     wavelength_um: system.wavelength_um,
                     offsets_um,
                     counts,
-                }
+                })
             })
             .collect()
     }
@@ -251,7 +252,7 @@ impl PsfTracer {
     /// R, G, B kernels of `size` pixels (or a single kernel when `monochromatic`).
     pub fn field_psf(&self, field_deg: f64, size: usize, monochromatic: bool) -> PsfResult<FieldPsf> {
         let reference_mm = self.reference_point_mm(field_deg)?;
-        let hits = self.hits(field_deg, reference_mm);
+        let hits = self.hits(field_deg, reference_mm)?;
         Ok(self.kernels_from_hits(field_deg, reference_mm, &hits, size, monochromatic))
     }
 

@@ -6,18 +6,25 @@
 //!
 //! Hand-written: the rasteriser and the spectral weighting are the product's own optics.
 
+pub mod cache;
 pub mod error;
+pub mod fields;
 pub mod geometric;
 pub mod hit_tracer;
 pub mod kernel;
 pub mod spectrum;
 pub mod wave;
 
+pub use cache::{cache_root, lens_fingerprint, PsfCache};
 pub use error::{PsfError, PsfResult};
+pub use fields::{
+    check_pixel_um, weights_for, CommonSizePsfs, DarkFields, FieldPsfRequest, FieldPsfResponse, PsfMetadata,
+    PsfMode, PsfReport, DEFAULT_PIXEL_UM, DEFAULT_WAVELENGTHS, MIN_WAVE_KERNEL_PX,
+};
 pub use geometric::{
     check_kernel_cap, ChiefReference, FieldHits, FieldPsf, PsfSettings, PsfTracer, KERNEL_PX_LIMIT,
 };
-pub use hit_tracer::{default_hit_tracer, set_default_hit_tracer, CpuHitTracer, HitTracer};
+pub use hit_tracer::{CpuHitTracer, HitTracer, RayBackend};
 pub use kernel::Kernel;
 pub use spectrum::{visible_wavelengths_um, SpectralResponse, SpectralWeights};
 pub use wave::{Transform, WaveFieldPsf, WavePsfSettings, WavePsfTracer, WaveSampling, Wavefront};

@@ -67,6 +67,12 @@ create_exception!(
     "The Optical Degradation Evaluator failed for a lens."
 );
 
+/// A library parameter error as a `ValueError` naming the Python keyword (`fields_deg` for the
+/// library's `field_deg` when the keyword takes a list).
+pub fn keyword_error(keyword: &str, parameter: unicac_trace::InvalidParameter) -> PyErr {
+    pyo3::exceptions::PyValueError::new_err(format!("{keyword}: {}", parameter.message))
+}
+
 /// A Rust error that knows which Python exception it becomes.
 pub trait ToPyErr {
     fn to_py_err(self) -> PyErr;
@@ -103,6 +109,10 @@ impl ToPyErr for unicac_psf::PsfError {
         match self {
             unicac_psf::PsfError::Optics(e) => e.to_py_err(),
             unicac_psf::PsfError::Trace(e) => e.to_py_err(),
+            // The library names the parameter as the Python keyword does.
+            unicac_psf::PsfError::InvalidParameter(parameter) => {
+                pyo3::exceptions::PyValueError::new_err(parameter.to_string())
+            }
             other => PsfError::new_err(other.to_string()),
         }
     }

@@ -6,11 +6,10 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
-use unicac_optics::{examples, format, Lens, LensSpec};
+use unicac_optics::{examples, Lens, LensSpec};
 use unicac_trace::LensSummary;
 
 /// Prefix naming a lens bundled with unicac, as on the command line.
-pub const BUILTIN_PREFIX: &str = "builtin:";
 
 /// A validated lens (from a `.json` or `.zmx` file or `builtin:NAME`). Immutable.
 #[pyclass(module = "unicac", name = "Lens", frozen)]
@@ -139,11 +138,7 @@ impl PyLens {
 #[pyo3(signature = (path))]
 pub fn load_lens(path: PathBuf) -> PyResult<PyLens> {
     let text = path.to_string_lossy().into_owned();
-    if let Some(name) = text.strip_prefix(BUILTIN_PREFIX) {
-        let spec = examples::spec(name).or_raise()?;
-        return PyLens::from_spec(spec, text, Vec::new());
-    }
-    let loaded = format::read_spec(&path).or_raise()?;
+    let loaded = examples::resolve_spec(&path).or_raise()?;
     PyLens::from_spec(loaded.spec, text, loaded.warnings)
 }
 

@@ -6,6 +6,7 @@
 //! - `errors`: Rust errors -> named Python exceptions (one place);
 //! - `arrays`: numpy in and out, with dtype/shape checks that name the argument;
 //! - `json`: the CLI's JSON structs as Python dicts;
+//! - `device`: the `device=` keyword (the ray backend of PSF tracing);
 //! - `lens`, `trace`, `psf`, `simulate`, `isp`, `ode`, `dataset`: the API, one module per stage.
 //!
 //! Every call that traces or renders releases the GIL before the parallel (rayon) work, on a thread
@@ -13,6 +14,7 @@
 
 mod arrays;
 mod dataset;
+mod device;
 mod errors;
 mod images;
 mod isp;

@@ -7,31 +7,28 @@ use crate::lens::PyLens;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use serde::Serialize;
 use unicac_ode::evaluate::edge_mtfs;
-use unicac_ode::{evaluate, OdeReport, OdeSettings};
+use unicac_ode::{evaluate, LensOde, OdeSettings};
 use unicac_psf::Kernel;
-
-/// One entry of `unicac ode --json`'s `lenses` list.
-#[derive(Serialize)]
-struct LensOde<'a> {
-    lens: &'a str,
-    #[serde(flatten)]
-    report: OdeReport,
-}
 
 /// ODE, OIQ, uniformity, OIQE, PSNR, SSIM and RMS spot radius of a lens with the default settings
 /// (docs/ode.md): a dict with the keys of one entry of `unicac ode LENS --json` (`lens` is the
-/// lens's source; `times` are wall-clock seconds and vary run to run). GIL released.
+/// lens's source; `times` are wall-clock seconds and vary run to run). `device`: "cpu", "gpu" or
+/// "auto", who traces the PSF rays (as `unicac ode --device`). GIL released.
 #[pyfunction]
-pub fn ode<'py>(py: Python<'py>, lens: &PyLens) -> PyResult<Bound<'py, PyDict>> {
-    let settings = OdeSettings::default();
-    let report = crate::pool::detach(py, || evaluate(&lens.lens, &settings).or_raise())?;
+#[pyo3(signature = (lens, device="cpu"))]
+pub fn ode<'py>(py: Python<'py>, lens: &PyLens, device: &str) -> PyResult<Bound<'py, PyDict>> {
+    let settings = OdeSettings {
+        backend: crate::device::backend(device)?,
+        ..OdeSettings::default()
+    };
+    let report = crate::pool::detach(py, || evaluate(&lens.lens, &settings).or_raise());
+    crate::device::warn_notes(py, &settings.backend)?;
     json::serialize_dict(
         py,
         &LensOde {
-            lens: &lens.source,
-            report,
+            lens: lens.source.clone(),
+            report: report?,
         },
     )
 }

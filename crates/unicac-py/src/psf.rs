@@ -4,36 +4,9 @@ use crate::arrays::f32_array;
 use crate::errors::{OrRaise, PsfError};
 use crate::json;
 use crate::lens::PyLens;
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use serde::Serialize;
-use unicac_optics::Lens;
-use unicac_psf::{
-    visible_wavelengths_um, FieldPsf, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights,
-    WavePsfSettings, WavePsfTracer,
-};
-
-/// Pixel pitch when neither `pixel_um` nor the lens's sensor gives one (as `unicac psf`).
-const DEFAULT_PIXEL_UM: f64 = 2.0;
-/// Smallest wave-optics kernel (room for the diffraction rings), as `unicac psf`.
-const MIN_WAVE_KERNEL_PX: usize = 31;
-
-/// The metadata `unicac psf --json` reports (without `lens` and `out`).
-#[derive(Serialize, Clone)]
-struct PsfMetadata {
-    mode: String,
-    field_deg: f64,
-    pixel_um: f64,
-    kernel_px: usize,
-    wavelengths_um: Vec<f64>,
-    skipped_wavelengths_um: Vec<f64>,
-    channels: Vec<&'static str>,
-    reference_mm: [f64; 2],
-    transmission: f64,
-    energy_cut: Vec<f64>,
-    rays_traced: usize,
-}
+use unicac_psf::{FieldPsf, FieldPsfRequest, PsfMetadata, PsfMode, SpectralWeights};
 
 /// The PSF of one field: `kernels` is float32 of shape (C, K, K) (C = 3 for R, G, B, or 1 for a
 /// monochromatic PSF), each kernel summing to 1, rows running down the image (towards sensor -y) and
@@ -55,8 +28,8 @@ impl PyPsf {
     }
     /// "geometric" or "wave".
     #[getter]
-    fn mode(&self) -> &str {
-        &self.meta.mode
+    fn mode(&self) -> &'static str {
+        self.meta.mode.name()
     }
     #[getter]
     fn field_deg(&self) -> f64 {
@@ -110,44 +83,6 @@ impl PyPsf {
     }
 }
 
-/// Geometric PSF sized from the spot (as `unicac psf --mode geometric`).
-fn geometric(
-    lens: &Lens,
-    weights: SpectralWeights,
-    pixel_um: f64,
-    field_deg: f64,
-    mono: bool,
-    max_kernel_px: Option<usize>,
-) -> PyResult<FieldPsf> {
-    let settings = PsfSettings::new(pixel_um).with_kernel_cap(max_kernel_px);
-    let tracer = PsfTracer::new(lens, weights, settings).or_raise()?;
-    let reference = tracer.reference_point_mm(field_deg).or_raise()?;
-    let hits = tracer.hits(field_deg, reference);
-    let size = tracer.kernel_size_for(&hits);
-    Ok(tracer.kernels_from_hits(field_deg, reference, &hits, size, mono))
-}
-
-/// Wave-optics PSF sized like the geometric one of the same field, at least 31 px (as `unicac psf
-/// --mode wave`). Returns the PSF and whether the pupil grid undersampled the wavefront.
-fn wave(
-    lens: &Lens,
-    weights: SpectralWeights,
-    pixel_um: f64,
-    field_deg: f64,
-    mono: bool,
-) -> PyResult<(FieldPsf, bool)> {
-    let sizing = PsfTracer::new(lens, weights.clone(), PsfSettings::new(pixel_um)).or_raise()?;
-    let reference = sizing.reference_point_mm(field_deg).or_raise()?;
-    let size = sizing
-        .kernel_size_for(&sizing.hits(field_deg, reference))
-        .max(MIN_WAVE_KERNEL_PX);
-    let tracer = WavePsfTracer::new(lens, weights, WavePsfSettings::new(pixel_um)).or_raise()?;
-    let detailed = tracer
-        .field_psf_detailed(field_deg, reference, size, mono)
-        .or_raise()?;
-    Ok((detailed.psf, detailed.undersampled))
-}
-
 /// The PSF at field angle `field_deg`, as `unicac psf` computes it.
 ///
 /// `wavelengths_um`: None gives R, G, B kernels over 400-700 nm (31 wavelengths, the default camera's
@@ -157,7 +92,7 @@ fn wave(
 /// (geometric mode; odd, at most 4095): the kernel holds every ray up to this size instead of 99.5% of
 /// the energy within 127 px. GIL released.
 #[pyfunction]
-#[pyo3(signature = (lens, field_deg, wavelengths_um=None, mode="geometric", pixel_um=None, object_distance_mm=None, max_kernel_px=None))]
+#[pyo3(signature = (lens, field_deg, wavelengths_um=None, mode="geometric", pixel_um=None, object_distance_mm=None, max_kernel_px=None, device="cpu"))]
 #[allow(clippy::too_many_arguments)]
 pub fn psf(
     py: Python<'_>,
@@ -168,26 +103,14 @@ pub fn psf(
     pixel_um: Option<f64>,
     object_distance_mm: Option<f64>,
     max_kernel_px: Option<usize>,
+    device: &str,
 ) -> PyResult<PyPsf> {
-    if let Some(n) = max_kernel_px {
-        unicac_psf::check_kernel_cap(n).map_err(|e| PyValueError::new_err(format!("max_kernel_px: {e}")))?;
-    }
-    if mode != "geometric" && mode != "wave" {
-        return Err(PyValueError::new_err(format!(
-            "mode: '{mode}': expected \"geometric\" or \"wave\""
-        )));
-    }
-    if !(field_deg.is_finite() && field_deg.abs() < 90.0) {
-        return Err(PyValueError::new_err(format!(
-            "field_deg: {field_deg} must lie strictly between -90 and 90"
-        )));
-    }
-    let wavelengths = wavelengths_um.unwrap_or_default();
-    if let Some(bad) = wavelengths.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
-        return Err(PyValueError::new_err(format!(
-            "wavelengths_um: {bad} must be positive"
-        )));
-    }
+    let mode: PsfMode = mode.parse().or_raise()?;
+    let request = FieldPsfRequest::new(mode, vec![field_deg], wavelengths_um.unwrap_or_default())
+        .and_then(|r| r.with_kernel_cap(max_kernel_px))
+        .and_then(|r| r.with_pixel_um(pixel_um))
+        .or_raise()?
+        .with_backend(crate::device::backend(device)?);
     let owned;
     let lens_ref = match object_distance_mm {
         Some(_) => {
@@ -196,40 +119,29 @@ pub fn psf(
         }
         None => &lens.lens,
     };
-    let pixel_um = pixel_um
-        .or(lens_ref.sensor.map(|s| s.pixel_pitch_um))
-        .unwrap_or(DEFAULT_PIXEL_UM);
-    if !(pixel_um.is_finite() && pixel_um > 0.0) {
-        return Err(PyValueError::new_err(format!(
-            "pixel_um: {pixel_um} must be positive"
-        )));
-    }
-    let mono = wavelengths.len() == 1;
-    let weights = match wavelengths.as_slice() {
-        [] => SpectralWeights::new(&SpectralResponse::default_camera(), &visible_wavelengths_um(31)),
-        [w] => SpectralWeights::monochromatic(*w),
-        many => SpectralWeights::new(&SpectralResponse::default_camera(), many),
-    };
-    let (field_psf, undersampled) = crate::pool::detach(py, || match mode {
-        "wave" => wave(lens_ref, weights.clone(), pixel_um, field_deg, mono),
-        _ => geometric(
-            lens_ref,
-            weights.clone(),
-            pixel_um,
-            field_deg,
-            mono,
-            max_kernel_px,
-        )
-        .map(|p| (p, false)),
-    })?;
-    from_field_psf(py, &field_psf, mode, pixel_um, &weights, undersampled)
+    let pixel_um = request.pixel_um_for(lens_ref).or_raise()?;
+    let traced = crate::pool::detach(py, || request.run(lens_ref).or_raise());
+    crate::device::warn_notes(py, request.backend())?;
+    let mut traced = traced?;
+    let field_psf = traced
+        .psfs
+        .pop()
+        .ok_or_else(|| PsfError::new_err("no PSF was traced"))?;
+    from_field_psf(
+        py,
+        &field_psf,
+        mode,
+        pixel_um,
+        &traced.weights,
+        traced.undersampled,
+    )
 }
 
 /// Wraps a computed `FieldPsf`.
 pub fn from_field_psf(
     py: Python<'_>,
     field_psf: &FieldPsf,
-    mode: &str,
+    mode: PsfMode,
     pixel_um: f64,
     weights: &SpectralWeights,
     undersampled: bool,
@@ -239,11 +151,6 @@ pub fn from_field_psf(
         .first()
         .map(|k| k.size)
         .ok_or_else(|| PsfError::new_err("the PSF has no kernel"))?;
-    let channels: Vec<&'static str> = if field_psf.kernels.len() == 1 {
-        vec!["Y"]
-    } else {
-        vec!["R", "G", "B"]
-    };
     let data: Vec<f32> = field_psf
         .kernels
         .iter()
@@ -252,19 +159,7 @@ pub fn from_field_psf(
     let kernels = f32_array(py, data, &[field_psf.kernels.len(), size, size])?.unbind();
     Ok(PyPsf {
         kernels,
-        meta: PsfMetadata {
-            mode: mode.to_string(),
-            field_deg: field_psf.field_deg,
-            pixel_um,
-            kernel_px: size,
-            wavelengths_um: weights.wavelengths_um.clone(),
-            skipped_wavelengths_um: weights.skipped_um.clone(),
-            channels,
-            reference_mm: field_psf.reference_mm,
-            transmission: field_psf.transmission,
-            energy_cut: field_psf.energy_cut.clone(),
-            rays_traced: field_psf.rays_traced,
-        },
+        meta: PsfMetadata::new(mode, field_psf, pixel_um, weights),
         undersampled,
     })
 }

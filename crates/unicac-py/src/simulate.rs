@@ -70,9 +70,11 @@ impl PySimulator {
 impl PySimulator {
     /// Traces the PSFs of `lens` for `width_px` x `height_px` images. `pixel_um`: the sensor pitch;
     /// None makes the lens's largest field fill the image's half-diagonal. `distortion` and
-    /// `illumination` switch the geometric warp and the relative illumination. GIL released.
+    /// `illumination` switch the geometric warp and the relative illumination. `device`: "cpu", "gpu"
+    /// or "auto", who traces the PSF rays (as `unicac simulate --device`). GIL released.
     #[new]
-    #[pyo3(signature = (lens, width_px, height_px, pixel_um=None, distortion=true, illumination=true))]
+    #[pyo3(signature = (lens, width_px, height_px, pixel_um=None, distortion=true, illumination=true, device="cpu"))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         lens: &PyLens,
@@ -81,17 +83,21 @@ impl PySimulator {
         pixel_um: Option<f64>,
         distortion: bool,
         illumination: bool,
+        device: &str,
     ) -> PyResult<PySimulator> {
         check_size(width_px, height_px)?;
-        let settings = SimulationSettings {
+        let mut settings = SimulationSettings {
             distortion,
             illumination,
             ..Default::default()
         };
+        settings.psf.backend = crate::device::backend(device)?;
+        let backend = settings.psf.backend.clone();
         let sim = crate::pool::detach(py, || {
             LensSimulator::new(&lens.lens, width_px, height_px, pixel_um, settings).or_raise()
-        })?;
-        Ok(PySimulator { sim })
+        });
+        crate::device::warn_notes(py, &backend)?;
+        Ok(PySimulator { sim: sim? })
     }
 
     #[getter]
@@ -315,9 +321,10 @@ impl PySimulator {
 /// Simulates one image through `lens`, as `unicac simulate LENS IMAGE --seed SEED` (same flags:
 /// `isp`, `noise`, `illumination`, `distortion`, `sensor_bits`). `image`: H x W x 3 uint8/uint16 (sRGB) or float32
 /// (linear); the result has the same dtype and representation. For many images of one size, build a
-/// `Simulator` once instead (the PSFs are traced per call here). GIL released.
+/// `Simulator` once instead (the PSFs are traced per call here). `device` as for `Simulator`. GIL
+/// released.
 #[pyfunction]
-#[pyo3(signature = (lens, image, pixel_um=None, seed=0, isp=true, noise=true, illumination=true, distortion=true, sensor_bits=10))]
+#[pyo3(signature = (lens, image, pixel_um=None, seed=0, isp=true, noise=true, illumination=true, distortion=true, sensor_bits=10, device="cpu"))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
     py: Python<'py>,
@@ -330,6 +337,7 @@ pub fn simulate<'py>(
     illumination: bool,
     distortion: bool,
     sensor_bits: u8,
+    device: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
     let (linear, _) = image_linear(image, "image")?;
     let simulator = PySimulator::new(
@@ -340,14 +348,16 @@ pub fn simulate<'py>(
         pixel_um,
         distortion,
         illumination,
+        device,
     )?;
     simulator.simulate(py, image, seed, isp, noise, sensor_bits)
 }
 
 /// PSFs over a `width_px` x `height_px` image at the centres of a `nodes_y` x `nodes_x` grid (see
-/// `Simulator.psf_grid`). GIL released.
+/// `Simulator.psf_grid`); `device` as for `Simulator`. GIL released.
 #[pyfunction]
-#[pyo3(signature = (lens, width_px, height_px, nodes_x, nodes_y, pixel_um=None))]
+#[pyo3(signature = (lens, width_px, height_px, nodes_x, nodes_y, pixel_um=None, device="cpu"))]
+#[allow(clippy::too_many_arguments)]
 pub fn psf_grid<'py>(
     py: Python<'py>,
     lens: &PyLens,
@@ -356,8 +366,9 @@ pub fn psf_grid<'py>(
     nodes_x: usize,
     nodes_y: usize,
     pixel_um: Option<f64>,
+    device: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let simulator = PySimulator::new(py, lens, width_px, height_px, pixel_um, true, true)?;
+    let simulator = PySimulator::new(py, lens, width_px, height_px, pixel_um, true, true, device)?;
     simulator.psf_grid(py, nodes_x, nodes_y)
 }
 

@@ -4,7 +4,7 @@
 //! 4 no_convergence, 5 invalid_input — the names `unicac trace --json` prints.
 
 use crate::arrays::{f64_array, i32_array, rows_f64};
-use crate::errors::OrRaise;
+use crate::errors::{keyword_error, OrRaise};
 use crate::json;
 use crate::lens::PyLens;
 use pyo3::exceptions::PyValueError;
@@ -47,12 +47,7 @@ fn failed_surface(status: &RayStatus) -> i32 {
 
 pub fn wavelength_or_primary(lens: &PyLens, wavelength_um: Option<f64>) -> PyResult<f64> {
     let w = wavelength_um.unwrap_or_else(|| lens.lens.primary_wavelength_um());
-    if !(w.is_finite() && w > 0.0) {
-        return Err(PyValueError::new_err(format!(
-            "wavelength_um: {w} must be positive"
-        )));
-    }
-    Ok(w)
+    unicac_trace::check_wavelength_um(w).map_err(|e| keyword_error("wavelength_um", e))
 }
 
 pub fn parse_aiming(aiming: &str) -> PyResult<Aiming> {
@@ -181,11 +176,7 @@ pub fn aim_rays<'py>(
     let pupil = rows_f64::<2>(pupil, "pupil")?;
     let wavelength = wavelength_or_primary(lens, wavelength_um)?;
     let aiming = parse_aiming(aiming)?;
-    if !(field_deg.is_finite() && field_deg.abs() < 90.0) {
-        return Err(PyValueError::new_err(format!(
-            "field_deg: {field_deg} must lie strictly between -90 and 90"
-        )));
-    }
+    unicac_trace::check_field_deg(field_deg).map_err(|e| keyword_error("field_deg", e))?;
     let rays: Vec<Option<Ray>> = crate::pool::detach(py, || {
         let aimer = Aimer::new(&lens.lens, wavelength, aiming).or_raise()?;
         Ok::<_, PyErr>(
@@ -226,16 +217,8 @@ pub fn spots<'py>(
         None => lens.lens.first_order().or_raise()?.field_angles_deg,
     };
     let wavelengths = wavelengths_um.unwrap_or_else(|| lens.lens.wavelengths_um());
-    if let Some(bad) = wavelengths.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
-        return Err(PyValueError::new_err(format!(
-            "wavelengths_um: {bad} must be positive"
-        )));
-    }
-    if let Some(bad) = fields.iter().find(|f| !(f.is_finite() && f.abs() < 90.0)) {
-        return Err(PyValueError::new_err(format!(
-            "fields_deg: {bad} must lie strictly between -90 and 90"
-        )));
-    }
+    unicac_trace::check_wavelengths_um(&wavelengths).map_err(|e| keyword_error("wavelengths_um", e))?;
+    unicac_trace::check_fields_deg(&fields).map_err(|e| keyword_error("fields_deg", e))?;
     let computed = crate::pool::detach(py, || {
         trace_spots(&lens.lens, &fields, &wavelengths, aiming, &sampling).or_raise()
     })?;

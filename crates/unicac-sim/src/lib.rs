@@ -11,13 +11,14 @@ pub mod chief;
 pub mod convolve;
 pub mod error;
 pub mod geometry;
-pub mod psf_cache;
 pub mod psf_map;
 pub mod simulate;
 
 pub use chief::ChiefRayMap;
 pub use error::{SimError, SimResult};
 pub use geometry::SensorGrid;
-pub use psf_cache::{cache_root, lens_fingerprint, PsfCache};
 pub use psf_map::RadialPsfs;
 pub use simulate::{crop, LensSimulator, PixelWindow, SimulationSettings, MAX_SIMULATE_PIXELS};
+/// The PSF cache lives with the PSFs it caches (unicac-psf); re-exported for the simulator's users.
+pub use unicac_psf::cache as psf_cache;
+pub use unicac_psf::{cache_root, lens_fingerprint, PsfCache};

@@ -4,9 +4,8 @@
 
 use crate::chief::ChiefRayMap;
 use crate::error::{SimError, SimResult};
-use rayon::prelude::*;
 use serde::Serialize;
-use unicac_psf::{FieldPsf, Kernel, PsfTracer};
+use unicac_psf::{DarkFields, FieldPsf, Kernel, PsfError, PsfTracer};
 
 /// Radial PSF samples from the axis to the sensor's half-diagonal.
 #[derive(Debug, Clone, Serialize)]
@@ -32,39 +31,21 @@ impl RadialPsfs {
         let radii_mm: Vec<f64> = (0..samples)
             .map(|i| max_radius_mm * i as f64 / (samples - 1) as f64)
             .collect();
-        let traced: Vec<_> = radii_mm
-            .par_iter()
-            .map(|&r| {
-                let angle = chief.angle_for_height(r);
-                let reference = tracer.reference_point_mm(angle)?;
-                Ok((angle, reference, tracer.hits(angle, reference)))
-            })
-            .collect::<SimResult<Vec<_>>>()?;
-        let requested_kernel_size = traced
-            .iter()
-            .map(|(_, _, hits)| tracer.kernel_size_for(hits))
-            .max()
-            .unwrap_or(1);
-        if traced
-            .iter()
-            .all(|(_, _, hits)| hits.iter().all(|h| h.offsets_um.is_empty()))
-        {
-            return Err(SimError::FullyVignetted {
-                max_field_deg: traced.last().map_or(0.0, |(angle, _, _)| *angle),
-                rays_traced: traced
-                    .iter()
-                    .flat_map(|(_, _, hits)| hits)
-                    .map(|h| h.counts.total())
-                    .sum(),
-            });
-        }
-        let kernel_size = requested_kernel_size.min(tracer.settings().max_kernel_px);
-        let psfs = traced
-            .par_iter()
-            .map(|(angle, reference, hits)| {
-                tracer.kernels_from_hits(*angle, *reference, hits, kernel_size, monochromatic)
-            })
-            .collect();
+        let angles: Vec<f64> = radii_mm.iter().map(|&r| chief.angle_for_height(r)).collect();
+        let set = match tracer.common_size_psfs(&angles, monochromatic, DarkFields::AllowedIfAnyLit) {
+            Ok(set) => set,
+            Err(PsfError::AllFieldsVignetted {
+                max_field_deg,
+                rays_traced,
+            }) => {
+                return Err(SimError::FullyVignetted {
+                    max_field_deg,
+                    rays_traced,
+                })
+            }
+            Err(other) => return Err(other.into()),
+        };
+        let (psfs, kernel_size, requested_kernel_size) = (set.psfs, set.kernel_px, set.requested_kernel_px);
         Ok(RadialPsfs {
             radii_mm,
             psfs,

@@ -12,13 +12,13 @@ use crate::convolve::{
 };
 use crate::error::{SimError, SimResult};
 use crate::geometry::SensorGrid;
-use crate::psf_cache::{lens_fingerprint, PsfCache};
 use crate::psf_map::RadialPsfs;
 use rayon::prelude::*;
 use serde::Serialize;
 use unicac_image::isp::Pipeline;
 use unicac_image::Planar;
 use unicac_optics::Lens;
+use unicac_psf::{lens_fingerprint, PsfCache};
 use unicac_psf::{visible_wavelengths_um, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights};
 
 /// Fidelity and effect switches (defaults at the knee of the sweep in docs/performance.md).
@@ -123,22 +123,16 @@ impl LensSimulator {
             }
             None => SensorGrid::filling_field(width, height, &chief),
         };
-        let mut psf_settings = settings.psf;
+        let mut psf_settings = settings.psf.clone();
         psf_settings.pixel_um = grid.pitch_um;
         let weights = SpectralWeights::new(&settings.response, &visible_wavelengths_um(settings.wavelengths));
-        let tracer = PsfTracer::new(lens, weights, psf_settings)?;
+        let tracer = PsfTracer::new(lens, weights, psf_settings.clone())?;
         let corner = grid.half_diagonal_mm().min(chief.max_height_mm());
         let lens_sha256 = lens_fingerprint(lens);
         // The cache key covers everything the radial PSFs depend on, the tracing device included (a GPU f32
-        // map is not served to a CPU run).
+        // map is not served to a CPU run): the settings' backend is the one that traces.
         let cache_entry = settings.cache.as_ref().map(|cache| {
-            let inputs = (
-                psf_settings,
-                tracer.weights(),
-                corner,
-                settings.radial_samples,
-                tracer.device(),
-            );
+            let inputs = (&psf_settings, tracer.weights(), corner, settings.radial_samples);
             let key = PsfCache::key(&[
                 b"radial",
                 lens_sha256.as_bytes(),

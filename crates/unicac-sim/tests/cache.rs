@@ -1,10 +1,9 @@
 //! The PSF-map cache through `LensSimulator`: a second run loads what the first traced, and a change of
-//! tracing device is a miss. One test in its own binary, because it changes the process-wide default
-//! hit tracer.
+//! tracing device (the settings' ray backend) is a miss.
 
 use std::sync::Arc;
 use unicac_optics::examples;
-use unicac_psf::{set_default_hit_tracer, CpuHitTracer, HitTracer};
+use unicac_psf::{CpuHitTracer, HitTracer, PsfResult, RayBackend};
 use unicac_sim::{LensSimulator, PsfCache, SimulationSettings};
 use unicac_trace::{PupilSampling, Ray, RayStatus, TraceSystem};
 
@@ -12,7 +11,7 @@ use unicac_trace::{PupilSampling, Ray, RayStatus, TraceSystem};
 struct OtherDevice;
 
 impl HitTracer for OtherDevice {
-    fn trace(&self, system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
+    fn trace(&self, system: &TraceSystem, rays: &mut [Ray]) -> PsfResult<Vec<RayStatus>> {
         CpuHitTracer.trace(system, rays)
     }
 
@@ -32,19 +31,20 @@ fn a_second_run_loads_the_map_and_another_device_traces_again() {
     };
     settings.psf.pupil_sampling = PupilSampling::Fibonacci { n: 256 };
     let lens = examples::lens("cooke_triplet").unwrap();
-    let build = || LensSimulator::new(&lens, 64, 48, None, settings.clone()).unwrap();
-    let first = build();
-    let second = build();
+    let build =
+        |settings: &SimulationSettings| LensSimulator::new(&lens, 64, 48, None, settings.clone()).unwrap();
+    let first = build(&settings);
+    let second = build(&settings);
     assert!(!first.psfs_from_cache && first.cache_warning.is_none());
     assert!(second.psfs_from_cache);
     for (a, b) in first.radial.psfs.iter().zip(&second.radial.psfs) {
         assert_eq!(a.kernels, b.kernels);
     }
-    set_default_hit_tracer(Arc::new(OtherDevice));
+    settings.psf.backend = RayBackend::new(Arc::new(OtherDevice));
     assert!(
-        !build().psfs_from_cache,
+        !build(&settings).psfs_from_cache,
         "a map traced on another device was served from the cache"
     );
-    assert!(build().psfs_from_cache);
+    assert!(build(&settings).psfs_from_cache);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -155,7 +155,7 @@ fn radial_interpolation_error_at_the_default_sampling_is_within_its_stated_bound
                 let middle = (pair[0] + pair[1]) / 2.0;
                 let angle = sim.chief.angle_for_height(middle);
                 let reference = tracer.reference_point_mm(angle).unwrap();
-                let hits = tracer.hits(angle, reference);
+                let hits = tracer.hits(angle, reference).unwrap();
                 let traced = tracer.kernels_from_hits(angle, reference, &hits, sim.radial.kernel_size, false);
                 half_l1(&sim.radial.kernel_at(0.0, middle, 1), &traced.kernels[1])
             })

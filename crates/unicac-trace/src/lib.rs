@@ -23,6 +23,7 @@ pub mod apertures;
 pub mod batch;
 pub mod error;
 pub mod lanes;
+pub mod params;
 pub mod pupil;
 pub mod ray;
 pub mod spot;
@@ -34,6 +35,9 @@ pub use aim::{Aimer, Aiming, AutoAiming, AUTO_REAL_AIMING_STOP_MISS};
 pub use batch::{trace_rays, trace_rays_serial};
 pub use error::{TraceError, TraceResult};
 pub use lanes::SimdLevel;
+pub use params::{
+    check_field_deg, check_fields_deg, check_wavelength_um, check_wavelengths_um, InvalidParameter,
+};
 pub use pupil::PupilSampling;
 pub use ray::{Ray, RayStatus, StatusCounts};
 pub use spot::{spots, Spot, SpotTracer};

@@ -1,8 +1,7 @@
 //! `unicac design`: automatic lens design into a lens library (crates/unicac-design, docs/design.md).
 
+use crate::args::DesignArgs;
 use anyhow::{bail, Result};
-use clap::Args;
-use std::path::PathBuf;
 use std::sync::Mutex;
 use unicac_design::library::Library;
 use unicac_design::local::Gradient;
@@ -10,80 +9,7 @@ use unicac_design::run::{run_specs, Event, RunSettings, StopReason};
 use unicac_design::spec::{
     focal_length_for_sensor, paper_grid, GRID_ELEMENTS, GRID_F_NUMBERS, GRID_HALF_FOV_DEG, GRID_STOPS,
 };
-use unicac_design::{DesignSpec, StopPosition};
-
-#[derive(Args)]
-pub struct DesignArgs {
-    /// Number of elements (1-6).
-    #[arg(long)]
-    pub elements: Option<usize>,
-    /// Half field of view (deg).
-    #[arg(long)]
-    pub half_fov_deg: Option<f64>,
-    #[arg(long)]
-    pub f_number: Option<f64>,
-    /// Aperture stop position: front, middle or back.
-    #[arg(long)]
-    pub stop: Option<StopPosition>,
-    /// Focal length (mm); default 50, or from --sensor.
-    #[arg(long, conflicts_with = "sensor")]
-    pub focal_length_mm: Option<f64>,
-    /// Sensor size WIDTHxHEIGHT in mm (e.g. 36x24): the full field fills its half diagonal.
-    #[arg(long)]
-    pub sensor: Option<String>,
-    /// Also make an aspheric version of each design (conic + r^4..r^10 on two surfaces).
-    #[arg(long)]
-    pub aspheric: bool,
-    /// Designs kept per specification (spherical ones): the COUNT best distinct designs found within the
-    /// budget (the search stops early only when it has converged).
-    #[arg(long, default_value_t = 4)]
-    pub count: usize,
-    /// Stop at the first COUNT acceptable designs instead of keeping the best (fast).
-    #[arg(long)]
-    pub first_acceptable: bool,
-    /// Smallest air gap between neighbouring surfaces over the beam heights (mm); default 0.1 mm at
-    /// f = 50 mm, scaled with the focal length.
-    #[arg(long)]
-    pub min_air_edge_mm: Option<f64>,
-    /// Smallest glass edge thickness at an element's semi-diameter (mm); default 0.7 mm at f = 50 mm,
-    /// scaled with the focal length.
-    #[arg(long)]
-    pub min_glass_edge_mm: Option<f64>,
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Wall-clock budget for the whole run (s); work stops cleanly with the designs so far written.
-    #[arg(long)]
-    pub time_budget_s: Option<f64>,
-    /// Accept only designs whose mean RMS spot radius is at most this (um).
-    #[arg(long)]
-    pub max_rms_um: Option<f64>,
-    /// Gradients of the local refinement: exact (dual numbers) or fd (central differences, the baseline).
-    #[arg(long, default_value = "exact", value_parser = ["exact", "fd"])]
-    pub gradient: String,
-    /// Run the specification grid (elements 1-6 x half field 20/30/40 x F/2,3,4 x stop front/middle/back);
-    /// the --grid-* options narrow it.
-    #[arg(long)]
-    pub grid: bool,
-    #[arg(long, value_delimiter = ',')]
-    pub grid_elements: Vec<usize>,
-    #[arg(long, value_delimiter = ',')]
-    pub grid_half_fov_deg: Vec<f64>,
-    #[arg(long, value_delimiter = ',')]
-    pub grid_f_numbers: Vec<f64>,
-    #[arg(long, value_delimiter = ',')]
-    pub grid_stops: Vec<StopPosition>,
-    /// Library directory (lenses/, manifest.jsonl, manifest.csv); an existing one is resumed.
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Print the run summary as JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Print the specifications this command would design, in the order it designs them (JSON lines:
-    /// slug and the options selecting each as a one-cell grid), and write nothing. Lets a distributed
-    /// driver (unicac-ray design) run one task per specification and merge in the same order.
-    #[arg(long)]
-    pub list_specs: bool,
-}
+use unicac_design::DesignSpec;
 
 fn focal_length(args: &DesignArgs, half_fov_deg: f64) -> Result<f64> {
     match (&args.sensor, args.focal_length_mm) {

@@ -1,23 +1,12 @@
-//! `unicac gpu info`, and the `--device` / `--gpu-precision` plumbing of spot, psf, simulate and ode.
+//! `unicac gpu info`, and the `--device` / `--gpu-precision` choice of spot, psf, simulate and ode, made
+//! into a value (`selection`, `backend`) that the command passes to the libraries.
 
 use super::print_json;
-use crate::args::DeviceArgs;
+use crate::args::{DeviceArgs, GpuCommand, GpuInfoArgs};
 use anyhow::Result;
-use clap::{Args, Subcommand};
 use std::sync::Arc;
-use unicac_gpu::{DeviceChoice, DeviceSelection};
-
-#[derive(Subcommand)]
-pub enum GpuCommand {
-    /// List GPU adapters (Vulkan), their backends and features, and what `--device auto` would use.
-    Info(GpuInfoArgs),
-}
-
-#[derive(Args)]
-pub struct GpuInfoArgs {
-    #[arg(long)]
-    pub json: bool,
-}
+use unicac_gpu::DeviceSelection;
+use unicac_psf::RayBackend;
 
 pub fn run(command: &GpuCommand) -> Result<()> {
     match command {
@@ -70,12 +59,19 @@ fn info(args: &GpuInfoArgs) -> Result<()> {
     Ok(())
 }
 
-/// The device policy of a command; also made the default PSF hit tracer, so that PSFs traced anywhere
-/// in this run (psf, simulate, ode) follow it. With `cpu` nothing changes.
-pub fn install(device: &DeviceArgs) -> Arc<DeviceSelection> {
-    let selection = Arc::new(DeviceSelection::new(device.device, device.gpu_precision));
-    if device.device != DeviceChoice::Cpu {
-        unicac_psf::set_default_hit_tracer(selection.clone());
+/// The device policy of a command (spot asks it per batch).
+pub fn selection(device: &DeviceArgs) -> Arc<DeviceSelection> {
+    Arc::new(DeviceSelection::new(device.device, device.gpu_precision))
+}
+
+/// The ray backend of a command's PSFs (psf, simulate, ode), chosen by `--device` / `--gpu-precision`.
+pub fn backend(device: &DeviceArgs) -> RayBackend {
+    DeviceSelection::backend(device.device, device.gpu_precision)
+}
+
+/// Prints what the device noted during the run (a fallback to the CPU) as warnings.
+pub fn print_notes(notes: Vec<String>) {
+    for note in notes {
+        eprintln!("warning: --device: {note}");
     }
-    selection
 }

@@ -94,13 +94,15 @@ pub(crate) fn fields_and_wavelengths(
     } else {
         wavelengths_um.to_vec()
     };
-    if let Some(bad) = wavelengths.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
-        anyhow::bail!("--wavelength-um {bad}: must be positive");
-    }
-    if let Some(bad) = fields.iter().find(|f| !(f.is_finite() && f.abs() < 90.0)) {
-        anyhow::bail!("--field-deg {bad}: must lie strictly between -90 and 90");
-    }
+    unicac_trace::check_wavelengths_um(&wavelengths).map_err(flag_error)?;
+    unicac_trace::check_fields_deg(&fields).map_err(flag_error)?;
     Ok((fields, wavelengths))
+}
+
+/// A library's parameter error in this face's words: the flag (`--field-deg`) for the library's name
+/// of the parameter (`field_deg`).
+pub(crate) fn flag_error(parameter: unicac_trace::InvalidParameter) -> anyhow::Error {
+    anyhow::anyhow!("--{} {}", parameter.field.replace('_', "-"), parameter.message)
 }
 
 /// A progress bar on stderr for `count` items (hidden when stderr is not a terminal).

@@ -5,16 +5,8 @@ use crate::args::OdeArgs;
 use crate::lens_input::load_lens;
 use anyhow::Result;
 use rayon::prelude::*;
-use serde::Serialize;
 use std::fmt::Write as _;
-use unicac_ode::{evaluate, OdeReport, OdeSettings};
-
-#[derive(Serialize)]
-struct LensOde {
-    lens: String,
-    #[serde(flatten)]
-    report: OdeReport,
-}
+use unicac_ode::{evaluate, LensOde, OdeSettings};
 
 pub fn run(args: &OdeArgs) -> Result<()> {
     let mut plan = crate::outputs::plan(None);
@@ -31,8 +23,10 @@ pub fn run(args: &OdeArgs) -> Result<()> {
     }
     crate::outputs::picture(&mut plan, "--plot", args.plot.as_deref())?;
     plan.check()?;
-    super::gpu::install(&args.device);
-    let settings = OdeSettings::default();
+    let settings = OdeSettings {
+        backend: super::gpu::backend(&args.device),
+        ..OdeSettings::default()
+    };
     let bar = progress(args.lenses.len(), "ode");
     let results: Vec<Result<LensOde>> = args
         .lenses
@@ -49,6 +43,7 @@ pub fn run(args: &OdeArgs) -> Result<()> {
         })
         .collect();
     bar.finish_and_clear();
+    super::gpu::print_notes(settings.backend.take_notes());
     let lenses: Vec<LensOde> = results.into_iter().collect::<Result<_>>()?;
     if let Some(path) = &args.csv {
         unicac_optics::io::write_atomically(path, csv(&lenses).as_bytes())?;

@@ -3,80 +3,27 @@
 use super::print_json;
 use crate::args::PsfArgs;
 use crate::lens_input::load_spec;
-use anyhow::{bail, Result};
-use serde::Serialize;
+use anyhow::Result;
 use unicac_image::Planar;
 use unicac_optics::Lens;
-use unicac_psf::{
-    visible_wavelengths_um, FieldPsf, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights,
-    WavePsfSettings, WavePsfTracer,
-};
-
-/// Pixel pitch when neither --pixel-um nor the lens's sensor gives one.
-const DEFAULT_PIXEL_UM: f64 = 2.0;
-
-#[derive(Serialize)]
-struct PsfReport<'a> {
-    lens: &'a str,
-    mode: &'a str,
-    field_deg: f64,
-    pixel_um: f64,
-    kernel_px: usize,
-    wavelengths_um: &'a [f64],
-    skipped_wavelengths_um: &'a [f64],
-    channels: Vec<&'static str>,
-    reference_mm: [f64; 2],
-    transmission: f64,
-    energy_cut: &'a [f64],
-    rays_traced: usize,
-    /// SHA-256 of the lens model (the PSF cache's key starts with it).
-    lens_sha256: String,
-    from_cache: bool,
-    out: String,
-}
+use unicac_psf::{FieldPsf, FieldPsfRequest, FieldPsfResponse, PsfCache, PsfError, PsfMetadata, PsfMode};
 
 pub fn run(args: &PsfArgs) -> Result<()> {
-    check_request(args)?;
-    super::gpu::install(&args.device);
+    let request = check_request(args)?.with_backend(super::gpu::backend(&args.device));
     let mut spec = load_spec(&args.lens.lens)?;
     if let Some(distance) = args.object_distance_mm {
         spec.object_distance_mm = Some(distance);
     }
     let lens = Lens::from_spec(&spec).map_err(|e| anyhow::anyhow!("{}: {e}", args.lens.lens))?;
-    let pixel_um = args
-        .pixel_um
-        .or(lens.sensor.map(|s| s.pixel_pitch_um))
-        .unwrap_or(DEFAULT_PIXEL_UM);
-    if !(pixel_um.is_finite() && pixel_um > 0.0) {
-        bail!("--pixel-um {pixel_um}: must be positive");
-    }
-    let monochromatic = args.wavelengths_um.len() == 1;
-    let weights = match args.wavelengths_um.as_slice() {
-        [] => SpectralWeights::new(&SpectralResponse::default_camera(), &visible_wavelengths_um(31)),
-        [w] => SpectralWeights::monochromatic(*w),
-        many => SpectralWeights::new(&SpectralResponse::default_camera(), many),
-    };
-    let lens_sha256 = unicac_sim::lens_fingerprint(&lens);
-    let key = unicac_sim::PsfCache::key(&[
+    let pixel_um = request.pixel_um_for(&lens).map_err(flag_error)?;
+    let weights = request.weights();
+    let lens_sha256 = unicac_psf::lens_fingerprint(&lens);
+    let key = PsfCache::key(&[
         b"field",
         lens_sha256.as_bytes(),
-        format!(
-            "{:?}",
-            (
-                &args.mode,
-                args.field_deg,
-                pixel_um,
-                &weights,
-                monochromatic,
-                unicac_psf::default_hit_tracer().describe(),
-                args.max_kernel_px
-            )
-        )
-        .as_bytes(),
+        request.key_text(&lens).map_err(flag_error)?.as_bytes(),
     ]);
-    let cache = (!args.no_cache)
-        .then(unicac_sim::PsfCache::default_location)
-        .flatten();
+    let cache = (!args.no_cache).then(PsfCache::default_location).flatten();
     let cached = cache
         .as_ref()
         .and_then(|c| c.load(&key))
@@ -85,7 +32,9 @@ pub fn run(args: &PsfArgs) -> Result<()> {
     let psf = match cached {
         Some(psf) => psf,
         None => {
-            let psf = compute(&lens, &weights, pixel_um, args, monochromatic)?;
+            let traced = request.run(&lens);
+            super::gpu::print_notes(request.backend().take_notes());
+            let psf = one_psf(request.mode(), traced.map_err(flag_error)?)?;
             if let Some(cache) = &cache {
                 if let Err(error) = cache.store(&key, std::slice::from_ref(&psf)) {
                     eprintln!("warning: PSF cache {}: {error}", cache.dir.display());
@@ -94,99 +43,76 @@ pub fn run(args: &PsfArgs) -> Result<()> {
             psf
         }
     };
-    let names: Vec<&'static str> = if monochromatic {
-        vec!["Y"]
-    } else {
-        vec!["R", "G", "B"]
-    };
-    let size = psf.kernels[0].size;
-    let mut stack = Planar::new(size, size, names.len());
+    let metadata = PsfMetadata::new(request.mode(), &psf, pixel_um, &weights);
+    let size = metadata.kernel_px;
+    let mut stack = Planar::new(size, size, metadata.channels.len());
     for (c, kernel) in psf.kernels.iter().enumerate() {
         stack.plane_mut(c).copy_from_slice(&kernel.data);
     }
-    unicac_image::io::write_exr_channels(&args.out, &stack, &names)?;
+    unicac_image::io::write_exr_channels(&args.out, &stack, &metadata.channels)?;
     if let Some(path) = &args.plot {
-        plot(&psf, &names, args, path)?;
+        plot(&psf, &metadata.channels, args, path)?;
     }
-    let report = PsfReport {
-        lens: &args.lens.lens,
-        mode: &args.mode,
-        field_deg: args.field_deg,
-        pixel_um,
-        kernel_px: size,
-        wavelengths_um: &weights.wavelengths_um,
-        skipped_wavelengths_um: &weights.skipped_um,
-        channels: names,
-        reference_mm: psf.reference_mm,
-        transmission: psf.transmission,
-        energy_cut: &psf.energy_cut,
-        rays_traced: psf.rays_traced,
+    let report = unicac_psf::PsfReport {
+        lens: args.lens.lens.clone(),
+        metadata,
         lens_sha256,
         from_cache,
         out: args.out.display().to_string(),
     };
-    let metadata = args.out.with_extension("json");
-    unicac_optics::io::write_atomically(&metadata, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    let sidecar = args.out.with_extension("json");
+    unicac_optics::io::write_atomically(&sidecar, serde_json::to_string_pretty(&report)?.as_bytes())?;
     if args.json {
         return print_json(&report);
     }
     eprintln!(
         "wrote {} and {} ({size} x {size} px at {pixel_um} um)",
         args.out.display(),
-        metadata.display()
+        sidecar.display()
     );
     Ok(())
 }
 
-/// Everything that can be refused before any work: the field, the wavelengths, and the outputs (the
-/// EXR under an .exr name, its JSON sidecar and the picture never over the lens file or each other).
-fn check_request(args: &PsfArgs) -> Result<()> {
-    if !(args.field_deg.is_finite() && args.field_deg.abs() < 90.0) {
-        bail!(
-            "--field-deg {}: must lie strictly between -90 and 90",
-            args.field_deg
-        );
+/// A library parameter error in this face's words: the flag (`--field-deg`) for the field (`field_deg`).
+pub(crate) fn flag_error(error: PsfError) -> anyhow::Error {
+    match error {
+        PsfError::InvalidParameter(parameter) => super::flag_error(parameter),
+        other => other.into(),
     }
-    if let Some(bad) = args.wavelengths_um.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
-        bail!("--wavelength-um {bad}: must be positive");
-    }
-    if let Some(pixel_um) = args.pixel_um.filter(|p| !(p.is_finite() && *p > 0.0)) {
-        bail!("--pixel-um {pixel_um}: must be positive");
-    }
+}
+
+/// Everything that can be refused before any work: the field, the wavelengths and the pitch (checked
+/// by the request), and the outputs (the EXR under an .exr name, its JSON sidecar and the picture
+/// never over the lens file or each other).
+fn check_request(args: &PsfArgs) -> Result<FieldPsfRequest> {
+    let mode: PsfMode = args.mode.parse().map_err(flag_error)?;
+    let request = FieldPsfRequest::new(mode, vec![args.field_deg], args.wavelengths_um.clone())
+        .and_then(|r| r.with_pixel_um(args.pixel_um))
+        .and_then(|r| r.with_kernel_cap(args.max_kernel_px))
+        .map_err(flag_error)?;
     unicac_io::require_extension("--out", &args.out, &["exr"])?;
     let mut plan = crate::outputs::plan(Some(args.lens.lens.as_str()));
     plan.output("--out", &args.out)
         .output("--out (JSON sidecar)", args.out.with_extension("json"));
     crate::outputs::picture(&mut plan, "--plot", args.plot.as_deref())?;
     plan.check()?;
-    Ok(())
+    Ok(request)
 }
 
-/// The PSF of the requested mode, traced now.
-fn compute(
-    lens: &Lens,
-    weights: &SpectralWeights,
-    pixel_um: f64,
-    args: &PsfArgs,
-    monochromatic: bool,
-) -> Result<FieldPsf> {
-    Ok(match args.mode.as_str() {
-        "wave" => wave_psf(lens, weights.clone(), pixel_um, args.field_deg, monochromatic)?,
-        _ => {
-            let tracer = PsfTracer::new(
-                lens,
-                weights.clone(),
-                PsfSettings::new(pixel_um).with_kernel_cap(args.max_kernel_px),
-            )?;
-            let reference = tracer.reference_point_mm(args.field_deg)?;
-            let hits = tracer.hits(args.field_deg, reference);
-            tracer.require_arrivals(args.field_deg, &hits)?;
-            let size = tracer.kernel_size_for(&hits);
-            let psf = tracer.kernels_from_hits(args.field_deg, reference, &hits, size, monochromatic);
-            warn_if_cut(&psf, size, tracer.settings().max_kernel_px);
-            psf
+/// The one PSF of a traced request, with the warnings it calls for.
+fn one_psf(mode: PsfMode, mut traced: FieldPsfResponse) -> Result<FieldPsf> {
+    let psf = traced
+        .psfs
+        .pop()
+        .ok_or_else(|| anyhow::anyhow!("no PSF was traced"))?;
+    match mode {
+        PsfMode::Geometric => warn_if_cut(&psf, traced.requested_kernel_px, traced.max_kernel_px),
+        PsfMode::Wave if traced.undersampled => {
+            eprintln!("warning: the pupil grid undersamples this wavefront; the wave PSF is approximate")
         }
-    })
+        PsfMode::Wave => {}
+    }
+    Ok(psf)
 }
 
 fn warn_if_cut(psf: &FieldPsf, requested: usize, cap: usize) {
@@ -200,29 +126,7 @@ fn warn_if_cut(psf: &FieldPsf, requested: usize, cap: usize) {
     }
 }
 
-/// Wave-optics PSF, sized like the geometric one of the same field (so both modes compare pixel for
-/// pixel) and at least 31 px, for the diffraction rings.
-fn wave_psf(
-    lens: &Lens,
-    weights: SpectralWeights,
-    pixel_um: f64,
-    field_deg: f64,
-    monochromatic: bool,
-) -> Result<FieldPsf> {
-    let geometric = PsfTracer::new(lens, weights.clone(), PsfSettings::new(pixel_um))?;
-    let reference = geometric.reference_point_mm(field_deg)?;
-    let size = geometric
-        .kernel_size_for(&geometric.hits(field_deg, reference))
-        .max(31);
-    let tracer = WavePsfTracer::new(lens, weights, WavePsfSettings::new(pixel_um))?;
-    let detailed = tracer.field_psf_detailed(field_deg, reference, size, monochromatic)?;
-    if detailed.undersampled {
-        eprintln!("warning: the pupil grid undersamples this wavefront; the wave PSF is approximate");
-    }
-    Ok(detailed.psf)
-}
-
-fn plot(psf: &FieldPsf, names: &[&str], args: &PsfArgs, path: &std::path::Path) -> Result<()> {
+fn plot(psf: &FieldPsf, names: &[&'static str], args: &PsfArgs, path: &std::path::Path) -> Result<()> {
     let panels: Vec<unicac_plot::PsfPanel> = psf
         .kernels
         .iter()

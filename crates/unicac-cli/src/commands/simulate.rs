@@ -1,7 +1,7 @@
 //! `unicac simulate`: sharp images through a lens onto the sensor, with the sensor/ISP chain.
 
 use super::progress;
-use crate::args::SimulateArgs;
+use crate::args::{OutputFormat, SimulateArgs};
 use crate::lens_input::load_lens;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
@@ -12,7 +12,7 @@ use unicac_sim::{LensSimulator, SimulationSettings};
 
 pub fn run(args: &SimulateArgs) -> Result<()> {
     let outputs = plan_outputs(args)?;
-    super::gpu::install(&args.device);
+    let backend = super::gpu::backend(&args.device);
     let lens = load_lens(&args.lens.lens)?;
     let created = !args.out.exists();
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
@@ -22,7 +22,8 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             args.out.display()
         );
     }
-    let result = simulate_all(args, &lens, &outputs);
+    let result = simulate_all(args, &lens, &outputs, &backend);
+    super::gpu::print_notes(backend.take_notes());
     // A run that failed before writing anything leaves no empty folder behind.
     if result.is_err() && created {
         let _ = std::fs::remove_dir(&args.out);
@@ -34,6 +35,7 @@ fn simulate_all(
     args: &SimulateArgs,
     lens: &unicac_optics::Lens,
     outputs: &[(PathBuf, FileFormat)],
+    backend: &unicac_psf::RayBackend,
 ) -> Result<()> {
     let bar = progress(args.images.len(), "simulate");
     let mut simulator: Option<LensSimulator> = None;
@@ -52,7 +54,7 @@ fn simulate_all(
             .as_ref()
             .is_none_or(|s| (s.grid.width_px, s.grid.height_px) != (image.width, image.height))
         {
-            let settings = SimulationSettings {
+            let mut settings = SimulationSettings {
                 distortion: !args.no_distortion,
                 illumination: !args.no_illumination,
                 cache: if args.no_cache {
@@ -62,6 +64,7 @@ fn simulate_all(
                 },
                 ..Default::default()
             };
+            settings.psf.backend = backend.clone();
             simulator = Some(LensSimulator::new(
                 lens,
                 image.width,
@@ -119,7 +122,7 @@ fn plan_outputs(args: &SimulateArgs) -> Result<Vec<(PathBuf, FileFormat)>> {
             .file_name()
             .ok_or_else(|| anyhow::anyhow!("{}: not a file name", input.display()))?;
         let named = FileFormat::from_extension(&unicac_io::extension_of(input));
-        let format = match (args.format.as_deref(), named) {
+        let format = match (args.format, named) {
             (Some(requested), _) => format_from_name(requested),
             (None, Some(format)) => format,
             (None, None) => sniff_format(input)?,
@@ -232,11 +235,11 @@ fn rgb(loaded: &LoadedImage, path: &Path) -> Result<Planar> {
         .with_context(|| format!("{}: expected a grey or RGB image", path.display()))
 }
 
-fn format_from_name(name: &str) -> FileFormat {
-    match name {
-        "tiff" => FileFormat::Tiff,
-        "exr" => FileFormat::OpenExr,
-        _ => FileFormat::Png,
+fn format_from_name(format: OutputFormat) -> FileFormat {
+    match format {
+        OutputFormat::Png => FileFormat::Png,
+        OutputFormat::Tiff => FileFormat::Tiff,
+        OutputFormat::Exr => FileFormat::OpenExr,
     }
 }
 

@@ -22,7 +22,7 @@ pub fn run(args: &SpotArgs) -> Result<()> {
     crate::outputs::check_lens_and_picture(&args.lens.lens, "--plot", args.plot.as_deref())?;
     let lens = load_lens(&args.lens.lens)?;
     let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.rays)?;
-    let selection = super::gpu::install(&args.device);
+    let selection = super::gpu::selection(&args.device);
     let auto_aiming = super::auto_aiming(&lens, args.rays.aim)?;
     let rays_per_spot = args.pupil_sampling.points().len();
     let spots = match selection.tracer_for(rays_per_spot) {
@@ -36,6 +36,7 @@ pub fn run(args: &SpotArgs) -> Result<()> {
         )?,
         None => spots(&lens, &fields, &wavelengths, args.rays.aim, &args.pupil_sampling)?,
     };
+    super::gpu::print_notes(unicac_psf::HitTracer::take_notes(selection.as_ref()));
     if let Some(path) = &args.plot {
         unicac_plot::spot_diagram(&spots, path)?;
         eprintln!("wrote {}", path.display());

@@ -34,10 +34,9 @@ struct TraceReport {
 
 pub fn run(args: &TraceArgs) -> Result<()> {
     let lens = load_lens(&args.lens.lens)?;
-    let wavelength_um = args.wavelength_um.unwrap_or_else(|| lens.primary_wavelength_um());
-    if !(wavelength_um.is_finite() && wavelength_um > 0.0) {
-        bail!("--wavelength-um {wavelength_um}: must be positive");
-    }
+    let wavelength_um =
+        unicac_trace::check_wavelength_um(args.wavelength_um.unwrap_or_else(|| lens.primary_wavelength_um()))
+            .map_err(super::flag_error)?;
     let ray = match (args.ray, args.field_deg, args.pupil) {
         (Some(r), _, _) => Ray::new([r[0], r[1], r[2]], [r[3], r[4], r[5]]),
         (None, Some(field), Some([px, py])) => {

@@ -6,9 +6,9 @@ use crate::error::{DatasetError, Result};
 use crate::seeds::{derive_seed, sha256_hex};
 use std::path::{Path, PathBuf};
 use unicac_image::Planar;
-use unicac_optics::{examples, format, Lens, LensSpec};
+use unicac_optics::{examples, Lens, LensSpec};
 
-pub const BUILTIN_PREFIX: &str = "builtin:";
+pub use unicac_optics::examples::BUILTIN_PREFIX;
 const LENS_EXTENSIONS: [&str; 2] = ["json", "zmx"];
 const IMAGE_EXTENSIONS: [&str; 4] = ["png", "tif", "tiff", "exr"];
 /// Most lenses / scenes one build takes (a stated limit on the size of the plan held in memory).
@@ -36,12 +36,15 @@ impl LensSource {
 }
 
 fn load_spec(location: &str) -> Result<LensSpec> {
-    if let Some(name) = location.strip_prefix(BUILTIN_PREFIX) {
-        return examples::spec(name).map_err(|e| DatasetError::Invalid(format!("--lenses {location}: {e}")));
-    }
-    format::read_spec(Path::new(location))
+    // A bundled name comes from the command line (`--lenses`), a file from the command line or a folder.
+    let what = if examples::is_builtin(location) {
+        "--lenses"
+    } else {
+        "lens"
+    };
+    examples::resolve_spec(Path::new(location))
         .map(|loaded| loaded.spec)
-        .map_err(|e| DatasetError::Invalid(format!("lens {location}: {e}")))
+        .map_err(|e| DatasetError::Invalid(format!("{what} {location}: {e}")))
 }
 
 /// Expands every `--lenses` argument; ids sorted, duplicates (same id) listed once.

@@ -14,10 +14,10 @@
 //! unreadable, fails its checksum (a flipped bit on disk, an edited file) or holds non-finite samples
 //! is a miss, never an error and never a silently different PSF: the next store replaces it.
 
+use crate::geometric::FieldPsf;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use unicac_optics::Lens;
-use unicac_psf::FieldPsf;
 
 const MAGIC: &[u8] = b"unicac-psf-cache 2\n";
 
@@ -152,7 +152,7 @@ fn decode(bytes: &[u8]) -> Option<Vec<FieldPsf>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use unicac_psf::Kernel;
+    use crate::kernel::Kernel;
 
     fn psf(size: usize, value: f32) -> FieldPsf {
         let mut kernel = Kernel::zeros(size, 2.5);

@@ -1,0 +1,377 @@
+//! PSFs of several fields at one common kernel size: the one implementation behind the simulator's
+//! radial map (unicac-sim), the ODE's fields (unicac-ode) and `unicac psf` / Python `unicac.psf`.
+//!
+//! Two levels: `PsfTracer::common_size_psfs` for callers that build their own tracer (pupil sampling,
+//! camera curves of their own), and `FieldPsfRequest`, the whole request of a face (mode, fields,
+//! wavelengths, pixel pitch, sizing, backend), validated when it is built, with its cache key.
+
+use crate::error::{PsfError, PsfResult};
+use crate::geometric::{check_kernel_cap, FieldHits, FieldPsf, PsfSettings, PsfTracer};
+use crate::hit_tracer::RayBackend;
+use crate::spectrum::{visible_wavelengths_um, SpectralResponse, SpectralWeights};
+use crate::wave::{WavePsfSettings, WavePsfTracer};
+use rayon::prelude::*;
+use serde::Serialize;
+use unicac_optics::Lens;
+use unicac_trace::{check_fields_deg, check_wavelengths_um, InvalidParameter};
+
+/// Pixel pitch (um) when neither the request nor the lens's sensor gives one.
+pub const DEFAULT_PIXEL_UM: f64 = 2.0;
+/// Smallest wave-optics kernel (px): room for the diffraction rings.
+pub const MIN_WAVE_KERNEL_PX: usize = 31;
+/// Wavelengths over 400-700 nm when a request names none.
+pub const DEFAULT_WAVELENGTHS: usize = 31;
+
+/// Ray density (geometric) or diffraction (wave).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PsfMode {
+    Geometric,
+    Wave,
+}
+
+impl PsfMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            PsfMode::Geometric => "geometric",
+            PsfMode::Wave => "wave",
+        }
+    }
+}
+
+impl std::str::FromStr for PsfMode {
+    type Err = PsfError;
+    fn from_str(text: &str) -> PsfResult<PsfMode> {
+        match text {
+            "geometric" => Ok(PsfMode::Geometric),
+            "wave" => Ok(PsfMode::Wave),
+            _ => Err(
+                InvalidParameter::new("mode", format!("'{text}': expected \"geometric\" or \"wave\"")).into(),
+            ),
+        }
+    }
+}
+
+/// Which fields without light are an error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DarkFields {
+    /// Every field must receive light: a PSF asked for by field is no answer when dark
+    /// (`PsfError::FieldVignetted` naming the first dark field).
+    Refused,
+    /// Dark fields are zero kernels as long as one field is lit (a map over the sensor; else
+    /// `PsfError::AllFieldsVignetted`).
+    AllowedIfAnyLit,
+}
+
+/// PSFs of several fields rasterised at one kernel size.
+#[derive(Debug, Clone)]
+pub struct CommonSizePsfs {
+    pub psfs: Vec<FieldPsf>,
+    /// The common size: the largest spot's, capped at `PsfSettings::max_kernel_px`.
+    pub kernel_px: usize,
+    /// The size the largest spot asked for before the cap.
+    pub requested_kernel_px: usize,
+}
+
+impl PsfTracer {
+    /// Reference point and hits of every field (in parallel).
+    fn trace_fields(&self, fields_deg: &[f64]) -> PsfResult<Vec<([f64; 2], Vec<FieldHits>)>> {
+        fields_deg
+            .par_iter()
+            .map(|&field| {
+                let reference = self.reference_point_mm(field)?;
+                Ok((reference, self.hits(field, reference)?))
+            })
+            .collect()
+    }
+
+    /// Kernel size (odd, px, before the cap) holding the energy fraction of the largest spot among
+    /// `fields_deg`, dark fields included (they ask for 1 px).
+    pub fn spot_kernel_px(&self, fields_deg: &[f64]) -> PsfResult<usize> {
+        Ok(self
+            .trace_fields(fields_deg)?
+            .iter()
+            .map(|(_, hits)| self.kernel_size_for(hits))
+            .max()
+            .unwrap_or(1))
+    }
+
+    /// R, G, B (or monochromatic) kernels of every field at one common size, from the largest spot.
+    pub fn common_size_psfs(
+        &self,
+        fields_deg: &[f64],
+        monochromatic: bool,
+        dark: DarkFields,
+    ) -> PsfResult<CommonSizePsfs> {
+        let traced = self.trace_fields(fields_deg)?;
+        let dark_field = |hits: &[FieldHits]| hits.iter().all(|h| h.offsets_um.is_empty());
+        match dark {
+            DarkFields::Refused => {
+                for (&field, (_, hits)) in fields_deg.iter().zip(&traced) {
+                    self.require_arrivals(field, hits)?;
+                }
+            }
+            DarkFields::AllowedIfAnyLit => {
+                if traced.iter().all(|(_, hits)| dark_field(hits)) {
+                    return Err(PsfError::AllFieldsVignetted {
+                        max_field_deg: fields_deg.last().copied().unwrap_or(0.0),
+                        rays_traced: traced
+                            .iter()
+                            .flat_map(|(_, hits)| hits)
+                            .map(|h| h.counts.total())
+                            .sum(),
+                    });
+                }
+            }
+        }
+        let requested_kernel_px = traced
+            .iter()
+            .map(|(_, hits)| self.kernel_size_for(hits))
+            .max()
+            .unwrap_or(1);
+        let kernel_px = requested_kernel_px.min(self.settings().max_kernel_px);
+        let psfs = fields_deg
+            .par_iter()
+            .zip(&traced)
+            .map(|(&field, (reference, hits))| {
+                self.kernels_from_hits(field, *reference, hits, kernel_px, monochromatic)
+            })
+            .collect();
+        Ok(CommonSizePsfs {
+            psfs,
+            kernel_px,
+            requested_kernel_px,
+        })
+    }
+}
+
+/// Spectral weights of a face's wavelength list: none gives R, G, B over 400-700 nm through the
+/// default camera, one a monochromatic kernel, several are weighted by the camera into R, G, B.
+pub fn weights_for(wavelengths_um: &[f64]) -> SpectralWeights {
+    match wavelengths_um {
+        [] => SpectralWeights::new(
+            &SpectralResponse::default_camera(),
+            &visible_wavelengths_um(DEFAULT_WAVELENGTHS),
+        ),
+        [w] => SpectralWeights::monochromatic(*w),
+        many => SpectralWeights::new(&SpectralResponse::default_camera(), many),
+    }
+}
+
+/// A pixel pitch (um) that is finite and positive.
+pub fn check_pixel_um(pixel_um: f64) -> PsfResult<f64> {
+    if !(pixel_um.is_finite() && pixel_um > 0.0) {
+        return Err(InvalidParameter::new("pixel_um", format!("{pixel_um}: must be positive")).into());
+    }
+    Ok(pixel_um)
+}
+
+/// PSFs of some fields of a lens, as a face asks for them; every parameter is checked by `new` and the
+/// `with_` methods, before any tracing.
+#[derive(Debug, Clone)]
+pub struct FieldPsfRequest {
+    mode: PsfMode,
+    fields_deg: Vec<f64>,
+    wavelengths_um: Vec<f64>,
+    pixel_um: Option<f64>,
+    max_kernel_px: Option<usize>,
+    backend: RayBackend,
+}
+
+/// What a `FieldPsfRequest` traced.
+#[derive(Debug, Clone)]
+pub struct FieldPsfResponse {
+    pub psfs: Vec<FieldPsf>,
+    pub weights: SpectralWeights,
+    pub pixel_um: f64,
+    /// Kernel size the spots asked for before the cap, and the cap (geometric mode).
+    pub requested_kernel_px: usize,
+    pub max_kernel_px: usize,
+    /// True when the wave-optics pupil grid undersampled a wavefront (the PSF is approximate).
+    pub undersampled: bool,
+}
+
+impl FieldPsfRequest {
+    pub fn new(mode: PsfMode, fields_deg: Vec<f64>, wavelengths_um: Vec<f64>) -> PsfResult<FieldPsfRequest> {
+        check_fields_deg(&fields_deg)?;
+        check_wavelengths_um(&wavelengths_um)?;
+        Ok(FieldPsfRequest {
+            mode,
+            fields_deg,
+            wavelengths_um,
+            pixel_um: None,
+            max_kernel_px: None,
+            backend: RayBackend::cpu(),
+        })
+    }
+
+    /// The sensor pitch (um); None: the lens's sensor, else `DEFAULT_PIXEL_UM`.
+    pub fn with_pixel_um(self, pixel_um: Option<f64>) -> PsfResult<FieldPsfRequest> {
+        pixel_um.map(check_pixel_um).transpose()?;
+        Ok(FieldPsfRequest { pixel_um, ..self })
+    }
+
+    /// Geometric mode: the kernel holds every ray up to this size (odd, at most `KERNEL_PX_LIMIT`)
+    /// instead of 99.5% of the energy within 127 px.
+    pub fn with_kernel_cap(self, max_kernel_px: Option<usize>) -> PsfResult<FieldPsfRequest> {
+        if let Some(n) = max_kernel_px {
+            check_kernel_cap(n).map_err(|message| InvalidParameter::new("max_kernel_px", message))?;
+        }
+        Ok(FieldPsfRequest {
+            max_kernel_px,
+            ..self
+        })
+    }
+
+    pub fn with_backend(self, backend: RayBackend) -> FieldPsfRequest {
+        FieldPsfRequest { backend, ..self }
+    }
+
+    pub fn mode(&self) -> PsfMode {
+        self.mode
+    }
+
+    /// The backend that traces (and names the device in the cache key).
+    pub fn backend(&self) -> &RayBackend {
+        &self.backend
+    }
+
+    pub fn monochromatic(&self) -> bool {
+        self.wavelengths_um.len() == 1
+    }
+
+    pub fn weights(&self) -> SpectralWeights {
+        weights_for(&self.wavelengths_um)
+    }
+
+    /// The pitch this request traces `lens` at.
+    pub fn pixel_um_for(&self, lens: &Lens) -> PsfResult<f64> {
+        check_pixel_um(
+            self.pixel_um
+                .or(lens.sensor.map(|s| s.pixel_pitch_um))
+                .unwrap_or(DEFAULT_PIXEL_UM),
+        )
+    }
+
+    /// The geometric settings this request traces with.
+    fn geometric_settings(&self, pixel_um: f64) -> PsfSettings {
+        PsfSettings::new(pixel_um)
+            .with_kernel_cap(self.max_kernel_px)
+            .with_backend(self.backend.clone())
+    }
+
+    /// Everything besides the lens the PSFs of `lens` depend on, the tracing device included, as text
+    /// for a cache key (see `cache::PsfCache::key`).
+    pub fn key_text(&self, lens: &Lens) -> PsfResult<String> {
+        let pixel_um = self.pixel_um_for(lens)?;
+        Ok(format!(
+            "{:?}",
+            (
+                self.mode,
+                &self.fields_deg,
+                pixel_um,
+                self.weights(),
+                self.monochromatic(),
+                &self.backend,
+                self.max_kernel_px
+            )
+        ))
+    }
+
+    /// Traces the PSFs: geometric ones sized to the largest spot (dark fields refused); wave ones sized
+    /// like the geometric PSFs of the same fields (so both modes compare pixel for pixel), at least
+    /// `MIN_WAVE_KERNEL_PX`.
+    pub fn run(&self, lens: &Lens) -> PsfResult<FieldPsfResponse> {
+        let pixel_um = self.pixel_um_for(lens)?;
+        let weights = self.weights();
+        let mono = self.monochromatic();
+        match self.mode {
+            PsfMode::Geometric => {
+                let tracer = PsfTracer::new(lens, weights.clone(), self.geometric_settings(pixel_um))?;
+                let set = tracer.common_size_psfs(&self.fields_deg, mono, DarkFields::Refused)?;
+                Ok(FieldPsfResponse {
+                    psfs: set.psfs,
+                    weights,
+                    pixel_um,
+                    requested_kernel_px: set.requested_kernel_px,
+                    max_kernel_px: tracer.settings().max_kernel_px,
+                    undersampled: false,
+                })
+            }
+            PsfMode::Wave => {
+                let sizing = PsfSettings::new(pixel_um).with_backend(self.backend.clone());
+                let sizing = PsfTracer::new(lens, weights.clone(), sizing)?;
+                let size = sizing.spot_kernel_px(&self.fields_deg)?.max(MIN_WAVE_KERNEL_PX);
+                let tracer = WavePsfTracer::new(lens, weights.clone(), WavePsfSettings::new(pixel_um))?;
+                let mut psfs = Vec::with_capacity(self.fields_deg.len());
+                let mut undersampled = false;
+                for &field in &self.fields_deg {
+                    let reference = sizing.reference_point_mm(field)?;
+                    let detailed = tracer.field_psf_detailed(field, reference, size, mono)?;
+                    undersampled |= detailed.undersampled;
+                    psfs.push(detailed.psf);
+                }
+                Ok(FieldPsfResponse {
+                    psfs,
+                    weights,
+                    pixel_um,
+                    requested_kernel_px: size,
+                    max_kernel_px: size,
+                    undersampled,
+                })
+            }
+        }
+    }
+}
+
+/// What is known of one traced field PSF besides its samples: the keys of `unicac psf --json` without
+/// `lens`, `out` and the cache's, and of Python's `Psf.metadata()`.
+#[derive(Debug, Clone, Serialize)]
+pub struct PsfMetadata {
+    pub mode: PsfMode,
+    pub field_deg: f64,
+    pub pixel_um: f64,
+    pub kernel_px: usize,
+    pub wavelengths_um: Vec<f64>,
+    pub skipped_wavelengths_um: Vec<f64>,
+    /// "R", "G", "B", or "Y" for a monochromatic PSF, one per kernel.
+    pub channels: Vec<&'static str>,
+    pub reference_mm: [f64; 2],
+    pub transmission: f64,
+    pub energy_cut: Vec<f64>,
+    pub rays_traced: usize,
+}
+
+impl PsfMetadata {
+    pub fn new(mode: PsfMode, psf: &FieldPsf, pixel_um: f64, weights: &SpectralWeights) -> PsfMetadata {
+        PsfMetadata {
+            mode,
+            field_deg: psf.field_deg,
+            pixel_um,
+            kernel_px: psf.kernels.first().map_or(0, |k| k.size),
+            wavelengths_um: weights.wavelengths_um.clone(),
+            skipped_wavelengths_um: weights.skipped_um.clone(),
+            channels: if psf.kernels.len() == 1 {
+                vec!["Y"]
+            } else {
+                vec!["R", "G", "B"]
+            },
+            reference_mm: psf.reference_mm,
+            transmission: psf.transmission,
+            energy_cut: psf.energy_cut.clone(),
+            rays_traced: psf.rays_traced,
+        }
+    }
+}
+
+/// The JSON sidecar and `--json` report of `unicac psf`.
+#[derive(Debug, Clone, Serialize)]
+pub struct PsfReport {
+    pub lens: String,
+    #[serde(flatten)]
+    pub metadata: PsfMetadata,
+    /// SHA-256 of the lens model (the PSF cache's key starts with it).
+    pub lens_sha256: String,
+    pub from_cache: bool,
+    pub out: String,
+}
