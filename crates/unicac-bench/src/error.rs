@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use thiserror::Error;
 
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum BenchError {
     #[error("{path}: {source}")]
     Io {

@@ -6,6 +6,7 @@ use unicac_optics::OpticsError;
 use unicac_trace::TraceError;
 
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum DesignError {
     /// The specification cannot be designed for; `field` names the offending option.
     #[error("invalid design specification: {field}: {message}")]

@@ -6,6 +6,7 @@ use crate::real::Precision;
 use serde::Serialize;
 
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum GpuError {
     #[error("no GPU adapter found (Vulkan); on Debian `apt-get install mesa-vulkan-drivers libvulkan1` provides lavapipe, a CPU implementation")]
     NoAdapter,
@@ -15,8 +16,12 @@ pub enum GpuError {
     RequestDevice(String),
     #[error("GPU error: {0}")]
     Device(String),
-    #[error("invalid GPU request: {0}")]
-    InvalidRequest(String),
+    /// A request parameter out of its range.
+    #[error(transparent)]
+    InvalidParameter(#[from] unicac_trace::InvalidParameter),
+    /// A request beyond what the GPU path or this device supports (the CPU path takes it).
+    #[error("unsupported on the GPU: {0}")]
+    Unsupported(String),
     #[error(transparent)]
     Trace(#[from] unicac_trace::TraceError),
     #[error(transparent)]

@@ -3,7 +3,7 @@
 //! the grid coming back. Sums are 64-bit fixed point added with integer atomics, so the grid is the
 //! same bit for bit run after run, whatever the dispatch order or chunking.
 
-use crate::device::{GpuError, GpuResult};
+use crate::device::GpuResult;
 use crate::layout::{self, Params};
 use crate::real::{Precision, Real};
 use crate::source::{ParaxialAim, PupilSource, RaySource};
@@ -74,11 +74,9 @@ impl Accumulated {
 impl GpuTracer {
     /// Traces and splats every pass into one grid.
     pub fn accumulate_psf(&self, grid: &SplatGrid, passes: &[PsfPass]) -> GpuResult<Accumulated> {
-        if grid.size % 2 != 1 || grid.oversample == 0 || !(grid.pixel_um > 0.0) {
-            return Err(GpuError::InvalidRequest(
-                "PSF grid: odd size, oversample >= 1, positive pixel pitch".into(),
-            ));
-        }
+        unicac_trace::check_odd("grid.size", grid.size)?;
+        unicac_trace::check_at_least("grid.oversample", grid.oversample, 1)?;
+        unicac_trace::check_positive("grid.pixel_um", grid.pixel_um)?;
         match self.precision() {
             Precision::F32 => self.accumulate::<f32>(grid, passes),
             Precision::F64 => self.accumulate::<f64>(grid, passes),

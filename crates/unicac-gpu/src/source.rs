@@ -51,12 +51,12 @@ impl PupilSource {
         };
         if matches!(self.sampling, PupilSampling::Grid { n } if n > 32767) {
             // The kernel's exact disc test squares cell indices in i32.
-            return Err(GpuError::InvalidRequest(
+            return Err(GpuError::Unsupported(
                 "grid pupil sampling: at most 32767 per side".into(),
             ));
         }
         if slots > u32::MAX as u64 {
-            return Err(GpuError::InvalidRequest(format!(
+            return Err(GpuError::Unsupported(format!(
                 "{slots} pupil samples: the device indexes at most 2^32 - 1"
             )));
         }

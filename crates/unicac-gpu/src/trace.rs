@@ -207,14 +207,14 @@ impl GpuTracer {
         grid_words: usize,
     ) -> GpuResult<()> {
         if surfaces.is_empty() || surfaces.len() > MAX_SURFACES {
-            return Err(GpuError::InvalidRequest(format!(
+            return Err(GpuError::Unsupported(format!(
                 "{} surfaces: the GPU path takes 1 to {MAX_SURFACES}",
                 surfaces.len()
             )));
         }
         let grid_bytes = (grid_words.max(2) * 4) as u64;
         if grid_bytes > self.context.limits.max_storage_buffer_binding_size {
-            return Err(GpuError::InvalidRequest(format!(
+            return Err(GpuError::Unsupported(format!(
                 "a PSF grid of {grid_bytes} bytes exceeds the device's storage binding limit"
             )));
         }

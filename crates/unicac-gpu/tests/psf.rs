@@ -130,7 +130,7 @@ fn gpu_psf_matches_the_cpu_psf() {
             );
             let mut settings = PsfSettings::new(2.0);
             settings.pupil_sampling = PupilSampling::Fibonacci { n: 4096 };
-            let cpu = PsfTracer::new(&lens, weights.clone(), settings).unwrap();
+            let cpu = PsfTracer::new(&lens, weights.clone(), settings.clone()).unwrap();
             let expected = cpu.field_psf(field, 31, false).unwrap();
             let got = field_psf(&tracer, &lens, &weights, &settings, field, 31, false).unwrap();
             let mut worst_l1 = 0.0f64;

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 /// Why a run's outputs are refused. Each names the flag (or role) and the paths involved.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum OutputError {
     #[error("{flag} {output}: would overwrite the input {input}; choose another output path")]
     OverwritesInput {

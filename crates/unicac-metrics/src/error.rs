@@ -4,6 +4,7 @@ use thiserror::Error;
 
 /// Why a metric could not be computed.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum MetricsError {
     #[error("image shapes differ: {a:?} vs {b:?} (width, height, channels)")]
     ShapeMismatch {

@@ -16,6 +16,7 @@ use unicac_sim::ChiefRayMap;
 use unicac_trace::{spots, Aiming, PupilSampling};
 
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum OdeError {
     #[error(transparent)]
     Sim(#[from] unicac_sim::SimError),
@@ -29,13 +30,15 @@ pub enum OdeError {
     Image(#[from] unicac_image::ImageError),
     #[error("field {field_fraction} ({field_deg:.3} deg) is fully vignetted: no ray reaches the image")]
     Vignetted { field_fraction: f64, field_deg: f64 },
-    #[error("slanted edge at field {field_fraction}, channel {channel}, {direction} (kernel {kernel_px} px): {message}")]
+    #[error("slanted edge at field {field_fraction}, channel {channel}, {direction} (kernel {kernel_px} px): {source}")]
     Edge {
         field_fraction: f64,
         channel: &'static str,
         direction: String,
         kernel_px: usize,
-        message: String,
+        /// What failed in measuring the edge (kept whole, so its kind survives).
+        #[source]
+        source: Box<OdeError>,
     },
 }
 
@@ -318,7 +321,7 @@ fn score_field(
                 channel: CHANNELS[c],
                 direction: direction.to_string(),
                 kernel_px: k,
-                message: e.to_string(),
+                source: Box::new(e),
             })?;
             let (sagittal, tangential) = (edges[0].summary(), edges[1].summary());
             let quality = oiqe(&tangential, &sagittal, &settings.oiqe_weights)?;

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 /// Everything that can go wrong while reading, validating or analysing a lens.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum OpticsError {
     #[error("{path}: {source}")]
     Io {

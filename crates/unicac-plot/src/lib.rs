@@ -54,6 +54,7 @@ use std::path::PathBuf;
 
 /// Why a picture could not be made.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PlotError {
     #[error("{path}: unknown picture format (expected a .png or .svg file name)")]
     UnknownExtension { path: PathBuf },

@@ -5,6 +5,7 @@ use unicac_optics::OpticsError;
 use unicac_trace::TraceError;
 
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PsfError {
     #[error(transparent)]
     Optics(#[from] OpticsError),
@@ -38,8 +39,10 @@ pub enum PsfError {
     /// The ray backend (a GPU) failed; the message is the device's.
     #[error("ray backend {backend}: {message}")]
     Backend { backend: String, message: String },
-    #[error("invalid PSF request: {0}")]
-    InvalidRequest(String),
+    /// The lens cannot be handled by the requested method (e.g. a wave PSF of an image-space
+    /// telecentric lens).
+    #[error("unsupported: {0}")]
+    Unsupported(String),
 }
 
 pub type PsfResult<T> = std::result::Result<T, PsfError>;

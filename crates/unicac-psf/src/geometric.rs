@@ -16,7 +16,10 @@ use crate::kernel::{rasterise, size_for_fraction, Kernel};
 use crate::spectrum::{combine_channels, SpectralWeights};
 use serde::{Deserialize, Serialize};
 use unicac_optics::Lens;
-use unicac_trace::{Aimer, Aiming, Clipping, PupilSampling, StatusCounts, TraceSystem};
+use unicac_trace::{
+    check_at_least, check_odd, check_positive, Aimer, Aiming, Clipping, PupilSampling, StatusCounts,
+    TraceSystem,
+};
 
 /// Largest kernel a caller may ask for (`PsfSettings::with_kernel_cap`): 4095^2 f32 samples are 64 MiB
 /// per channel.
@@ -146,11 +149,9 @@ pub struct PsfTracer {
 
 impl PsfTracer {
     pub fn new(lens: &Lens, weights: SpectralWeights, settings: PsfSettings) -> PsfResult<PsfTracer> {
-        if !(settings.pixel_um > 0.0 && settings.oversample >= 1 && settings.max_kernel_px % 2 == 1) {
-            return Err(PsfError::InvalidRequest(
-                "pixel pitch must be positive, oversample >= 1, maximum kernel size odd".into(),
-            ));
-        }
+        check_positive("pixel_um", settings.pixel_um)?;
+        check_at_least("oversample", settings.oversample, 1)?;
+        check_odd("max_kernel_px", settings.max_kernel_px)?;
         let systems = weights
             .wavelengths_um
             .iter()

@@ -28,6 +28,39 @@ impl Kernel {
         }
     }
 
+    /// A kernel from caller-supplied samples (row-major, `size` x `size`), scaled to unit sum: the
+    /// checked way in for data from outside (a Python array, a file). The side must be odd and the
+    /// samples finite, non-negative in sum and with a positive sum.
+    pub fn normalised_from(
+        size: usize,
+        pitch_um: f64,
+        samples: &[f32],
+    ) -> Result<Kernel, unicac_trace::InvalidParameter> {
+        use unicac_trace::InvalidParameter;
+        if size % 2 != 1 || samples.len() != size * size {
+            return Err(InvalidParameter::new(
+                "kernel",
+                format!(
+                    "expected a square kernel of odd size, got {size} x {}",
+                    samples.len().checked_div(size).unwrap_or(0)
+                ),
+            ));
+        }
+        unicac_trace::check_positive("pitch_um", pitch_um)?;
+        let sum: f64 = samples.iter().map(|&v| f64::from(v)).sum();
+        if !(sum.is_finite() && sum > 0.0) {
+            return Err(InvalidParameter::new(
+                "kernel",
+                "samples must be finite with a positive sum",
+            ));
+        }
+        Ok(Kernel {
+            size,
+            pitch_um,
+            data: samples.iter().map(|&v| (f64::from(v) / sum) as f32).collect(),
+        })
+    }
+
     pub fn half(&self) -> usize {
         self.size / 2
     }

@@ -75,7 +75,9 @@ use rustfft::FftPlanner;
 use serde::Serialize;
 use std::f64::consts::PI;
 use unicac_optics::{Lens, Profile};
-use unicac_trace::{Aimer, Aiming, Clipping, Ray, RayStatus, StatusCounts, TraceSystem};
+use unicac_trace::{
+    check_at_least, check_positive, Aimer, Aiming, Clipping, Ray, RayStatus, StatusCounts, TraceSystem,
+};
 
 /// Default pupil samples per axis (reasons in the module docs, item 6).
 pub const DEFAULT_PUPIL_GRID: usize = 128;
@@ -262,26 +264,20 @@ pub struct WavePsfTracer {
 
 impl WavePsfTracer {
     pub fn new(lens: &Lens, weights: SpectralWeights, settings: WavePsfSettings) -> PsfResult<WavePsfTracer> {
-        if !(settings.pixel_um > 0.0
-            && settings.pixel_um.is_finite()
-            && settings.oversample >= 1
-            && settings.pupil_grid >= 4)
-        {
-            return Err(PsfError::InvalidRequest(
-                "pixel pitch must be positive, oversample >= 1, pupil grid >= 4".into(),
-            ));
-        }
+        check_positive("pixel_um", settings.pixel_um)?;
+        check_at_least("oversample", settings.oversample, 1)?;
+        check_at_least("pupil_grid", settings.pupil_grid, 4)?;
         let first = lens.first_order()?;
         let (Some(exit_pupil_z_mm), Some(diameter)) = (first.exit_pupil_z_mm, first.exit_pupil_diameter_mm)
         else {
-            return Err(PsfError::InvalidRequest(
+            return Err(PsfError::Unsupported(
                 "the exit pupil is at infinity (image-space telecentric): wave PSFs need a finite \
                  reference sphere"
                     .into(),
             ));
         };
         if !(diameter > 0.0 && diameter.is_finite() && exit_pupil_z_mm.is_finite()) {
-            return Err(PsfError::InvalidRequest(format!(
+            return Err(PsfError::Unsupported(format!(
                 "unusable paraxial exit pupil (diameter {diameter} mm at z = {exit_pupil_z_mm} mm)"
             )));
         }

@@ -4,7 +4,8 @@
 //! that failed: `LensError` (reading or analysing a lens), `TraceError` (ray aiming, trace requests),
 //! `PsfError`, `ImageError` (files, ISP steps), `SimulationError`, `MetricsError`, `OdeError` and `DatasetError`.
 //! A nested error keeps the most specific stage: a lens problem found while simulating is a
-//! `LensError`. Wrong argument types, dtypes or shapes are caught before Rust sees them and raise
+//! `LensError`, also when the ODE found it. A trace or PSF parameter out of range raises `ValueError`
+//! naming it (a simulation's stays a `SimulationError`, naming it too). Wrong argument types, dtypes or shapes are caught before Rust sees them and raise
 //! the standard `TypeError` / `ValueError` naming the argument (see `arrays.rs`). Per-ray failures are
 //! not errors: they are status codes.
 
@@ -73,6 +74,12 @@ pub fn keyword_error(keyword: &str, parameter: unicac_trace::InvalidParameter) -
     pyo3::exceptions::PyValueError::new_err(format!("{keyword}: {}", parameter.message))
 }
 
+/// A library parameter error where the library's name is the Python keyword (`pixel_um`,
+/// `max_kernel_px`, `field_deg`): a `ValueError` that names it.
+pub fn parameter_error(parameter: unicac_trace::InvalidParameter) -> PyErr {
+    pyo3::exceptions::PyValueError::new_err(parameter.to_string())
+}
+
 /// A Rust error that knows which Python exception it becomes.
 pub trait ToPyErr {
     fn to_py_err(self) -> PyErr;
@@ -99,6 +106,7 @@ impl ToPyErr for unicac_trace::TraceError {
     fn to_py_err(self) -> PyErr {
         match self {
             unicac_trace::TraceError::Optics(e) => e.to_py_err(),
+            unicac_trace::TraceError::InvalidParameter(parameter) => parameter_error(parameter),
             other => TraceError::new_err(other.to_string()),
         }
     }
@@ -109,10 +117,7 @@ impl ToPyErr for unicac_psf::PsfError {
         match self {
             unicac_psf::PsfError::Optics(e) => e.to_py_err(),
             unicac_psf::PsfError::Trace(e) => e.to_py_err(),
-            // The library names the parameter as the Python keyword does.
-            unicac_psf::PsfError::InvalidParameter(parameter) => {
-                pyo3::exceptions::PyValueError::new_err(parameter.to_string())
-            }
+            unicac_psf::PsfError::InvalidParameter(parameter) => parameter_error(parameter),
             other => PsfError::new_err(other.to_string()),
         }
     }
@@ -144,7 +149,15 @@ impl ToPyErr for unicac_sim::SimError {
 
 impl ToPyErr for unicac_ode::OdeError {
     fn to_py_err(self) -> PyErr {
-        OdeError::new_err(self.to_string())
+        // A lens, trace, PSF or image problem found while grading keeps its own exception class.
+        match self {
+            unicac_ode::OdeError::Sim(e) => e.to_py_err(),
+            unicac_ode::OdeError::Psf(e) => e.to_py_err(),
+            unicac_ode::OdeError::Trace(e) => e.to_py_err(),
+            unicac_ode::OdeError::Metrics(e) => e.to_py_err(),
+            unicac_ode::OdeError::Image(e) => e.to_py_err(),
+            other => OdeError::new_err(other.to_string()),
+        }
     }
 }
 

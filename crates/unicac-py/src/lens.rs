@@ -9,8 +9,6 @@ use std::path::PathBuf;
 use unicac_optics::{examples, Lens, LensSpec};
 use unicac_trace::LensSummary;
 
-/// Prefix naming a lens bundled with unicac, as on the command line.
-
 /// A validated lens (from a `.json` or `.zmx` file or `builtin:NAME`). Immutable.
 #[pyclass(module = "unicac", name = "Lens", frozen)]
 pub struct PyLens {

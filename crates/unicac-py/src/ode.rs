@@ -1,7 +1,7 @@
 //! The Optical Degradation Evaluator (ODE) of a lens and the OIQE score of a PSF.
 
 use crate::arrays::planar_f32;
-use crate::errors::{OdeError, OrRaise};
+use crate::errors::{self, OdeError, OrRaise};
 use crate::json;
 use crate::lens::PyLens;
 use pyo3::exceptions::PyValueError;
@@ -39,23 +39,13 @@ pub fn ode<'py>(py: Python<'py>, lens: &PyLens, device: &str) -> PyResult<Bound<
 #[pyfunction]
 pub fn oiqe_of_psf<'py>(py: Python<'py>, kernel: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyDict>> {
     let plane = planar_f32(kernel, "kernel", 2, &[])?;
-    if plane.width != plane.height || plane.width % 2 == 0 {
+    if plane.width != plane.height {
         return Err(PyValueError::new_err(format!(
             "kernel: expected a square kernel of odd size, got {} x {}",
             plane.height, plane.width
         )));
     }
-    let sum: f64 = plane.data.iter().map(|&v| f64::from(v)).sum();
-    if !(sum.is_finite() && sum > 0.0) {
-        return Err(PyValueError::new_err(
-            "kernel: samples must be finite with a positive sum",
-        ));
-    }
-    let kernel = Kernel {
-        size: plane.width,
-        pitch_um: 1.0,
-        data: plane.data.iter().map(|&v| (f64::from(v) / sum) as f32).collect(),
-    };
+    let kernel = Kernel::normalised_from(plane.width, 1.0, &plane.data).map_err(errors::parameter_error)?;
     let settings = OdeSettings::default();
     let (oiqe, sagittal, tangential) = crate::pool::detach(py, || -> PyResult<(f64, f64, f64)> {
         let edges = edge_mtfs(&kernel, &settings)

@@ -23,11 +23,7 @@ fn grid(spacing_px: usize, size: usize) -> KernelGrid {
             k
         })
         .collect();
-    KernelGrid {
-        nodes_x,
-        nodes_y,
-        kernels,
-    }
+    KernelGrid::new(nodes_x, nodes_y, kernels).expect("a valid grid")
 }
 
 fn bench(c: &mut Criterion) {

@@ -68,7 +68,7 @@ fn main() {
     let start = Instant::now();
     for (c, grid) in grids.iter().enumerate() {
         let largest = grid
-            .kernels
+            .kernels()
             .iter()
             .max_by_key(|k| half_width_holding(k, settings.kernel_tail))
             .expect("kernels");
@@ -81,7 +81,7 @@ fn main() {
         varying_s / floor_s
     );
     let mut sizes: Vec<usize> = grids[1]
-        .kernels
+        .kernels()
         .iter()
         .map(|k| 2 * half_width_holding(k, settings.kernel_tail) + 1)
         .collect();
@@ -94,6 +94,6 @@ fn main() {
         quantile(0.5),
         quantile(0.9),
         quantile(1.0),
-        grids[1].kernels[0].size
+        grids[1].kernels()[0].size
     );
 }

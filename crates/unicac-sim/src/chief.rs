@@ -11,14 +11,16 @@ use unicac_trace::{Aimer, Aiming, Clipping, TraceSystem};
 /// bundled lenses, see tests).
 pub const CHIEF_SAMPLES: usize = 65;
 
+/// Built only by [`ChiefRayMap::new`], which guarantees its invariants: `CHIEF_SAMPLES` samples,
+/// angles increasing from 0 and heights strictly increasing (so lookups need no checks).
 #[derive(Debug, Clone)]
 pub struct ChiefRayMap {
     /// Field angles (deg), increasing from 0.
-    pub angles_deg: Vec<f64>,
+    angles_deg: Vec<f64>,
     /// Real chief-ray heights (mm), increasing.
-    pub heights_mm: Vec<f64>,
+    heights_mm: Vec<f64>,
     /// Paraxial height per unit tan F on the image surface.
-    pub paraxial_height_per_tan_mm: f64,
+    paraxial_height_per_tan_mm: f64,
 }
 
 impl ChiefRayMap {
@@ -26,7 +28,7 @@ impl ChiefRayMap {
         let first = lens.first_order()?;
         let max_field = first.max_field_deg();
         if max_field <= 0.0 {
-            return Err(SimError::InvalidRequest(
+            return Err(SimError::Unsupported(
                 "the lens has no off-axis field to simulate".into(),
             ));
         }
@@ -39,13 +41,13 @@ impl ChiefRayMap {
             let angle = max_field * i as f64 / (CHIEF_SAMPLES - 1) as f64;
             let mut ray = aimer.ray(angle, 0.0, 0.0)?;
             if !system.trace(&mut ray).is_ok() {
-                return Err(SimError::InvalidRequest(format!(
+                return Err(SimError::Unsupported(format!(
                     "the chief ray of {angle:.3} deg does not reach the image"
                 )));
             }
             let height = ray.position_mm[1];
             if heights_mm.last().is_some_and(|&last| height <= last) {
-                return Err(SimError::InvalidRequest(format!(
+                return Err(SimError::Unsupported(format!(
                     "the chief-ray height stops increasing at {angle:.3} deg; the field cannot be mapped"
                 )));
             }
@@ -70,11 +72,16 @@ impl ChiefRayMap {
     }
 
     pub fn max_height_mm(&self) -> f64 {
-        *self.heights_mm.last().expect("samples")
+        self.heights_mm[CHIEF_SAMPLES - 1]
     }
 
     pub fn max_angle_deg(&self) -> f64 {
-        *self.angles_deg.last().expect("samples")
+        self.angles_deg[CHIEF_SAMPLES - 1]
+    }
+
+    /// Paraxial height per unit tan F on the image surface (0 when no off-axis sample is paraxial).
+    pub fn paraxial_height_per_tan_mm(&self) -> f64 {
+        self.paraxial_height_per_tan_mm
     }
 
     /// Field angle whose real chief ray lands at `height_mm` (linear interpolation; clamped).

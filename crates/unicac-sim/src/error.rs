@@ -6,6 +6,7 @@ use unicac_psf::PsfError;
 use unicac_trace::TraceError;
 
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum SimError {
     #[error(transparent)]
     Optics(#[from] OpticsError),
@@ -20,8 +21,12 @@ pub enum SimError {
          reached the sensor (check the clear semi-diameters)"
     )]
     FullyVignetted { max_field_deg: f64, rays_traced: usize },
-    #[error("invalid simulation request: {0}")]
-    InvalidRequest(String),
+    /// A request parameter out of its range (`image_px`, `pixel_um`, `window`, `image`).
+    #[error(transparent)]
+    InvalidParameter(#[from] unicac_trace::InvalidParameter),
+    /// The lens cannot be simulated (no off-axis field, a chief ray that cannot be mapped).
+    #[error("unsupported lens: {0}")]
+    Unsupported(String),
 }
 
 pub type SimResult<T> = std::result::Result<T, SimError>;

@@ -10,7 +10,7 @@ use crate::chief::ChiefRayMap;
 use crate::convolve::{
     convolve_varying_with, node_positions, Blend, KernelGrid, Method, KERNEL_TAIL_TOLERANCE,
 };
-use crate::error::{SimError, SimResult};
+use crate::error::SimResult;
 use crate::geometry::SensorGrid;
 use crate::psf_map::RadialPsfs;
 use rayon::prelude::*;
@@ -20,6 +20,7 @@ use unicac_image::Planar;
 use unicac_optics::Lens;
 use unicac_psf::{lens_fingerprint, PsfCache};
 use unicac_psf::{visible_wavelengths_um, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights};
+use unicac_trace::InvalidParameter;
 
 /// Fidelity and effect switches (defaults at the knee of the sweep in docs/performance.md).
 #[derive(Debug, Clone, Serialize)]
@@ -99,15 +100,21 @@ impl LensSimulator {
         settings: SimulationSettings,
     ) -> SimResult<LensSimulator> {
         if width < 2 || height < 2 {
-            return Err(SimError::InvalidRequest(format!(
-                "image of {width} x {height} pixels is too small"
-            )));
+            return Err(InvalidParameter::new(
+                "image_px",
+                format!("{width} x {height}: too small (at least 2 x 2)"),
+            )
+            .into());
         }
         if width.saturating_mul(height) > MAX_SIMULATE_PIXELS {
-            return Err(SimError::InvalidRequest(format!(
-                "image of {width} x {height} pixels exceeds the limit of {MAX_SIMULATE_PIXELS} pixels \
-                 (MAX_SIMULATE_PIXELS; peak memory grows with the pixel count, see docs/reliability.md)"
-            )));
+            return Err(InvalidParameter::new(
+                "image_px",
+                format!(
+                    "{width} x {height}: exceeds the limit of {MAX_SIMULATE_PIXELS} pixels \
+                     (MAX_SIMULATE_PIXELS; peak memory grows with the pixel count, see docs/reliability.md)"
+                ),
+            )
+            .into());
         }
         let chief = ChiefRayMap::new(lens)?;
         let grid = match pixel_um {
@@ -117,9 +124,11 @@ impl LensSimulator {
                 pitch_um: p,
             },
             Some(p) => {
-                return Err(SimError::InvalidRequest(format!(
-                    "pixel pitch {p} um must be positive"
-                )))
+                return Err(InvalidParameter::new(
+                    "pixel_um",
+                    format!("{p}: the pixel pitch must be positive"),
+                )
+                .into())
             }
             None => SensorGrid::filling_field(width, height, &chief),
         };
@@ -160,10 +169,14 @@ impl LensSimulator {
             }
         };
         if radial.kernel_size > grid.width_px.min(grid.height_px) {
-            return Err(SimError::InvalidRequest(format!(
-                "the PSF ({} px) is larger than the image ({width} x {height} px)",
-                radial.kernel_size
-            )));
+            return Err(InvalidParameter::new(
+                "image_px",
+                format!(
+                    "{width} x {height}: the PSF ({} px) is larger than the image; simulate a larger image",
+                    radial.kernel_size
+                ),
+            )
+            .into());
         }
         let mut simulator = LensSimulator {
             grid,
@@ -182,14 +195,14 @@ impl LensSimulator {
 
     /// Real (distorted) sensor position of the field whose ideal image is at `ideal_mm`.
     fn real_position(&self, ideal_mm: [f64; 2]) -> [f64; 2] {
-        if !self.settings.distortion || self.chief.paraxial_height_per_tan_mm == 0.0 {
+        if !self.settings.distortion || self.chief.paraxial_height_per_tan_mm() == 0.0 {
             return ideal_mm;
         }
         let ideal = ideal_mm[0].hypot(ideal_mm[1]);
         if ideal == 0.0 {
             return ideal_mm;
         }
-        let angle = (ideal / self.chief.paraxial_height_per_tan_mm)
+        let angle = (ideal / self.chief.paraxial_height_per_tan_mm())
             .atan()
             .to_degrees();
         let scale = self.chief.height_for_angle(angle) / ideal;
@@ -213,11 +226,8 @@ impl LensSimulator {
                 self.radial.kernel_at(x, y, channel)
             })
             .collect();
-        KernelGrid {
-            nodes_x,
-            nodes_y,
-            kernels,
-        }
+        KernelGrid::new(nodes_x, nodes_y, kernels)
+            .expect("one kernel per node, all of the radial table's odd size")
     }
 
     fn frame(&self) -> PixelWindow {
@@ -409,10 +419,14 @@ impl LensSimulator {
     fn check_frame(&self, image: &Planar) -> SimResult<()> {
         let (w, h) = (self.grid.width_px, self.grid.height_px);
         if image.width != w || image.height != h || image.channels != 3 {
-            return Err(SimError::InvalidRequest(format!(
-                "expected a {w} x {h} RGB image, got {} x {} with {} channels",
-                image.width, image.height, image.channels
-            )));
+            return Err(InvalidParameter::new(
+                "image",
+                format!(
+                    "expected a {w} x {h} RGB image, got {} x {} with {} channels",
+                    image.width, image.height, image.channels
+                ),
+            )
+            .into());
         }
         Ok(())
     }
@@ -462,10 +476,14 @@ impl PixelWindow {
             && self.x0.checked_add(self.width).is_some_and(|end| end <= width)
             && self.y0.checked_add(self.height).is_some_and(|end| end <= height);
         if !fits {
-            return Err(SimError::InvalidRequest(format!(
-                "window {} x {} px at ({}, {}) does not fit in the {width} x {height} px frame (at least 2 x 2 px)",
-                self.width, self.height, self.x0, self.y0
-            )));
+            return Err(InvalidParameter::new(
+                "window",
+                format!(
+                    "{} x {} px at ({}, {}) does not fit in the {width} x {height} px frame (at least 2 x 2 px)",
+                    self.width, self.height, self.x0, self.y0
+                ),
+            )
+            .into());
         }
         Ok(())
     }

@@ -141,7 +141,7 @@ fn radial_interpolation_error_at_the_default_sampling_is_within_its_stated_bound
     for name in ["cooke_triplet", "phone_asphere"] {
         let lens = examples::lens(name).unwrap();
         let sim = LensSimulator::new(&lens, 640, 480, None, settings.clone()).unwrap();
-        let mut psf_settings = settings.psf;
+        let mut psf_settings = settings.psf.clone();
         psf_settings.pixel_um = sim.grid.pitch_um;
         let weights = unicac_psf::SpectralWeights::new(
             &settings.response,

@@ -4,6 +4,7 @@
 use unicac_optics::OpticsError;
 
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum TraceError {
     #[error(transparent)]
     Optics(#[from] OpticsError),
@@ -15,8 +16,9 @@ pub enum TraceError {
         py: f64,
         reason: String,
     },
-    #[error("invalid request: {0}")]
-    InvalidRequest(String),
+    /// A request parameter out of its range (named in the library's words).
+    #[error(transparent)]
+    InvalidParameter(#[from] crate::InvalidParameter),
 }
 
 pub type TraceResult<T> = std::result::Result<T, TraceError>;

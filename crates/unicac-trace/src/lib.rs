@@ -36,7 +36,8 @@ pub use batch::{trace_rays, trace_rays_serial};
 pub use error::{TraceError, TraceResult};
 pub use lanes::SimdLevel;
 pub use params::{
-    check_field_deg, check_fields_deg, check_wavelength_um, check_wavelengths_um, InvalidParameter,
+    check_at_least, check_field_deg, check_fields_deg, check_odd, check_positive, check_wavelength_um,
+    check_wavelengths_um, InvalidParameter,
 };
 pub use pupil::PupilSampling;
 pub use ray::{Ray, RayStatus, StatusCounts};

@@ -55,6 +55,33 @@ pub fn check_wavelengths_um(wavelengths_um: &[f64]) -> Result<(), InvalidParamet
         .try_for_each(|&w| check_wavelength_um(w).map(drop))
 }
 
+/// A finite, strictly positive quantity (a pixel pitch, a length).
+pub fn check_positive(field: &'static str, value: f64) -> Result<f64, InvalidParameter> {
+    if !(value.is_finite() && value > 0.0) {
+        return Err(InvalidParameter::new(field, format!("{value}: must be positive")));
+    }
+    Ok(value)
+}
+
+/// A count of at least `minimum`.
+pub fn check_at_least(field: &'static str, value: usize, minimum: usize) -> Result<usize, InvalidParameter> {
+    if value < minimum {
+        return Err(InvalidParameter::new(
+            field,
+            format!("{value}: must be at least {minimum}"),
+        ));
+    }
+    Ok(value)
+}
+
+/// An odd size (a kernel's side, so that it has a centre pixel).
+pub fn check_odd(field: &'static str, value: usize) -> Result<usize, InvalidParameter> {
+    if value % 2 != 1 {
+        return Err(InvalidParameter::new(field, format!("{value}: must be odd")));
+    }
+    Ok(value)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -69,5 +96,22 @@ mod tests {
         assert_eq!(error.to_string(), "wavelength_um: -1: must be positive");
         assert!(check_wavelengths_um(&[0.55, 0.0]).is_err());
         assert!(check_fields_deg(&[0.0, 10.0]).is_ok());
+    }
+
+    #[test]
+    fn sizes_and_pitches_are_named() {
+        assert_eq!(check_positive("pixel_um", 2.0), Ok(2.0));
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(check_positive("pixel_um", bad).unwrap_err().field, "pixel_um");
+        }
+        assert_eq!(
+            check_at_least("oversample", 0, 1).unwrap_err().to_string(),
+            "oversample: 0: must be at least 1"
+        );
+        assert_eq!(check_odd("max_kernel_px", 127), Ok(127));
+        assert_eq!(
+            check_odd("max_kernel_px", 128).unwrap_err().field,
+            "max_kernel_px"
+        );
     }
 }

@@ -116,7 +116,7 @@ pub fn spots(
 ) -> TraceResult<Vec<Spot>> {
     sampling
         .check()
-        .map_err(|e| crate::TraceError::InvalidRequest(format!("pupil sampling: {e}")))?;
+        .map_err(|e| crate::InvalidParameter::new("pupil_sampling", e.to_string()))?;
     let mut spots = Vec::with_capacity(fields_deg.len() * wavelengths_um.len());
     for &wavelength in wavelengths_um {
         let tracer = SpotTracer::new(lens, wavelength, aiming)?;
@@ -175,9 +175,11 @@ pub const MAX_FAN_SAMPLES: usize = 100_001;
 /// Fans need at least two points (the pupil's two ends) and at most [`MAX_FAN_SAMPLES`].
 pub fn check_fan_samples(samples: usize) -> TraceResult<()> {
     if !(2..=MAX_FAN_SAMPLES).contains(&samples) {
-        return Err(crate::TraceError::InvalidRequest(format!(
-            "fan samples {samples}: must lie between 2 and {MAX_FAN_SAMPLES} (MAX_FAN_SAMPLES)"
-        )));
+        return Err(crate::InvalidParameter::new(
+            "fan_samples",
+            format!("{samples}: must lie between 2 and {MAX_FAN_SAMPLES} (MAX_FAN_SAMPLES)"),
+        )
+        .into());
     }
     Ok(())
 }

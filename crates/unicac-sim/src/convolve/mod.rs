@@ -29,12 +29,57 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::ops::Range;
 use unicac_psf::Kernel;
+use unicac_trace::InvalidParameter;
 
-/// Node grid and one kernel per node (row-major, `nodes_x * nodes_y`), all of one size.
+/// Node grid and one kernel per node (row-major, `nodes_x * nodes_y`), all of one odd size. Built by
+/// [`KernelGrid::new`], which checks that, so the convolutions index it without checks.
 pub struct KernelGrid {
-    pub nodes_x: usize,
-    pub nodes_y: usize,
-    pub kernels: Vec<Kernel>,
+    nodes_x: usize,
+    nodes_y: usize,
+    kernels: Vec<Kernel>,
+}
+
+impl KernelGrid {
+    pub fn new(nodes_x: usize, nodes_y: usize, kernels: Vec<Kernel>) -> Result<KernelGrid, InvalidParameter> {
+        unicac_trace::check_at_least("nodes_x", nodes_x, 1)?;
+        unicac_trace::check_at_least("nodes_y", nodes_y, 1)?;
+        if kernels.len() != nodes_x * nodes_y {
+            return Err(InvalidParameter::new(
+                "kernels",
+                format!(
+                    "{} kernels for {nodes_x} x {nodes_y} nodes: one per node",
+                    kernels.len()
+                ),
+            ));
+        }
+        let size = kernels[0].size;
+        unicac_trace::check_odd("kernels", size)?;
+        if let Some(other) = kernels
+            .iter()
+            .find(|k| k.size != size || k.data.len() != size * size)
+        {
+            return Err(InvalidParameter::new(
+                "kernels",
+                format!(
+                    "sizes {size} and {} px: all kernels of a grid share one size",
+                    other.size
+                ),
+            ));
+        }
+        Ok(KernelGrid {
+            nodes_x,
+            nodes_y,
+            kernels,
+        })
+    }
+
+    pub fn nodes(&self) -> [usize; 2] {
+        [self.nodes_x, self.nodes_y]
+    }
+
+    pub fn kernels(&self) -> &[Kernel] {
+        &self.kernels
+    }
 }
 
 /// How the corner convolutions of a tile are computed (the result is the same up to f32 rounding).
