@@ -107,6 +107,8 @@ pub struct Entry<'a> {
 pub struct Library {
     pub dir: PathBuf,
     pub rows: Vec<ManifestRow>,
+    /// What went wrong but lost nothing (a layout plot not drawn), for the caller to show.
+    notes: Vec<String>,
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> DesignError + '_ {
@@ -144,6 +146,7 @@ impl Library {
         Ok(Library {
             dir: dir.to_path_buf(),
             rows,
+            notes: Vec::new(),
         })
     }
 
@@ -193,7 +196,7 @@ impl Library {
         write_atomically(&report_path, text.as_bytes())?;
         // A plot that cannot be drawn (no fonts on a server) must not lose the lens: note it and go on.
         if let Err(e) = layout_plot(entry.lens, &base.with_extension("png")) {
-            eprintln!("warning: {id}: layout plot not written: {e}");
+            self.notes.push(format!("{id}: layout plot not written: {e}"));
         }
         let t = entry.terms;
         let row = ManifestRow {
@@ -228,6 +231,11 @@ impl Library {
 
     /// Removes a lens and the aspheric designs made from it: first from the manifest (so an interrupted
     /// run never lists a missing file), then its files.
+    /// The notes gathered since the last call (see [`Library::add`]).
+    pub fn take_notes(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.notes)
+    }
+
     pub fn remove(&mut self, id: &str) -> Result<()> {
         let gone: Vec<String> = self
             .rows

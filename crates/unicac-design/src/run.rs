@@ -100,6 +100,11 @@ pub enum Event {
         slug: String,
         accepted: usize,
     },
+    /// Something the user should know that lost nothing (a layout plot not drawn).
+    Note {
+        slug: String,
+        message: String,
+    },
 }
 
 /// One finished design (before acceptance).
@@ -469,6 +474,7 @@ fn accept(
     }
     let elapsed_s = start.elapsed().as_secs_f64();
     let id = library.add(&entry(spec, settings.seed, elapsed_s, spherical, None, None))?;
+    forward_notes(library, &slug, events);
     events(Event::Accepted {
         slug: slug.clone(),
         id: id.clone(),
@@ -488,6 +494,7 @@ fn accept(
             && a.verification.rms_mean_um < rms;
         if a.acceptable(settings.max_rms_um) && improves {
             let child = library.add(&entry(spec, settings.seed, elapsed_s, a, Some(id), Some(rms)))?;
+            forward_notes(library, &slug, events);
             events(Event::Accepted {
                 slug,
                 id: child,
@@ -523,6 +530,16 @@ fn entry<'a>(
         verification: &f.verification,
         seed,
         elapsed_s,
+    }
+}
+
+/// Hands the library's notes to the caller as events (libraries do not print).
+fn forward_notes(library: &mut Library, slug: &str, events: &(dyn Fn(Event) + Sync)) {
+    for message in library.take_notes() {
+        events(Event::Note {
+            slug: slug.to_string(),
+            message,
+        });
     }
 }
 

@@ -190,6 +190,7 @@ pub fn run(args: &DesignArgs) -> Result<()> {
                 "replaced {id} (mean RMS spot {rms_mean_um:.2} um) by a better design"
             ));
         }
+        Event::Note { message, .. } => bar.println(format!("warning: {message}")),
         Event::SpecDone { .. } => {}
     };
     let summaries = run_specs(&specs, &settings, &mut library, &events)?;
