@@ -173,13 +173,12 @@ pub struct RayFan {
 pub const MAX_FAN_SAMPLES: usize = 100_001;
 
 /// Fans need at least two points (the pupil's two ends) and at most [`MAX_FAN_SAMPLES`].
-pub fn check_fan_samples(samples: usize) -> TraceResult<()> {
+pub fn check_fan_samples(samples: usize) -> Result<(), crate::InvalidParameter> {
     if !(2..=MAX_FAN_SAMPLES).contains(&samples) {
         return Err(crate::InvalidParameter::new(
-            "fan_samples",
-            format!("{samples}: must lie between 2 and {MAX_FAN_SAMPLES} (MAX_FAN_SAMPLES)"),
-        )
-        .into());
+            "samples",
+            format!("fan samples {samples}: must lie between 2 and {MAX_FAN_SAMPLES} (MAX_FAN_SAMPLES)"),
+        ));
     }
     Ok(())
 }

@@ -7,7 +7,7 @@ use anyhow::Result;
 use unicac_trace::{spot::ray_fan, SpotTracer};
 
 pub fn run(args: &FanArgs) -> Result<()> {
-    unicac_trace::spot::check_fan_samples(args.samples).map_err(|e| anyhow::anyhow!("--samples: {e}"))?;
+    unicac_trace::spot::check_fan_samples(args.samples).map_err(super::flag_error)?;
     crate::outputs::check_lens_and_picture(&args.lens.lens, "--plot", args.plot.as_deref())?;
     let lens = load_lens(&args.lens.lens)?;
     let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.rays)?;
