@@ -1,7 +1,7 @@
 """`unicac-ray dataset build`: one Ray task per shard, all writing into one dataset folder.
 
-`unicac dataset build ... --shard I/N` renders the pairs, PSF tables and edge sets whose index is I-1
-modulo N and writes the same manifests as every other shard; N shards in one folder equal the single run
+`unicac dataset build ... --shard I/N` renders the pairs, PSF table and edge set of each lens in use whose
+rank is I-1 modulo N (whole lenses: each PSF map is traced once) and writes the same manifests as every other shard; N shards in one folder equal the single run
 byte for byte (docs/dataset.md). Every shard grades every lens (the levels need all grades), from the
 grade cache in `OUT/.cache/ode` when another run has filled it. So the driver runs:
 

@@ -6,7 +6,8 @@
 //! manifests are written in a fixed order by every run and every shard alike. Hence:
 //! - resume: files are written atomically (dot-named temporary + rename) and skipped when present,
 //!   so a killed run started again recomputes only what is missing, with the same bytes;
-//! - shards: `--shard I/N` renders the pairs, tables and edges whose index is I-1 modulo N and writes
+//! - shards: `--shard I/N` renders the pairs, PSF table and edge patches of the lenses in use whose rank is
+//!   I-1 modulo N (whole lenses, so each PSF map is traced by one shard only) and writes
 //!   the same manifests; whichever run finds every file present writes `dataset.json` (last, the
 //!   completion mark), so N shards in one folder equal the single run byte for byte.
 //!
@@ -330,19 +331,21 @@ pub fn build(
         .collect();
     let cache_psf = Some(unicac_sim::PsfCache::new(grading::cache_dir(out).join("psf")));
     let lens_index: BTreeMap<&str, usize> = ids.iter().enumerate().map(|(i, id)| (id.as_str(), i)).collect();
-    let my_pairs: Vec<usize> = (0..plan.pairs.len()).filter(|&p| shard.owns(p)).collect();
-    let mut my_lenses: Vec<usize> = my_pairs
-        .iter()
-        .map(|&p| lens_index[plan.pairs[p].lens_id.as_str()])
-        .chain(
-            used.iter()
-                .enumerate()
-                .filter(|(k, _)| shard.owns(*k))
-                .map(|(_, &i)| i),
-        )
+    // A shard owns whole lenses (the k-th lens in use goes to shard k mod N): its pairs, PSF table and
+    // edge patches, so each lens's PSF map is traced by one shard only.
+    let working: Vec<usize> = (0..planned.len())
+        .filter(|&i| plan.lenses[i].split != "unused")
         .collect();
-    my_lenses.sort_unstable();
-    my_lenses.dedup();
+    let my_lenses: Vec<usize> = working
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| shard.owns(*k))
+        .map(|(_, &i)| i)
+        .collect();
+    let owned = |i: usize| my_lenses.binary_search(&i).is_ok();
+    let my_pairs: Vec<usize> = (0..plan.pairs.len())
+        .filter(|&p| owned(lens_index[plan.pairs[p].lens_id.as_str()]))
+        .collect();
     progress.stage("tracing PSF maps", my_lenses.len());
     for &i in &my_lenses {
         let p = &planned[i];
@@ -401,7 +404,7 @@ pub fn build(
         let p = &planned[i];
         let row = &plan.lenses[i];
         let table_dir = out.join(&row.psf);
-        let owns_table = used.iter().position(|&u| u == i).is_some_and(|k| shard.owns(k));
+        let owns_table = used.contains(&i);
         let pairs: Vec<&PairRow> = missing_pairs
             .iter()
             .map(|&q| &plan.pairs[q])
@@ -440,12 +443,7 @@ pub fn build(
     let test_lenses: Vec<usize> = (0..planned.len())
         .filter(|&i| assignment.split[i] == "test")
         .collect();
-    let my_edge_lenses: Vec<usize> = test_lenses
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| shard.owns(*k))
-        .map(|(_, &i)| i)
-        .collect();
+    let my_edge_lenses: Vec<usize> = test_lenses.into_iter().filter(|&i| owned(i)).collect();
     progress.stage("edge patches", my_edge_lenses.len());
     for &i in &my_edge_lenses {
         let rows: Vec<&EdgeRow> = plan.edges.iter().filter(|e| e.lens_id == ids[i]).collect();
