@@ -7,8 +7,15 @@ source scripts/setup.sh
 source scripts/setup_python.sh dev   # PyTorch, onnx, onnxruntime (ORT_DYLIB_PATH for the bench tests), ...
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --quiet -- -D warnings
-cargo test --workspace --quiet --no-fail-fast 2>&1 | tee /tmp/unicac-test.log
+# The totals line is printed whether or not a test failed (so CI's log always ends with the counts);
+# the script still fails when cargo test did.
+cargo_status=0
+cargo test --workspace --quiet --no-fail-fast 2>&1 | tee /tmp/unicac-test.log || cargo_status=$?
 # One closing line with the totals over every test binary.
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i; if ($(i+1) ~ /^ignored/) s += $i } }
      END { printf "unicac: %d passed, %d failed, %d skipped\n", p, f, s; exit (f > 0) }' /tmp/unicac-test.log
+if [ "$cargo_status" -ne 0 ]; then
+    echo "cargo test failed (exit $cargo_status)" >&2
+    exit "$cargo_status"
+fi
 bash scripts/python_test.sh   # builds the Python package on the test artifacts, runs python/tests

@@ -120,10 +120,10 @@ fn check_settings(s: &BenchSettings) -> Result<()> {
         }
         names.push(name);
     }
-    // The report folder is neither the dataset nor a model file (the report would mix with the
-    // dataset's own files, or replace a model).
+    // The report folder is neither the dataset (nor inside it) nor a model file (the report would mix
+    // with the dataset's own files, or replace a model).
     let mut plan = unicac_io::OutputPlan::new();
-    plan.input(&s.dataset);
+    plan.input_folder(&s.dataset);
     for (_, path) in &s.models {
         plan.input(path);
     }

@@ -13,6 +13,12 @@ pub enum OutputError {
         output: PathBuf,
         input: PathBuf,
     },
+    #[error("{flag} {output}: lies inside the input folder {folder}; choose a path outside it")]
+    InsideInputFolder {
+        flag: String,
+        output: PathBuf,
+        folder: PathBuf,
+    },
     #[error(
         "{first_flag} {first} and {second_flag} {second} are the same file; each output needs its own path"
     )]
@@ -34,6 +40,7 @@ pub enum OutputError {
 #[derive(Debug, Default, Clone)]
 pub struct OutputPlan {
     inputs: Vec<PathBuf>,
+    input_folders: Vec<PathBuf>,
     outputs: Vec<(String, PathBuf)>,
 }
 
@@ -45,6 +52,15 @@ impl OutputPlan {
     /// A file the run reads (lens, image, cache entries need not be listed).
     pub fn input(&mut self, path: impl Into<PathBuf>) -> &mut Self {
         self.inputs.push(path.into());
+        self
+    }
+
+    /// A folder the run reads as a whole (a dataset): no output may be it or lie anywhere inside it
+    /// (a later run would read the output as part of the input).
+    pub fn input_folder(&mut self, path: impl Into<PathBuf>) -> &mut Self {
+        let path = path.into();
+        self.inputs.push(path.clone());
+        self.input_folders.push(path);
         self
     }
 
@@ -61,6 +77,8 @@ impl OutputPlan {
     /// Refuses an output that is an input, or two outputs that are one file.
     pub fn check(&self) -> Result<(), OutputError> {
         let inputs: Vec<(Identity, &PathBuf)> = self.inputs.iter().map(|p| (Identity::of(p), p)).collect();
+        let folders: Vec<(Identity, &PathBuf)> =
+            self.input_folders.iter().map(|p| (Identity::of(p), p)).collect();
         let mut seen: Vec<(Identity, &String, &PathBuf)> = Vec::new();
         for (flag, output) in &self.outputs {
             let identity = Identity::of(output);
@@ -69,6 +87,16 @@ impl OutputPlan {
                     flag: flag.clone(),
                     output: output.clone(),
                     input: (*input).clone(),
+                });
+            }
+            if let Some((_, folder)) = folders
+                .iter()
+                .find(|(f, _)| identity.normalised.starts_with(&f.normalised))
+            {
+                return Err(OutputError::InsideInputFolder {
+                    flag: flag.clone(),
+                    output: output.clone(),
+                    folder: (*folder).clone(),
                 });
             }
             if let Some((_, first_flag, first)) = seen.iter().find(|(i, _, _)| i.same(&identity)) {
@@ -183,6 +211,37 @@ mod tests {
         let mut plan = OutputPlan::new();
         plan.input(&input).output("--out", dir.join("b.png"));
         plan.check().unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn an_output_inside_an_input_folder_is_refused_at_any_depth() {
+        let dir = std::env::temp_dir().join(format!("unicac-io-folder-{}", std::process::id()));
+        let dataset = dir.join("dataset");
+        std::fs::create_dir_all(dataset.join("test")).unwrap();
+        for (output, refused) in [
+            (dataset.join("report"), true),
+            (dataset.join("test").join("new").join("report"), true),
+            (dataset.join("test").join("..").join("report"), true),
+            (dir.join("report"), false),
+            (dir.join("dataset-report"), false),
+        ] {
+            let mut plan = OutputPlan::new();
+            plan.input_folder(&dataset).output("--out", &output);
+            let result = plan.check();
+            assert_eq!(
+                matches!(result, Err(OutputError::InsideInputFolder { .. })),
+                refused,
+                "{output:?}: {result:?}"
+            );
+        }
+        let mut plan = OutputPlan::new();
+        plan.input_folder(&dataset).output("--out", &dataset);
+        assert!(plan
+            .check()
+            .unwrap_err()
+            .to_string()
+            .contains("would overwrite the input"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
