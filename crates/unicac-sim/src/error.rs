@@ -16,11 +16,6 @@ pub enum SimError {
     Psf(#[from] PsfError),
     #[error(transparent)]
     Image(#[from] ImageError),
-    #[error(
-        "the lens vignettes the whole field: none of the {rays_traced} rays traced from 0 to {max_field_deg:.2} deg \
-         reached the sensor (check the clear semi-diameters)"
-    )]
-    FullyVignetted { max_field_deg: f64, rays_traced: usize },
     /// A request parameter out of its range (`image_px`, `pixel_um`, `window`, `image`).
     #[error(transparent)]
     InvalidParameter(#[from] unicac_trace::InvalidParameter),

@@ -3,9 +3,9 @@
 //! between the two nearest radial samples and rotated to its azimuth.
 
 use crate::chief::ChiefRayMap;
-use crate::error::{SimError, SimResult};
+use crate::error::SimResult;
 use serde::Serialize;
-use unicac_psf::{DarkFields, FieldPsf, Kernel, PsfError, PsfTracer};
+use unicac_psf::{DarkFields, FieldPsf, Kernel, PsfTracer};
 
 /// Radial PSF samples from the axis to the sensor's half-diagonal.
 #[derive(Debug, Clone, Serialize)]
@@ -32,19 +32,9 @@ impl RadialPsfs {
             .map(|i| max_radius_mm * i as f64 / (samples - 1) as f64)
             .collect();
         let angles: Vec<f64> = radii_mm.iter().map(|&r| chief.angle_for_height(r)).collect();
-        let set = match tracer.common_size_psfs(&angles, monochromatic, DarkFields::AllowedIfAnyLit) {
-            Ok(set) => set,
-            Err(PsfError::AllFieldsVignetted {
-                max_field_deg,
-                rays_traced,
-            }) => {
-                return Err(SimError::FullyVignetted {
-                    max_field_deg,
-                    rays_traced,
-                })
-            }
-            Err(other) => return Err(other.into()),
-        };
+        // A lens that lights no field at all fails here with PsfError::AllFieldsVignetted (one error
+        // kind for it, whichever stage finds it).
+        let set = tracer.common_size_psfs(&angles, monochromatic, DarkFields::AllowedIfAnyLit)?;
         let (psfs, kernel_size, requested_kernel_size) = (set.psfs, set.kernel_px, set.requested_kernel_px);
         Ok(RadialPsfs {
             radii_mm,
