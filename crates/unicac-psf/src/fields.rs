@@ -13,7 +13,7 @@ use crate::wave::{WavePsfSettings, WavePsfTracer};
 use rayon::prelude::*;
 use serde::Serialize;
 use unicac_optics::Lens;
-use unicac_trace::{check_fields_deg, check_wavelengths_um, InvalidParameter};
+use unicac_trace::{check_fields_deg, check_positive, check_wavelengths_um, InvalidParameter};
 
 /// Pixel pitch (um) when neither the request nor the lens's sensor gives one.
 pub const DEFAULT_PIXEL_UM: f64 = 2.0;
@@ -85,15 +85,14 @@ impl PsfTracer {
             .collect()
     }
 
-    /// Kernel size (odd, px, before the cap) holding the energy fraction of the largest spot among
-    /// `fields_deg`, dark fields included (they ask for 1 px).
-    pub fn spot_kernel_px(&self, fields_deg: &[f64]) -> PsfResult<usize> {
-        Ok(self
-            .trace_fields(fields_deg)?
+    /// Kernel size (odd, px, before the cap) holding the energy fraction of the largest traced spot,
+    /// dark fields included (they ask for 1 px).
+    fn largest_kernel_px(&self, traced: &[([f64; 2], Vec<FieldHits>)]) -> usize {
+        traced
             .iter()
             .map(|(_, hits)| self.kernel_size_for(hits))
             .max()
-            .unwrap_or(1))
+            .unwrap_or(1)
     }
 
     /// R, G, B (or monochromatic) kernels of every field at one common size, from the largest spot.
@@ -124,11 +123,7 @@ impl PsfTracer {
                 }
             }
         }
-        let requested_kernel_px = traced
-            .iter()
-            .map(|(_, hits)| self.kernel_size_for(hits))
-            .max()
-            .unwrap_or(1);
+        let requested_kernel_px = self.largest_kernel_px(&traced);
         let kernel_px = requested_kernel_px.min(self.settings().max_kernel_px);
         let psfs = fields_deg
             .par_iter()
@@ -156,14 +151,6 @@ pub fn weights_for(wavelengths_um: &[f64]) -> SpectralWeights {
         [w] => SpectralWeights::monochromatic(*w),
         many => SpectralWeights::new(&SpectralResponse::default_camera(), many),
     }
-}
-
-/// A pixel pitch (um) that is finite and positive.
-pub fn check_pixel_um(pixel_um: f64) -> PsfResult<f64> {
-    if !(pixel_um.is_finite() && pixel_um > 0.0) {
-        return Err(InvalidParameter::new("pixel_um", format!("{pixel_um}: must be positive")).into());
-    }
-    Ok(pixel_um)
 }
 
 /// PSFs of some fields of a lens, as a face asks for them; every parameter is checked by `new` and the
@@ -207,7 +194,7 @@ impl FieldPsfRequest {
 
     /// The sensor pitch (um); None: the lens's sensor, else `DEFAULT_PIXEL_UM`.
     pub fn with_pixel_um(self, pixel_um: Option<f64>) -> PsfResult<FieldPsfRequest> {
-        pixel_um.map(check_pixel_um).transpose()?;
+        pixel_um.map(|p| check_positive("pixel_um", p)).transpose()?;
         Ok(FieldPsfRequest { pixel_um, ..self })
     }
 
@@ -246,11 +233,12 @@ impl FieldPsfRequest {
 
     /// The pitch this request traces `lens` at.
     pub fn pixel_um_for(&self, lens: &Lens) -> PsfResult<f64> {
-        check_pixel_um(
+        Ok(check_positive(
+            "pixel_um",
             self.pixel_um
                 .or(lens.sensor.map(|s| s.pixel_pitch_um))
                 .unwrap_or(DEFAULT_PIXEL_UM),
-        )
+        )?)
     }
 
     /// The geometric settings this request traces with.
@@ -301,13 +289,14 @@ impl FieldPsfRequest {
             PsfMode::Wave => {
                 let sizing = PsfSettings::new(pixel_um).with_backend(self.backend.clone());
                 let sizing = PsfTracer::new(lens, weights.clone(), sizing)?;
-                let size = sizing.spot_kernel_px(&self.fields_deg)?.max(MIN_WAVE_KERNEL_PX);
+                // One geometric trace gives both the size and each field's reference point.
+                let traced = sizing.trace_fields(&self.fields_deg)?;
+                let size = sizing.largest_kernel_px(&traced).max(MIN_WAVE_KERNEL_PX);
                 let tracer = WavePsfTracer::new(lens, weights.clone(), WavePsfSettings::new(pixel_um))?;
                 let mut psfs = Vec::with_capacity(self.fields_deg.len());
                 let mut undersampled = false;
-                for &field in &self.fields_deg {
-                    let reference = sizing.reference_point_mm(field)?;
-                    let detailed = tracer.field_psf_detailed(field, reference, size, mono)?;
+                for (&field, (reference, _)) in self.fields_deg.iter().zip(&traced) {
+                    let detailed = tracer.field_psf_detailed(field, *reference, size, mono)?;
                     undersampled |= detailed.undersampled;
                     psfs.push(detailed.psf);
                 }

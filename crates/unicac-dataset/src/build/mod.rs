@@ -325,7 +325,8 @@ pub fn build(
         &test_scenes,
         frame_px,
     )?;
-    // This shard's work, checked before anything is written.
+    // This shard's work, checked before anything is written. The lenses in use (train, val, test) are
+    // the ones with a PSF table.
     let used: Vec<usize> = (0..planned.len())
         .filter(|&i| !plan.lenses[i].psf.is_empty())
         .collect();
@@ -333,10 +334,7 @@ pub fn build(
     let lens_index: BTreeMap<&str, usize> = ids.iter().enumerate().map(|(i, id)| (id.as_str(), i)).collect();
     // A shard owns whole lenses (the k-th lens in use goes to shard k mod N): its pairs, PSF table and
     // edge patches, so each lens's PSF map is traced by one shard only.
-    let working: Vec<usize> = (0..planned.len())
-        .filter(|&i| plan.lenses[i].split != "unused")
-        .collect();
-    let my_lenses: Vec<usize> = working
+    let my_lenses: Vec<usize> = used
         .iter()
         .enumerate()
         .filter(|(k, _)| shard.owns(*k))
@@ -404,13 +402,12 @@ pub fn build(
         let p = &planned[i];
         let row = &plan.lenses[i];
         let table_dir = out.join(&row.psf);
-        let owns_table = used.contains(&i);
         let pairs: Vec<&PairRow> = missing_pairs
             .iter()
             .map(|&q| &plan.pairs[q])
             .filter(|r| r.lens_id == row.lens_id)
             .collect();
-        let needs_table = owns_table && !table_dir.join(crate::psf_table::TABLE_JSON).exists();
+        let needs_table = !table_dir.join(crate::psf_table::TABLE_JSON).exists();
         if pairs.is_empty() && !needs_table {
             continue;
         }
