@@ -10,14 +10,20 @@
 # Needs the release binary's set-up (scripts/setup.sh, scripts/setup_python.sh runtime) and the LPIPS
 # weights (`unicac weights fetch lpips`, done here).
 set -euo pipefail
+out=$(realpath -m "${1:-$(dirname "$0")/../out/documented-run}")   # relative to where it is called
 cd "$(dirname "$0")/.."
-out=${1:-out/documented-run}
+# The folder is replaced, so it must be new, empty, or an earlier run of this script (never, say, `.`).
+if [ -e "$out" ] && [ ! -f "$out/.documented-run" ] && [ -n "$(ls -A "$out" 2>/dev/null)" ]; then
+  echo "documented_run.sh: $out exists and is not an earlier run of this script; give a new folder" >&2
+  exit 2
+fi
 source scripts/setup.sh
 source scripts/setup_python.sh runtime
 cargo build --release -q -p unicac-cli
 unicac=target/release/unicac
 rm -rf "$out"
 mkdir -p "$out"
+touch "$out/.documented-run"
 $unicac design --elements 3 --half-fov-deg 20 --f-number 5 --focal-length-mm 50 --stop middle \
     --count 3 --seed 1 --time-budget-s 300 --out "$out/designs"
 $unicac dataset build --lenses builtin:achromat builtin:cooke_triplet builtin:double_gauss builtin:petzval \

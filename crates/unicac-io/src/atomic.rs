@@ -15,6 +15,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::OnceLock;
 use std::time::{Duration, SystemTime};
 
 /// The marker between a target's name and the writer's process id.
@@ -43,13 +44,17 @@ pub fn temporary_sibling(path: &Path) -> PathBuf {
     ))
 }
 
-/// A 32-bit FNV-1a hash of this machine's host name (0 where it cannot be read).
+/// A 32-bit FNV-1a hash of this machine's host name (0 where it cannot be read), read once per
+/// process (every temporary's name carries it).
 fn this_host() -> u32 {
-    let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .or_else(|_| std::env::var("HOSTNAME"))
-        .unwrap_or_default();
-    name.trim().bytes().fold(0x811c_9dc5_u32, |h, b| {
-        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+    static HOST: OnceLock<u32> = OnceLock::new();
+    *HOST.get_or_init(|| {
+        let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .or_else(|_| std::env::var("HOSTNAME"))
+            .unwrap_or_default();
+        name.trim().bytes().fold(0x811c_9dc5_u32, |h, b| {
+            (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+        })
     })
 }
 
@@ -118,52 +123,59 @@ fn process_alive(pid: u32) -> Option<bool> {
 /// Removes the temporaries in `dir` whose writer is gone (or, where that cannot be told, that are
 /// older than [`STALE_TEMPORARY_AGE`]). Returns the files removed. A missing folder is not an error.
 pub fn clean_stale_temporaries(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
-    let entries = match std::fs::read_dir(dir) {
-        Ok(entries) => entries,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(e) => return Err(e),
-    };
+    clean(dir, false)
+}
+
+/// [`clean_stale_temporaries`] in `root` and every folder below it (symbolic links not followed).
+pub fn clean_stale_temporaries_under(root: &Path) -> std::io::Result<Vec<PathBuf>> {
+    clean(root, true)
+}
+
+/// One listing per folder: stale temporaries removed, sub-folders visited when `recurse`.
+fn clean(root: &Path, recurse: bool) -> std::io::Result<Vec<PathBuf>> {
     let mut removed = Vec::new();
-    for entry in entries.flatten() {
-        let name = entry.file_name().to_string_lossy().into_owned();
-        if !name.starts_with('.') {
-            continue;
-        }
-        let Some(pid) = writer_pid(&name) else { continue };
-        let same_host = writer_host(&name).is_none_or(|host| host == this_host());
-        let stale = match process_alive(pid).filter(|_| same_host) {
-            Some(alive) => !alive,
-            None => entry
-                .metadata()
-                .and_then(|m| m.modified())
-                .ok()
-                .and_then(|t| SystemTime::now().duration_since(t).ok())
-                .is_some_and(|age| age > STALE_TEMPORARY_AGE),
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        let entries = match std::fs::read_dir(&dir) {
+            Ok(entries) => entries,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(e),
         };
-        if stale && entry.file_type().is_ok_and(|t| t.is_file()) {
-            std::fs::remove_file(entry.path())?;
-            removed.push(entry.path());
+        for entry in entries.flatten() {
+            let Ok(kind) = entry.file_type() else { continue };
+            if kind.is_dir() {
+                if recurse {
+                    stack.push(entry.path());
+                }
+            } else if kind.is_file() && is_stale_temporary(&entry) {
+                std::fs::remove_file(entry.path())?;
+                removed.push(entry.path());
+            }
         }
     }
     Ok(removed)
 }
 
-/// [`clean_stale_temporaries`] in `root` and every folder below it (symbolic links not followed).
-pub fn clean_stale_temporaries_under(root: &Path) -> std::io::Result<Vec<PathBuf>> {
-    let mut removed = Vec::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        removed.extend(clean_stale_temporaries(&dir)?);
-        let Ok(entries) = std::fs::read_dir(&dir) else {
-            continue;
-        };
-        for entry in entries.flatten() {
-            if entry.file_type().is_ok_and(|t| t.is_dir()) {
-                stack.push(entry.path());
-            }
-        }
+/// A temporary whose writer is dead (same host, checked in /proc), or, where that cannot be told (no
+/// /proc, another host's writer), one older than [`STALE_TEMPORARY_AGE`].
+fn is_stale_temporary(entry: &std::fs::DirEntry) -> bool {
+    let name = entry.file_name().to_string_lossy().into_owned();
+    if !name.starts_with('.') {
+        return false;
     }
-    Ok(removed)
+    let Some(pid) = writer_pid(&name) else {
+        return false;
+    };
+    let same_host = writer_host(&name).is_none_or(|host| host == this_host());
+    match process_alive(pid).filter(|_| same_host) {
+        Some(alive) => !alive,
+        None => entry
+            .metadata()
+            .and_then(|m| m.modified())
+            .ok()
+            .and_then(|t| SystemTime::now().duration_since(t).ok())
+            .is_some_and(|age| age > STALE_TEMPORARY_AGE),
+    }
 }
 
 #[cfg(test)]

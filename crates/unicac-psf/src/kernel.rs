@@ -29,8 +29,8 @@ impl Kernel {
     }
 
     /// A kernel from caller-supplied samples (row-major, `size` x `size`), scaled to unit sum: the
-    /// checked way in for data from outside (a Python array, a file). The side must be odd and the
-    /// samples finite, non-negative in sum and with a positive sum.
+    /// checked way in for data from outside (a Python array, a file). The side must be odd, the pitch
+    /// positive, and the samples' sum finite and positive.
     pub fn normalised_from(
         size: usize,
         pitch_um: f64,

@@ -77,7 +77,7 @@ pub fn keyword_error(keyword: &str, parameter: unicac_trace::InvalidParameter) -
 /// A library parameter error where the library's name is the Python keyword (`pixel_um`,
 /// `max_kernel_px`, `field_deg`): a `ValueError` that names it.
 pub fn parameter_error(parameter: unicac_trace::InvalidParameter) -> PyErr {
-    pyo3::exceptions::PyValueError::new_err(parameter.to_string())
+    keyword_error(parameter.field, parameter)
 }
 
 /// A Rust error that knows which Python exception it becomes.
