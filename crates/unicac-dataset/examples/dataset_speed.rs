@@ -21,7 +21,7 @@ fn main() {
     .iter()
     .map(|n| format!("builtin:{n}"))
     .collect();
-    let test_images = 2;
+    let test_images = 8;
     let mut settings = BuildSettings::new(
         lenses.clone(),
         "dead-leaves:2".into(),

@@ -47,6 +47,26 @@ fn main() {
         "PSF map {psf_map_s:.2} s, image pass {image_s:.2} s, total {:.2} s",
         psf_map_s + image_s
     );
+    // The same pass without the distortion warp and the shading: what those two cost.
+    let plain = LensSimulator::new(
+        &lens,
+        width,
+        height,
+        None,
+        SimulationSettings {
+            distortion: false,
+            illumination: false,
+            ..SimulationSettings::default()
+        },
+    )
+    .expect("simulator");
+    let start = Instant::now();
+    plain.apply(&chart).expect("simulation");
+    let plain_s = start.elapsed().as_secs_f64();
+    println!(
+        "image pass without warp and shading {plain_s:.2} s: warp + shading {:.2} s",
+        image_s - plain_s
+    );
     let settings = &simulator.settings;
     let grids = simulator.kernel_grids();
     let start = Instant::now();

@@ -2,7 +2,7 @@
 //!
 //! Image simulation through a lens: where pixels sit on the sensor (`geometry`), the real chief ray
 //! over the field with distortion and relative illumination (`chief`), PSFs over the sensor from one
-//! radius (`psf_map`), seamless spatially varying convolution (`convolve`), and the simulator that
+//! radius (`psf_map`), per-pixel radial quantities as lookup tables (`radial_table`), seamless spatially varying convolution (`convolve`), and the simulator that
 //! puts them together (`simulate`).
 //!
 //! Hand-written because these are the product's own optics; parallel with rayon.
@@ -12,6 +12,7 @@ pub mod convolve;
 pub mod error;
 pub mod geometry;
 pub mod psf_map;
+pub mod radial_table;
 pub mod simulate;
 
 pub use chief::ChiefRayMap;

@@ -13,6 +13,7 @@ use crate::convolve::{
 use crate::error::SimResult;
 use crate::geometry::SensorGrid;
 use crate::psf_map::RadialPsfs;
+use crate::radial_table::RadialTable;
 use rayon::prelude::*;
 use serde::Serialize;
 use unicac_image::isp::Pipeline;
@@ -88,6 +89,10 @@ pub struct LensSimulator {
     /// Why a freshly traced map could not be stored in the cache (the simulation itself is unaffected).
     pub cache_warning: Option<String>,
     kernels: Vec<KernelGrid>,
+    /// ideal height / real height as a function of the real radius (pixels): the warp's scale.
+    warp_scale: RadialTable,
+    /// Relative illumination times vignetting, normalised by the peak transmission, over the radius.
+    shading: RadialTable,
 }
 
 impl LensSimulator {
@@ -187,10 +192,34 @@ impl LensSimulator {
             psfs_from_cache,
             cache_warning,
             kernels: Vec::new(),
+            warp_scale: RadialTable::sample(0.0, |_| 1.0),
+            shading: RadialTable::sample(0.0, |_| 1.0),
         };
         let frame = simulator.frame();
         simulator.kernels = (0..3).map(|c| simulator.kernel_grid(c, frame)).collect();
+        let max_radius_px = 0.5 * (width as f64).hypot(height as f64);
+        simulator.warp_scale = RadialTable::sample(max_radius_px, |r| simulator.exact_warp_scale(r));
+        simulator.shading = RadialTable::sample(max_radius_px, |r| simulator.exact_shading(r));
         Ok(simulator)
+    }
+
+    /// The warp's scale at `radius_px` from the frame centre, evaluated from the chief-ray map: the
+    /// output pixel at real radius r samples the ideal image at r times this.
+    fn exact_warp_scale(&self, radius_px: f64) -> f64 {
+        if self.chief.paraxial_height_per_tan_mm() == 0.0 {
+            return 1.0;
+        }
+        // On the axis, the limit of ideal / real (the first chief-ray segment is linear).
+        let radius_mm = (radius_px * self.grid.pitch_um * 1e-3).max(1e-9);
+        self.chief.ideal_height(radius_mm) / radius_mm
+    }
+
+    /// The shading factor at `radius_px` from the frame centre, evaluated from the chief-ray map and the
+    /// radial PSFs' transmission.
+    fn exact_shading(&self, radius_px: f64) -> f64 {
+        let radius_mm = radius_px * self.grid.pitch_um * 1e-3;
+        let axis = self.radial.peak_transmission().max(1e-12);
+        self.chief.illumination_factor(radius_mm) * self.radial.transmission_at(radius_mm) / axis
     }
 
     /// Real (distorted) sensor position of the field whose ideal image is at `ideal_mm`.
@@ -254,9 +283,14 @@ impl LensSimulator {
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
         self.check_frame(image)?;
         let (w, h) = (self.grid.width_px, self.grid.height_px);
-        let mut out = Planar::new(w, h, 3);
+        let mut blurred = Planar {
+            width: w,
+            height: h,
+            channels: 3,
+            data: Vec::with_capacity(3 * w * h),
+        };
         for c in 0..3 {
-            let blurred = convolve_varying_with(
+            blurred.data.extend(convolve_varying_with(
                 image.plane(c),
                 w,
                 h,
@@ -264,16 +298,12 @@ impl LensSimulator {
                 self.settings.method,
                 self.settings.blend,
                 self.settings.kernel_tail,
-            );
-            out.plane_mut(c).copy_from_slice(&blurred);
+            ));
         }
-        if self.settings.distortion {
-            out = self.warp(&out);
+        if !self.settings.distortion && !self.settings.illumination {
+            return Ok(blurred);
         }
-        if self.settings.illumination {
-            self.shade(&mut out);
-        }
-        Ok(out)
+        Ok(self.warp_and_shade(&blurred, self.frame(), self.frame()))
     }
 
     /// The whole chain on one sharp linear image, as `unicac simulate` runs it: the ISP draw of `seed`
@@ -287,45 +317,58 @@ impl LensSimulator {
 
     /// The ideal (undistorted) frame position that output pixel (column, row) shows: the warp samples
     /// the blurred ideal image there.
+    #[inline]
     fn ideal_source(&self, column: usize, row: usize) -> [f64; 2] {
         if !self.settings.distortion {
             return [column as f64, row as f64];
         }
-        let real = self.grid.to_mm(column as f64, row as f64);
-        let radius = real[0].hypot(real[1]);
-        if radius == 0.0 {
-            return [column as f64, row as f64];
-        }
-        let scale = self.chief.ideal_height(radius) / radius;
-        self.grid.to_px([real[0] * scale, real[1] * scale])
+        // Pixel offsets from the centre scale like sensor millimetres (the same factor on both axes).
+        let [cx, cy] = self.grid.centre_px();
+        let (dx, dy) = (column as f64 - cx, row as f64 - cy);
+        let scale = self.warp_scale.at((dx * dx + dy * dy).sqrt());
+        [cx + dx * scale, cy + dy * scale]
     }
 
-    /// Moves content from ideal to real positions: output pixel at real position r samples the
-    /// blurred ideal image at the ideal position of the field landing at r (bilinear).
-    fn warp(&self, image: &Planar) -> Planar {
-        self.warp_window(image, self.frame(), self.frame())
-    }
-
-    /// The warp for the output pixels of `window`, from `blurred`, which covers `source` of the frame.
-    fn warp_window(&self, blurred: &Planar, source: PixelWindow, window: PixelWindow) -> Planar {
+    /// Distortion and shading of the output pixels of `window` in one pass over them (both depend on
+    /// the output pixel's radius only): output pixel at real position r samples `blurred` (which covers
+    /// `source` of the frame) at the ideal position of the field landing at r (bilinear; when the
+    /// distortion is off, at r itself, which copies the pixel), times the shading at r when it is on.
+    fn warp_and_shade(&self, blurred: &Planar, source: PixelWindow, window: PixelWindow) -> Planar {
+        assert_eq!(blurred.channels, 3, "an RGB image");
         let (w, h) = (blurred.width, blurred.height);
-        let mut out = Planar::new(window.width, window.height, blurred.channels);
-        let sources: Vec<[f64; 2]> = (0..window.height)
-            .into_par_iter()
-            .flat_map_iter(|row| (0..window.width).map(move |column| (column, row)))
-            .map(|(column, row)| {
-                let [x, y] = self.ideal_source(window.x0 + column, window.y0 + row);
-                [x - source.x0 as f64, y - source.y0 as f64]
-            })
-            .collect();
-        for c in 0..blurred.channels {
-            let plane = blurred.plane(c);
-            let target = out.plane_mut(c);
-            target
-                .par_iter_mut()
-                .zip(&sources)
-                .for_each(|(v, &[x, y])| *v = sample_bilinear(plane, w, h, x, y));
-        }
+        let planes = [blurred.plane(0), blurred.plane(1), blurred.plane(2)];
+        let mut out = Planar::new(window.width, window.height, 3);
+        let (red, rest) = out.data.split_at_mut(window.width * window.height);
+        let (green, blue) = rest.split_at_mut(window.width * window.height);
+        let [cx, cy] = self.grid.centre_px();
+        let (distortion, illumination) = (self.settings.distortion, self.settings.illumination);
+        red.par_chunks_mut(window.width)
+            .zip(green.par_chunks_mut(window.width))
+            .zip(blue.par_chunks_mut(window.width))
+            .enumerate()
+            .for_each(|(row, ((red, green), blue))| {
+                let dy = (window.y0 + row) as f64 - cy;
+                for column in 0..window.width {
+                    let dx = (window.x0 + column) as f64 - cx;
+                    let radius = (dx * dx + dy * dy).sqrt();
+                    let scale = if distortion {
+                        self.warp_scale.at(radius)
+                    } else {
+                        1.0
+                    };
+                    let shade = if illumination {
+                        self.shading.at(radius) as f32
+                    } else {
+                        1.0
+                    };
+                    let x = cx + dx * scale - source.x0 as f64;
+                    let y = cy + dy * scale - source.y0 as f64;
+                    let taps = BilinearTaps::new(w, h, x, y);
+                    red[column] = taps.sample(planes[0]) * shade;
+                    green[column] = taps.sample(planes[1]) * shade;
+                    blue[column] = taps.sample(planes[2]) * shade;
+                }
+            });
         out
     }
 
@@ -398,22 +441,17 @@ impl LensSimulator {
             );
             blurred.plane_mut(c).copy_from_slice(&plane);
         }
-        let mut out = if self.settings.distortion {
-            self.warp_window(&blurred, source, window)
-        } else {
-            crop(
+        if !self.settings.distortion && !self.settings.illumination {
+            return Ok(crop(
                 &blurred,
                 PixelWindow {
                     x0: window.x0 - source.x0,
                     y0: window.y0 - source.y0,
                     ..window
                 },
-            )
-        };
-        if self.settings.illumination {
-            self.shade_window(&mut out, window);
+            ));
         }
-        Ok(out)
+        Ok(self.warp_and_shade(&blurred, source, window))
     }
 
     fn check_frame(&self, image: &Planar) -> SimResult<()> {
@@ -429,34 +467,6 @@ impl LensSimulator {
             .into());
         }
         Ok(())
-    }
-
-    /// Relative illumination: chief-ray mapping times vignetting, normalised by the peak transmission.
-    fn shade(&self, image: &mut Planar) {
-        self.shade_window(image, self.frame());
-    }
-
-    /// `shade` for an image holding the pixels of `window`.
-    fn shade_window(&self, image: &mut Planar, window: PixelWindow) {
-        let w = image.width;
-        let axis = self.radial.peak_transmission().max(1e-12);
-        let factors: Vec<f32> = (0..w * image.height)
-            .into_par_iter()
-            .map(|i| {
-                let column = (window.x0 + i % w) as f64;
-                let row = (window.y0 + i / w) as f64;
-                let [x, y] = self.grid.to_mm(column, row);
-                let radius = x.hypot(y);
-                (self.chief.illumination_factor(radius) * self.radial.transmission_at(radius) / axis) as f32
-            })
-            .collect();
-        for c in 0..image.channels {
-            image
-                .plane_mut(c)
-                .iter_mut()
-                .zip(&factors)
-                .for_each(|(v, f)| *v *= f);
-        }
     }
 }
 
@@ -504,14 +514,96 @@ pub fn crop(image: &Planar, window: PixelWindow) -> Planar {
     out
 }
 
-/// Bilinear sample with replicated borders.
-fn sample_bilinear(plane: &[f32], width: usize, height: usize, x: f64, y: f64) -> f32 {
-    let x = x.clamp(0.0, width as f64 - 1.0);
-    let y = y.clamp(0.0, height as f64 - 1.0);
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-    let (x1, y1) = ((x0 + 1).min(width - 1), (y0 + 1).min(height - 1));
-    let (tx, ty) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
-    let top = plane[y0 * width + x0] * (1.0 - tx) + plane[y0 * width + x1] * tx;
-    let bottom = plane[y1 * width + x0] * (1.0 - tx) + plane[y1 * width + x1] * tx;
-    top * (1.0 - ty) + bottom * ty
+/// The four pixels around a (fractional) position and their bilinear weights, found once and applied
+/// to each channel. Positions outside the plane are clamped to its border (edge replication).
+struct BilinearTaps {
+    top: usize,
+    bottom: usize,
+    left: usize,
+    right: usize,
+    tx: f32,
+    ty: f32,
+}
+
+impl BilinearTaps {
+    #[inline]
+    fn new(width: usize, height: usize, x: f64, y: f64) -> BilinearTaps {
+        let x = x.clamp(0.0, width as f64 - 1.0);
+        let y = y.clamp(0.0, height as f64 - 1.0);
+        let (x0, y0) = (x as usize, y as usize);
+        BilinearTaps {
+            top: y0 * width,
+            bottom: (y0 + 1).min(height - 1) * width,
+            left: x0,
+            right: (x0 + 1).min(width - 1),
+            tx: (x - x0 as f64) as f32,
+            ty: (y - y0 as f64) as f32,
+        }
+    }
+
+    #[inline]
+    fn sample(&self, plane: &[f32]) -> f32 {
+        let top = plane[self.top + self.left] * (1.0 - self.tx) + plane[self.top + self.right] * self.tx;
+        let bottom =
+            plane[self.bottom + self.left] * (1.0 - self.tx) + plane[self.bottom + self.right] * self.tx;
+        top * (1.0 - self.ty) + bottom * self.ty
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::radial_table::{SHADING_BOUND, WARP_BOUND_PX};
+    use unicac_optics::examples;
+
+    #[test]
+    fn lookups_match_the_exact_per_pixel_evaluation_within_the_stated_bound() {
+        let settings = SimulationSettings {
+            wavelengths: 5,
+            radial_samples: 9,
+            ..SimulationSettings::default()
+        };
+        // The smallest frame has the largest curvature per pixel, i.e. the largest interpolation error.
+        let mut checked = 0;
+        for (width, height) in [(200, 150), (1000, 750)] {
+            for name in examples::names() {
+                let lens = examples::lens(name).expect("a bundled lens");
+                // A lens whose PSF outgrows the small frame is refused there; it is checked at 1000 x 750.
+                let Ok(simulator) = LensSimulator::new(&lens, width, height, None, settings.clone()) else {
+                    assert!(width < 1000, "{name} {width}x{height}");
+                    continue;
+                };
+                checked += 1;
+                let [cx, cy] = simulator.grid.centre_px();
+                let (mut warp_error, mut shading_error) = (0.0f64, 0.0f64);
+                // Every pixel of one quadrant (the quantities depend on the radius only) plus a fine
+                // radial sweep between pixel radii.
+                let quadrant = (0..height / 2 + 1)
+                    .flat_map(|row| {
+                        (0..width / 2 + 1).map(move |column| (column as f64 - cx, row as f64 - cy))
+                    })
+                    .map(|(dx, dy)| dx.hypot(dy));
+                let sweep = (0..20_000).map(|i| i as f64 / 20_000.0 * cx.hypot(cy));
+                for radius in quadrant.chain(sweep) {
+                    let exact = simulator.exact_warp_scale(radius);
+                    warp_error = warp_error.max(radius * (simulator.warp_scale.at(radius) - exact).abs());
+                    let exact = simulator.exact_shading(radius);
+                    shading_error = shading_error.max((simulator.shading.at(radius) - exact).abs());
+                }
+                println!("{name} {width}x{height}: warp {warp_error:.2e} px, shading {shading_error:.2e}");
+                assert!(
+                    warp_error < WARP_BOUND_PX,
+                    "{name} {width}x{height}: warp moved {warp_error} px"
+                );
+                assert!(
+                    shading_error < SHADING_BOUND,
+                    "{name} {width}x{height}: shading moved {shading_error}"
+                );
+            }
+        }
+        assert!(
+            checked > examples::names().count(),
+            "only {checked} lens-frame pairs checked"
+        );
+    }
 }

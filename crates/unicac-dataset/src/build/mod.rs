@@ -398,6 +398,15 @@ pub fn build(
         .filter(|&p| !pair_complete(out, &plan.pairs[p]))
         .collect();
     progress.stage("rendering pairs", missing_pairs.len());
+    let scene_cache = sources::SceneCache::new(sources::SCENE_CACHE_BYTES);
+    // The scenes of the pairs still to render, each once, in the order the pairs need them.
+    let mut seen = std::collections::HashSet::new();
+    let needed: Vec<&Scene> = missing_pairs
+        .iter()
+        .map(|&q| all_scenes[plan.pairs[q].image_id.as_str()])
+        .filter(|scene| seen.insert(scene.image_id.as_str()))
+        .collect();
+    scene_cache.warm(&needed)?;
     for &i in &my_lenses {
         let p = &planned[i];
         let row = &plan.lenses[i];
@@ -426,7 +435,7 @@ pub fn build(
         }
         pairs.par_iter().try_for_each(|pair| -> Result<()> {
             let scene = all_scenes[pair.image_id.as_str()];
-            let image = scene.load_linear()?;
+            let image = scene_cache.get(scene)?;
             let frame = sources::cut(&image, pair.scene_crop);
             let (lq, gt) = render::render_pair(&sim, &frame, pair)?;
             write_png(&out.join(&pair.gt), &gt, depth)?;

@@ -7,6 +7,10 @@
 //! image as painting back to front and lets the loop stop as soon as everything is covered. Sub-samples
 //! (`supersampling`² per pixel) are box-averaged for anti-aliasing; memory is 4 * supersampling² bytes per
 //! pixel for the label buffer.
+//!
+//! Most disks drawn late in a chart land on ground that is already covered; `Coverage` counts the
+//! uncovered sub-samples per row and per segment of `SEGMENT` sub-samples of a row, so a disk skips
+//! covered rows and segments without visiting their samples (same image, several times faster at 1 MP).
 
 use crate::error::{ImageError, Result};
 use crate::Planar;
@@ -101,12 +105,11 @@ impl DeadLeaves {
         self.validate()?;
         let n = self.supersampling;
         let (fine_width, fine_height) = (width * n, height * n);
-        let mut labels = vec![UNCOVERED; fine_width * fine_height];
-        let mut uncovered = labels.len();
+        let mut coverage = Coverage::new(fine_width, fine_height);
         let mut colours: Vec<[f32; 3]> = Vec::new();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let margin = self.r_max_px;
-        while uncovered > 0 && colours.len() < self.max_leaves {
+        while coverage.uncovered > 0 && colours.len() < self.max_leaves {
             // Centres uniform on the image enlarged by r_max on every side, so border statistics match the
             // interior (Gousseau & Roueff 2007: the model is stationary only on an unbounded plane).
             let cx = rng.random_range(-margin..width as f64 + margin);
@@ -120,11 +123,11 @@ impl DeadLeaves {
                 cy: cy * n as f64,
                 radius: radius * n as f64,
             };
-            uncovered -= disk.paint(&mut labels, fine_width, fine_height, label);
+            disk.paint(&mut coverage, label);
         }
         let (low, high) = self.value_range;
         let fallback = [(low + high) / 2.0; 3];
-        let image = box_downsample(&labels, &colours, fallback, width, height, n);
+        let image = box_downsample(&coverage.labels, &colours, fallback, width, height, n);
         Ok((image, colours.len()))
     }
 
@@ -162,29 +165,85 @@ struct Disk {
 
 impl Disk {
     /// Writes `label` into every still-uncovered sub-sample whose centre lies inside the disk, row span by
-    /// row span; returns how many sub-samples it newly covered.
-    fn paint(&self, labels: &mut [u32], width: usize, height: usize, label: u32) -> usize {
+    /// row span, skipping rows and row segments that are already covered.
+    fn paint(&self, coverage: &mut Coverage, label: u32) {
+        let (width, height) = (coverage.width, coverage.height);
         let row_first = (self.cy - self.radius - 0.5).ceil().max(0.0);
         let row_last = (self.cy + self.radius - 0.5).floor().min(height as f64 - 1.0);
-        let mut painted = 0;
-        let mut row = row_first;
-        while row <= row_last {
-            let dy = row + 0.5 - self.cy;
+        if row_first > row_last {
+            return;
+        }
+        for row in row_first as usize..=row_last as usize {
+            if coverage.row_uncovered[row] == 0 {
+                continue;
+            }
+            let dy = row as f64 + 0.5 - self.cy;
             let half_width = (self.radius * self.radius - dy * dy).max(0.0).sqrt();
             let first = (self.cx - half_width - 0.5).ceil().max(0.0);
             let last = (self.cx + half_width - 0.5).floor().min(width as f64 - 1.0);
             if first <= last {
-                let start = row as usize * width;
-                for sample in &mut labels[start + first as usize..=start + last as usize] {
-                    if *sample == UNCOVERED {
-                        *sample = label;
-                        painted += 1;
-                    }
+                coverage.paint_span(row, first as usize, last as usize, label);
+            }
+        }
+    }
+}
+
+/// Sub-samples per row segment whose uncovered ones are counted.
+const SEGMENT: usize = 16;
+
+/// The label of every sub-sample, with counts of the uncovered ones per row and per row segment.
+struct Coverage {
+    labels: Vec<u32>,
+    width: usize,
+    height: usize,
+    segments_per_row: usize,
+    segment_uncovered: Vec<u8>,
+    row_uncovered: Vec<u32>,
+    uncovered: usize,
+}
+
+impl Coverage {
+    fn new(width: usize, height: usize) -> Coverage {
+        let segments_per_row = width.div_ceil(SEGMENT);
+        let segment_width = |i: usize| (width - i * SEGMENT).min(SEGMENT) as u8;
+        let row: Vec<u8> = (0..segments_per_row).map(segment_width).collect();
+        Coverage {
+            labels: vec![UNCOVERED; width * height],
+            width,
+            height,
+            segments_per_row,
+            segment_uncovered: row.repeat(height),
+            row_uncovered: vec![width as u32; height],
+            uncovered: width * height,
+        }
+    }
+
+    /// Labels the uncovered sub-samples of `row` from column `first` to `last` (inclusive).
+    fn paint_span(&mut self, row: usize, first: usize, last: usize, label: u32) {
+        let start = row * self.width;
+        let segments = row * self.segments_per_row;
+        let mut painted_row = 0;
+        for segment in first / SEGMENT..=last / SEGMENT {
+            let count = &mut self.segment_uncovered[segments + segment];
+            if *count == 0 {
+                continue;
+            }
+            let (from, to) = (
+                (segment * SEGMENT).max(first),
+                (segment * SEGMENT + SEGMENT - 1).min(last),
+            );
+            let mut painted = 0;
+            for sample in &mut self.labels[start + from..=start + to] {
+                if *sample == UNCOVERED {
+                    *sample = label;
+                    painted += 1;
                 }
             }
-            row += 1.0;
+            *count -= painted;
+            painted_row += u32::from(painted);
         }
-        painted
+        self.row_uncovered[row] -= painted_row;
+        self.uncovered -= painted_row as usize;
     }
 }
 
@@ -300,5 +359,32 @@ mod tests {
                 ..
             })
         ));
+    }
+}
+
+#[cfg(test)]
+mod golden {
+    use super::*;
+
+    /// FNV-1a over the chart's f32 bits: a fingerprint of the exact output.
+    fn fingerprint(chart: &Planar) -> u64 {
+        chart.data.iter().fold(0xcbf2_9ce4_8422_2325, |h, v| {
+            (h ^ u64::from(v.to_bits())).wrapping_mul(0x0100_0000_01b3)
+        })
+    }
+
+    /// The coverage counts only skip work: the charts are the ones the plain front-to-back painter drew
+    /// (fingerprints recorded from it before the counts were added), so datasets built on dead-leaves
+    /// scenes keep their bytes.
+    #[test]
+    fn charts_are_bit_identical_to_the_plain_painter() {
+        for (w, h, seed, expected) in [
+            (300, 200, 5, 0xa6f7_f2a4_2c4d_4e91u64),
+            (640, 480, 9, 0x4187_3846_7607_e4f0),
+            (97, 61, 1, 0x958a_6f21_ac8a_bb49),
+        ] {
+            let chart = dead_leaves(w, h, seed).unwrap();
+            assert_eq!(fingerprint(&chart), expected, "{w}x{h} seed {seed}");
+        }
     }
 }
