@@ -264,13 +264,26 @@ pub fn score_fields(
     fields: &[FieldKernels],
     settings: &OdeSettings,
 ) -> Result<(unicac_metrics::OdeBreakdown, Vec<FieldChannelScore>), OdeError> {
+    // Every field shares one kernel size, so one set of ideal charts serves all of them (the charts
+    // cost as much to draw as a patch costs to score); one task per field and channel.
+    let mut charts: Vec<IdealCharts> = Vec::new();
+    for size in fields.iter().flat_map(|f| &f.kernels).map(|k| k.size) {
+        if !charts.iter().any(|c| c.kernel_px == size) {
+            charts.push(IdealCharts::new(size, settings)?);
+        }
+    }
     let table: Vec<FieldChannelScore> = fields
         .par_iter()
-        .map(|f| score_field(f.fraction, f.angle_deg, &f.kernels, settings))
-        .collect::<Result<Vec<Vec<_>>, OdeError>>()?
-        .into_iter()
-        .flatten()
-        .collect();
+        .flat_map_iter(|f| (0..f.kernels.len()).map(move |c| (f, c)))
+        .map(|(f, c)| {
+            let kernel = &f.kernels[c];
+            let ideal = charts
+                .iter()
+                .find(|i| i.kernel_px == kernel.size)
+                .expect("charts for every kernel size");
+            score_channel(f.fraction, f.angle_deg, c, kernel, ideal, settings)
+        })
+        .collect::<Result<_, OdeError>>()?;
     let oiq_grid: Vec<Vec<f64>> = table
         .chunks(3)
         .map(|field| field.iter().map(|s| s.oiq).collect())
@@ -278,66 +291,86 @@ pub fn score_fields(
     Ok((ode_from_oiq_grid(&oiq_grid, &settings.weights)?, table))
 }
 
-/// Images a checkerboard patch (PSNR, SSIM) and two slanted edges (OIQE) through one field's R, G, B
-/// kernels and scores each channel.
-fn score_field(
+/// The ideal charts a kernel of `kernel_px` is scored with: the checkerboard (linear and encoded) and
+/// the two slanted edges. They depend on the kernel size and the settings only.
+struct IdealCharts {
+    kernel_px: usize,
+    checker: Planar,
+    checker_encoded: Planar,
+    edges: [Planar; 2],
+}
+
+impl IdealCharts {
+    fn new(kernel_px: usize, settings: &OdeSettings) -> Result<IdealCharts, OdeError> {
+        let crop = kernel_px / 2 + 1;
+        // Fixed checkerboard period and evaluated area, so PSNR and SSIM compare across lenses.
+        let checker_size = CHECKER_AREA_PX + 2 * crop;
+        let checker = charts::checkerboard(
+            checker_size,
+            checker_size,
+            2.0 * settings.square_px as f64,
+            settings.contrast,
+            settings.slant_deg,
+        )?;
+        let checker_encoded = encode(&checker)?;
+        let edges = ideal_edges(kernel_px, settings).map_err(|(_, e)| e)?;
+        Ok(IdealCharts {
+            kernel_px,
+            checker,
+            checker_encoded,
+            edges,
+        })
+    }
+}
+
+/// Images the checkerboard patch (PSNR, SSIM) and the two slanted edges (OIQE) through channel `c`'s
+/// kernel of one field and scores it.
+fn score_channel(
     fraction: f64,
     angle: f64,
-    kernels: &[Kernel],
+    c: usize,
+    kernel: &Kernel,
+    ideal: &IdealCharts,
     settings: &OdeSettings,
-) -> Result<Vec<FieldChannelScore>, OdeError> {
-    let k = kernels[0].size;
+) -> Result<FieldChannelScore, OdeError> {
+    let k = kernel.size;
     let crop = k / 2 + 1;
-    // Fixed checkerboard period and evaluated area, so PSNR and SSIM compare across lenses.
-    let checker_size = CHECKER_AREA_PX + 2 * crop;
-    let chart = charts::checkerboard(
-        checker_size,
-        checker_size,
-        2.0 * settings.square_px as f64,
-        settings.contrast,
-        settings.slant_deg,
-    )?;
-    let ideal = encode(&chart)?;
+    let checker_size = ideal.checker.width;
     let options = FullReferenceOptions {
         crop_border: crop,
         ..Default::default()
     };
-    kernels
-        .iter()
-        .enumerate()
-        .map(|(c, kernel)| {
-            let blurred = Planar {
-                width: checker_size,
-                height: checker_size,
-                channels: 1,
-                data: convolve_patch(chart.plane(c), checker_size, kernel),
-            };
-            let encoded = encode(&blurred)?;
-            let ideal_plane = single_channel(&ideal, c);
-            let p = psnr(&encoded, &ideal_plane, &options)?;
-            let s = ssim(&encoded, &ideal_plane, &options)?;
-            let edges = edge_mtfs(kernel, settings).map_err(|(direction, e)| OdeError::Edge {
-                field_fraction: fraction,
-                channel: CHANNELS[c],
-                direction: direction.to_string(),
-                kernel_px: k,
-                source: Box::new(e),
-            })?;
-            let (sagittal, tangential) = (edges[0].summary(), edges[1].summary());
-            let quality = oiqe(&tangential, &sagittal, &settings.oiqe_weights)?;
-            Ok(FieldChannelScore {
-                field_fraction: fraction,
-                field_deg: angle,
-                channel: CHANNELS[c],
-                psnr_db: p.db,
-                ssim: s.mean,
-                oiqe: quality,
-                oiq: oiq(p.db, s.mean, quality, &settings.weights),
-                mtf50_sagittal_cy_per_px: mtf50(&sagittal),
-                mtf50_tangential_cy_per_px: mtf50(&tangential),
-            })
-        })
-        .collect()
+    let blurred = Planar {
+        width: checker_size,
+        height: checker_size,
+        channels: 1,
+        data: convolve_patch(ideal.checker.plane(c), checker_size, kernel),
+    };
+    let encoded = encode(&blurred)?;
+    let ideal_plane = single_channel(&ideal.checker_encoded, c);
+    let p = psnr(&encoded, &ideal_plane, &options)?;
+    let s = ssim(&encoded, &ideal_plane, &options)?;
+    let edges =
+        measure_edges(patches_from(kernel, &ideal.edges)).map_err(|(direction, e)| OdeError::Edge {
+            field_fraction: fraction,
+            channel: CHANNELS[c],
+            direction: direction.to_string(),
+            kernel_px: k,
+            source: Box::new(e),
+        })?;
+    let (sagittal, tangential) = (edges[0].summary(), edges[1].summary());
+    let quality = oiqe(&tangential, &sagittal, &settings.oiqe_weights)?;
+    Ok(FieldChannelScore {
+        field_fraction: fraction,
+        field_deg: angle,
+        channel: CHANNELS[c],
+        psnr_db: p.db,
+        ssim: s.mean,
+        oiqe: quality,
+        oiq: oiq(p.db, s.mean, quality, &settings.weights),
+        mtf50_sagittal_cy_per_px: mtf50(&sagittal),
+        mtf50_tangential_cy_per_px: mtf50(&tangential),
+    })
 }
 
 /// One slanted-edge patch of the ODE: the ideal (pixel-integrated) edge chart and the chart imaged
@@ -358,18 +391,30 @@ pub fn edge_patches(
     kernel: &Kernel,
     settings: &OdeSettings,
 ) -> Result<[EdgePatch; 2], (&'static str, OdeError)> {
-    let k = kernel.size;
-    let crop = k / 2 + 1;
-    let edge_size = settings.min_edge_px.max(4 * k);
+    Ok(patches_from(kernel, &ideal_edges(kernel.size, settings)?))
+}
+
+/// The ideal [sagittal, tangential] edge charts for kernels of `kernel_px`: an isolated edge of
+/// max(`min_edge_px`, 4 kernel widths) and its transpose.
+fn ideal_edges(kernel_px: usize, settings: &OdeSettings) -> Result<[Planar; 2], (&'static str, OdeError)> {
+    let edge_size = settings.min_edge_px.max(4 * kernel_px);
     let vertical = charts::slanted_edge(edge_size, edge_size, settings.slant_deg, 0.2, 0.8)
         .map_err(|e| ("sagittal", e.into()))?;
+    let horizontal = transpose(&vertical);
+    Ok([vertical, horizontal])
+}
+
+/// The two edge patches of `kernel` from ideal edges of its size (`ideal_edges`).
+fn patches_from(kernel: &Kernel, ideal: &[Planar; 2]) -> [EdgePatch; 2] {
+    let crop = kernel.size / 2 + 1;
+    let edge_size = ideal[0].width;
     let roi = Roi {
         x: crop,
         y: crop,
         width: edge_size - 2 * crop,
         height: edge_size - 2 * crop,
     };
-    let patch = |ideal: Planar, direction: &'static str| EdgePatch {
+    let patch = |ideal: &Planar, direction: &'static str| EdgePatch {
         direction,
         blurred: Planar {
             width: edge_size,
@@ -377,21 +422,24 @@ pub fn edge_patches(
             channels: 1,
             data: convolve_patch(ideal.plane(0), edge_size, kernel),
         },
-        ideal,
+        ideal: ideal.clone(),
         roi,
     };
-    let horizontal = transpose(&vertical);
-    Ok([patch(vertical, "sagittal"), patch(horizontal, "tangential")])
+    [patch(&ideal[0], "sagittal"), patch(&ideal[1], "tangential")]
 }
 
 /// Slanted-edge MTFs of one kernel: [sagittal (near-vertical edge), tangential (its transpose)], measured
 /// on the patches of `edge_patches`.
 pub fn edge_mtfs(kernel: &Kernel, settings: &OdeSettings) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
-    let [sagittal, tangential] = edge_patches(kernel, settings)?;
+    measure_edges(edge_patches(kernel, settings)?)
+}
+
+fn measure_edges(patches: [EdgePatch; 2]) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
     let measure = |patch: &EdgePatch| {
         slanted_edge_mtf(&patch.blurred, 0, patch.roi, &SlantedEdgeOptions::default())
             .map_err(|e| (patch.direction, e.into()))
     };
+    let [sagittal, tangential] = patches;
     Ok([measure(&sagittal)?, measure(&tangential)?])
 }
 

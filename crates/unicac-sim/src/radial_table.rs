@@ -53,10 +53,11 @@ impl RadialTable {
     pub fn at(&self, radius_px: f64) -> f64 {
         let position = radius_px * self.inverse_step;
         let last = self.values.len() - 1;
-        // `as usize` saturates (negative and NaN radii go to 0) and `max` drops a NaN, so the index is
-        // always in range and a NaN radius reads f(0).
+        // `as usize` saturates (negative and NaN radii go to 0), so the index is always in range; a
+        // negative or NaN offset reads the sample itself.
         let i = (position as usize).min(last - 1);
-        let t = (position - i as f64).max(0.0).min(1.0);
+        let offset = position - i as f64;
+        let t = if offset > 0.0 { offset.min(1.0) } else { 0.0 };
         self.values[i] + t * (self.values[i + 1] - self.values[i])
     }
 }
