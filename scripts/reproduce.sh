@@ -4,13 +4,14 @@
 #   2. dataset  ODE grading, ODE-stratified test levels (+ U_s / U_c sub-benchmarks), paired images
 #   3. train    the model zoo (unicac-train; PyTorch) and its ONNX export
 #   4. bench    identity, Wiener and every model through onnxruntime: per-level tables, ODE-vs-RMS R^2
-# Usage: scripts/reproduce.sh [--scale tiny|small|paper] [--out DIR] [--ray WORKERS] [--images DIR --test-images DIR]
+# Usage: scripts/reproduce.sh [--scale tiny|cpu|small|paper] [--out DIR] [--ray WORKERS] [--images DIR --test-images DIR]
 # Every stage resumes: run the same command again after an interruption (SIGKILL included) and finished
 # work is kept (design and dataset resume their folders, training resumes from its latest checkpoint,
 # exports and the report are redone only when missing). Each stage's wall time goes to OUT/timings.tsv.
 # --ray N runs design and dataset on Ray (`unicac-ray`, N tasks in flight; same bytes as the CLI);
 # training on several processes is `torchrun` (docs/scale.md), not driven from here.
-# The scales (docs/reproduce.md): tiny (minutes, a smoke test), small (this 2-core machine, hours),
+# The scales (docs/reproduce.md): tiny (minutes, a smoke test), cpu (six models briefly trained, about
+# an hour here), small (this 2-core machine, hours),
 # paper (the paper's sizes: a cluster; supply real scenes with --images / --test-images).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -43,6 +44,14 @@ case "$scale" in
     pairs_per_lens=4 crop=128x96 iters=100
     models=(nafnet nafnet-fov nafnet-psf)
     ;;
+  cpu)
+    grid=(--grid-elements 1,2,3 --grid-half-fov-deg 20,30 --grid-f-numbers 3,4 --grid-stops middle)
+    design_count=1 design_budget_s=600
+    levels=3 per_level=2 val_lenses=2
+    images=${images:-dead-leaves:24:256x192} test_images=${test_images:-dead-leaves:3:256x192} frame=256x192
+    pairs_per_lens=8 crop=64x64 iters=300
+    models=(nafnet nafnet-fov nafnet-psf nafnet-psf-blind restormer nafnet-gan)
+    ;;
   small)
     grid=(--grid-elements 1,2,3,4 --grid-half-fov-deg 20,30,40 --grid-f-numbers 2,3,4 --grid-stops front,middle,back)
     design_count=1 design_budget_s=7200
@@ -59,7 +68,7 @@ case "$scale" in
     pairs_per_lens=8 crop=256x256 iters=200000
     models=(nafnet nafnet-fov nafnet-psf nafnet-psf-blind restormer nafnet-gan)
     ;;
-  *) echo "reproduce.sh: --scale must be tiny, small or paper, not '$scale'" >&2; exit 2 ;;
+  *) echo "reproduce.sh: --scale must be tiny, cpu, small or paper, not '$scale'" >&2; exit 2 ;;
 esac
 
 source scripts/setup.sh

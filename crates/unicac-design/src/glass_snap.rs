@@ -54,4 +54,30 @@ mod tests {
             glass.qualified_name()
         );
     }
+
+    /// A library lens must be gradable by the ODE and the simulator (400-700 nm): every design glass
+    /// gives an index at both ends of that band, and a glass whose data start at 435.8 nm (it made a
+    /// `reproduce.sh` dataset build refuse a designed lens) is not offered.
+    #[test]
+    fn design_glasses_cover_the_simulated_band() {
+        use unicac_optics::material::{Medium, VISIBLE_BAND_UM};
+        let glasses = design_glasses();
+        assert!(glasses.len() > 100, "{} glasses", glasses.len());
+        for glass in &glasses {
+            let medium = Medium::Catalog(glass.clone());
+            for wavelength in VISIBLE_BAND_UM {
+                assert!(
+                    medium.index(wavelength).is_ok(),
+                    "{} at {wavelength} um",
+                    glass.qualified_name()
+                );
+            }
+        }
+        assert!(glasses.iter().all(|g| g.qualified_name() != "CDGM:D-ZF93-25"));
+        let excluded = unicac_optics::material::find_glass("CDGM:D-ZF93-25", &[]);
+        assert!(
+            excluded.is_ok(),
+            "the glass exists in the catalogue: {excluded:?}"
+        );
+    }
 }

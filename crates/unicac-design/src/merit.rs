@@ -202,10 +202,12 @@ pub struct Merit {
     glass_map: Vec<[f64; 2]>,
 }
 
-/// The optical glasses of the shipped catalogues with nd, Vd in the design range, covering F to C.
+/// The optical glasses of the shipped catalogues with nd, Vd in the design range whose data cover the
+/// visible band the simulator and the ODE trace (400-700 nm): a library lens must be gradable (a glass
+/// covering only F to C, e.g. CDGM D-ZF93-25 from 435.8 nm, made `unicac dataset` refuse the lens).
 pub fn design_glasses() -> Vec<std::sync::Arc<unicac_optics::material::Glass>> {
     use crate::params::{ND_RANGE, VD_RANGE};
-    use unicac_optics::material::{LINE_C_UM, LINE_F_UM};
+    use unicac_optics::material::VISIBLE_BAND_UM;
     shipped_catalogs()
         .iter()
         .flat_map(|c| c.glasses.iter())
@@ -213,8 +215,7 @@ pub fn design_glasses() -> Vec<std::sync::Arc<unicac_optics::material::Glass>> {
             (Some(nd), Some(vd)) => {
                 (ND_RANGE[0]..=ND_RANGE[1]).contains(&nd)
                     && (VD_RANGE[0]..=VD_RANGE[1]).contains(&vd)
-                    && g.wavelength_range_um[0] <= LINE_F_UM
-                    && g.wavelength_range_um[1] >= LINE_C_UM
+                    && g.covers_um(VISIBLE_BAND_UM)
             }
             _ => false,
         })

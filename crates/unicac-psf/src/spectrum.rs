@@ -96,7 +96,9 @@ impl SpectralResponse {
     }
 }
 
-/// `count` wavelengths evenly spaced from 400 to 700 nm (the paper's range), in um.
+/// `count` wavelengths evenly spaced from 400 to 700 nm (the paper's range, `VISIBLE_BAND_UM`, which
+/// the design library's glasses must cover), in um. Written as 0.4 + 0.3 t rather than from the band's
+/// ends: 0.7 - 0.4 is not 0.3 in f64, and the wavelengths are part of every PSF cache key.
 pub fn visible_wavelengths_um(count: usize) -> Vec<f64> {
     match count {
         0 => Vec::new(),
@@ -189,6 +191,12 @@ pub fn combine_channels(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn visible_wavelengths_span_the_visible_band() {
+        let w = visible_wavelengths_um(31);
+        assert_eq!([w[0], w[30]], unicac_optics::material::VISIBLE_BAND_UM);
+    }
 
     #[test]
     fn default_curves_peak_in_the_right_order() {

@@ -24,6 +24,12 @@ impl Glass {
         self.formula.index(wavelength_um)
     }
 
+    /// Whether the glass's data covers the band `[lo, hi]` (um), within `RANGE_SLACK_UM`.
+    pub fn covers_um(&self, [lo, hi]: [f64; 2]) -> bool {
+        let [min, max] = self.wavelength_range_um;
+        lo >= min - super::RANGE_SLACK_UM && hi <= max + super::RANGE_SLACK_UM
+    }
+
     /// `CATALOG:NAME`, the unambiguous name written back to files.
     pub fn qualified_name(&self) -> String {
         format!("{}:{}", self.catalog, self.name)

@@ -9,9 +9,12 @@ pub use formula::{model_glass_index, Formula, LINE_C_UM, LINE_D_UM, LINE_F_UM};
 use crate::error::{OpticsError, Result};
 use std::sync::Arc;
 
-/// Relative tolerance on a glass's data range: tiny overshoots (e.g. 0.4 um against a 0.4047 um range
-/// start) are common in lens files and the Sellmeier fits extrapolate smoothly that far.
-const RANGE_SLACK_UM: f64 = 0.02;
+/// Tolerance on a glass's data range: tiny overshoots (e.g. 0.4 um against a 0.4047 um range start) are
+/// common in lens files and the Sellmeier fits extrapolate smoothly that far.
+pub const RANGE_SLACK_UM: f64 = 0.02;
+
+/// The band the simulator and the ODE trace (400-700 nm): a glass meant for them must cover it.
+pub const VISIBLE_BAND_UM: [f64; 2] = [0.4, 0.7];
 
 /// The medium after a surface.
 #[derive(Debug, Clone, PartialEq)]
@@ -29,7 +32,7 @@ impl Medium {
             Medium::Model { nd, vd } => Ok(model_glass_index(*nd, *vd, wavelength_um)),
             Medium::Catalog(glass) => {
                 let [lo, hi] = glass.wavelength_range_um;
-                if wavelength_um < lo - RANGE_SLACK_UM || wavelength_um > hi + RANGE_SLACK_UM {
+                if !glass.covers_um([wavelength_um, wavelength_um]) {
                     return Err(OpticsError::WavelengthOutOfRange {
                         name: glass.qualified_name(),
                         wavelength_um,
