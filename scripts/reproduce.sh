@@ -49,7 +49,7 @@ case "$scale" in
     design_count=1 design_budget_s=600
     levels=3 per_level=2 val_lenses=2
     images=${images:-dead-leaves:24:256x192} test_images=${test_images:-dead-leaves:3:256x192} frame=256x192
-    pairs_per_lens=8 crop=64x64 iters=300
+    pairs_per_lens=8 crop=64x64 iters=1000
     models=(nafnet nafnet-fov nafnet-psf nafnet-psf-blind restormer nafnet-gan)
     ;;
   small)

@@ -48,7 +48,11 @@ def test_trace_equals_cli_explicit_rays(cli, cooke):
 def test_aimed_rays_equal_cli(cli, cooke, aiming):
     pupil = np.array([[0.0, 1.0], [0.5, -0.5], [0.0, 0.0]])
     starts, dirs = unicac.aim_rays(cooke, 20.0, pupil, aiming=aiming)
-    xy, status = unicac.trace(cooke, starts, dirs)
+    xy, status = unicac.trace(cooke, starts, dirs, virtual_start=True)
+    # The Cooke triplet's entrance pupil lies behind its first surface: read as rays that start there,
+    # they would have to travel backwards to it.
+    _, from_start = unicac.trace(cooke, starts, dirs)
+    assert all(unicac.STATUS_NAMES[s] == "missed" for s in from_start)
     for i, (px, py) in enumerate(pupil):
         expected = cli(
             "trace", "builtin:cooke_triplet", "--field-deg", "20", "--pupil", f"{px},{py}",
@@ -82,6 +86,21 @@ def test_invalid_rays_are_statuses_not_errors(cooke):
     assert [unicac.STATUS_NAMES[s] for s in status] == ["ok", "invalid_input", "invalid_input"]
     empty_xy, empty_status = unicac.trace(cooke, np.zeros((0, 3)), np.zeros((0, 3)))
     assert empty_xy.shape == (0, 2) and empty_status.shape == (0,)
+
+
+def test_rays_that_never_reach_the_lens_are_missed(cli, cooke):
+    """A ray pointing away from the lens, and one starting past the image plane, are `missed` at surface
+    1 with NaN coordinates (they used to be reported `ok` with the forward ray's image point), as in the
+    CLI."""
+    starts = np.array([[0.0, 1.0, -5.0], [0.0, 1.0, 1.0e4], [0.0, 1.0, -5.0]])
+    dirs = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    xy, status = unicac.trace(cooke, starts, dirs)
+    assert [unicac.STATUS_NAMES[s] for s in status] == ["missed", "missed", "ok"]
+    assert np.isnan(xy[:2]).all() and np.isfinite(xy[2]).all()
+    detailed = unicac.trace_detailed(cooke, starts, dirs)
+    assert list(detailed["failed_at_surface"][:2]) == [1, 1]
+    expected = _cli_ray(cli, "builtin:cooke_triplet", [0.0, 1.0, -5.0, 0.0, 0.0, -1.0], 0.5876)
+    assert expected["status"] == "missed" and expected["failed_at_surface"] == 1
 
 
 def test_clip_false_lets_rays_through(cooke):

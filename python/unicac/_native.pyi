@@ -120,10 +120,20 @@ class Simulator:
 def load_lens(path: _Path) -> Lens: ...
 def builtin_lenses() -> list[str]: ...
 def trace(
-    lens: Lens, starts: _F64, dirs: _F64, wavelength_um: Optional[float] = None, clip: bool = True
+    lens: Lens,
+    starts: _F64,
+    dirs: _F64,
+    wavelength_um: Optional[float] = None,
+    clip: bool = True,
+    virtual_start: bool = False,
 ) -> tuple[_F64, _I32]: ...
 def trace_detailed(
-    lens: Lens, starts: _F64, dirs: _F64, wavelength_um: Optional[float] = None, clip: bool = True
+    lens: Lens,
+    starts: _F64,
+    dirs: _F64,
+    wavelength_um: Optional[float] = None,
+    clip: bool = True,
+    virtual_start: bool = False,
 ) -> dict[str, Any]: ...
 def aim_rays(
     lens: Lens,

@@ -10,7 +10,9 @@ use crate::lens::PyLens;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use unicac_trace::{spots as trace_spots, trace_rays as trace_batch, Aimer, Aiming, Clipping, PupilSampling};
+use unicac_trace::{
+    spots as trace_spots, trace_rays, trace_rays_from_start, Aimer, Aiming, Clipping, PupilSampling,
+};
 use unicac_trace::{Ray, RayStatus, TraceSystem};
 
 /// Status names in code order.
@@ -75,6 +77,7 @@ fn trace_inputs(
     dirs: &Bound<'_, PyAny>,
     wavelength_um: Option<f64>,
     clip: bool,
+    virtual_start: bool,
 ) -> PyResult<Traced> {
     let starts = rows_f64::<3>(starts, "starts")?;
     let dirs = rows_f64::<3>(dirs, "dirs")?;
@@ -91,7 +94,15 @@ fn trace_inputs(
         let system = TraceSystem::new(&lens.lens, wavelength, clipping).or_raise()?;
         // Ray::new normalises; a zero or non-finite direction becomes an invalid_input status.
         let mut rays: Vec<Ray> = starts.iter().zip(&dirs).map(|(p, d)| Ray::new(*p, *d)).collect();
-        let statuses = trace_batch(&system, &mut rays);
+        // User rays start where they are given: one pointing away from the lens or starting past the
+        // image is missed, as in `unicac trace --ray` (docs/reliability.md). Aimed rays start on the
+        // entrance-pupil plane, which may lie inside or behind the lens (virtual), as `unicac trace
+        // --field-deg` traces them.
+        let statuses = if virtual_start {
+            trace_rays(&system, &mut rays)
+        } else {
+            trace_rays_from_start(&system, &mut rays)
+        };
         Ok(Traced { rays, statuses })
     })
 }
@@ -99,12 +110,16 @@ fn trace_inputs(
 /// Traces rays to the image surface.
 ///
 /// `starts` and `dirs`: float64 arrays of shape (N, 3), start points (mm) and directions (normalised
-/// here) in global coordinates (surface 1's vertex at the origin, z towards the image).
+/// here) in global coordinates (surface 1's vertex at the origin, z towards the image). Rays start where
+/// they are: a ray that would have to travel backwards to reach a surface (pointing away from the lens,
+/// starting past the image) is `missed` at that surface. `virtual_start=True` is for the rays of
+/// `aim_rays`, which start on the entrance-pupil plane and may reach the first surface backwards (a
+/// virtual segment), as `unicac trace --field-deg` traces them.
 /// `wavelength_um` defaults to the lens's primary wavelength; `clip` applies clear semi-diameters.
 /// Returns `xy` (float64, (N, 2), mm, on the image surface; NaN where the ray did not arrive) and
 /// `status` (int32, (N,), codes of `STATUS_NAMES`). The GIL is released while tracing (in parallel).
 #[pyfunction]
-#[pyo3(signature = (lens, starts, dirs, wavelength_um=None, clip=true))]
+#[pyo3(signature = (lens, starts, dirs, wavelength_um=None, clip=true, virtual_start=false))]
 pub fn trace<'py>(
     py: Python<'py>,
     lens: &PyLens,
@@ -112,8 +127,9 @@ pub fn trace<'py>(
     dirs: &Bound<'py, PyAny>,
     wavelength_um: Option<f64>,
     clip: bool,
+    virtual_start: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-    let traced = trace_inputs(py, lens, starts, dirs, wavelength_um, clip)?;
+    let traced = trace_inputs(py, lens, starts, dirs, wavelength_um, clip, virtual_start)?;
     let n = traced.rays.len();
     let mut xy = Vec::with_capacity(2 * n);
     for (ray, status) in traced.rays.iter().zip(&traced.statuses) {
@@ -131,7 +147,7 @@ pub fn trace<'py>(
 /// surface (for rays that stopped early: their last valid state), `status` (N,) and
 /// `failed_at_surface` (N,), the 1-based surface where a ray stopped (0 when it arrived).
 #[pyfunction]
-#[pyo3(signature = (lens, starts, dirs, wavelength_um=None, clip=true))]
+#[pyo3(signature = (lens, starts, dirs, wavelength_um=None, clip=true, virtual_start=false))]
 pub fn trace_detailed<'py>(
     py: Python<'py>,
     lens: &PyLens,
@@ -139,8 +155,9 @@ pub fn trace_detailed<'py>(
     dirs: &Bound<'py, PyAny>,
     wavelength_um: Option<f64>,
     clip: bool,
+    virtual_start: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let traced = trace_inputs(py, lens, starts, dirs, wavelength_um, clip)?;
+    let traced = trace_inputs(py, lens, starts, dirs, wavelength_um, clip, virtual_start)?;
     let n = traced.rays.len();
     let positions: Vec<f64> = traced.rays.iter().flat_map(|r| r.position_mm).collect();
     let directions: Vec<f64> = traced.rays.iter().flat_map(|r| r.direction).collect();
@@ -161,7 +178,8 @@ pub fn trace_detailed<'py>(
 /// Object-space rays of field `field_deg` through normalised pupil points `pupil` (float64, (M, 2)),
 /// aimed `"auto"` (the default: real where the pupil is aberrated), `"paraxial"` or `"real"`
 /// (docs/conventions.md), at `wavelength_um` (default: primary).
-/// Returns `(starts, dirs)`, float64 (M, 3) each, ready for `trace`; rows that real aiming could not
+/// Returns `(starts, dirs)`, float64 (M, 3) each, for `trace(..., virtual_start=True)` (they start on the
+/// entrance-pupil plane, which may be virtual); rows that real aiming could not
 /// place are NaN (and trace as `invalid_input`).
 #[pyfunction]
 #[pyo3(signature = (lens, field_deg, pupil, wavelength_um=None, aiming="auto"))]

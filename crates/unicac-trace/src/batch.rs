@@ -18,6 +18,22 @@ pub fn trace_rays(system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
     statuses
 }
 
+/// Traces rays that physically start where they are (rays given by a user, e.g. through Python): a ray
+/// that would have to travel backwards to a surface is `Missed` there (`TraceSystem::trace_from_start`).
+/// Ray by ray, not in SIMD lanes: user rays need the per-surface direction check, aimed rays (which
+/// start on a possibly virtual entrance pupil) use `trace_rays`.
+pub fn trace_rays_from_start(system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
+    let mut statuses = vec![RayStatus::Ok; rays.len()];
+    rays.par_chunks_mut(CHUNK)
+        .zip(statuses.par_chunks_mut(CHUNK))
+        .for_each(|(rays, statuses)| {
+            for (ray, status) in rays.iter_mut().zip(statuses) {
+                *status = system.trace_from_start(ray);
+            }
+        });
+    statuses
+}
+
 /// Traces on the calling thread only (for callers that parallelise at a coarser level).
 pub fn trace_rays_serial(system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
     let mut statuses = vec![RayStatus::Ok; rays.len()];

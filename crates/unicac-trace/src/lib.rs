@@ -32,7 +32,7 @@ pub mod system;
 pub mod workload;
 
 pub use aim::{Aimer, Aiming, AutoAiming, AUTO_REAL_AIMING_STOP_MISS};
-pub use batch::{trace_rays, trace_rays_serial};
+pub use batch::{trace_rays, trace_rays_from_start, trace_rays_serial};
 pub use error::{TraceError, TraceResult};
 pub use lanes::SimdLevel;
 pub use params::{

@@ -189,9 +189,22 @@ impl TraceSystem {
     pub fn trace_path_from_start(&self, ray: Ray) -> (Vec<[f64; 3]>, RayStatus) {
         let mut ray = ray;
         let mut points = vec![ray.position_mm];
+        let status = self.walk_from_start(&mut ray, |point| points.push(point));
+        (points, status)
+    }
+
+    /// `trace` for a ray that physically starts where it is (the rule of `trace_path_from_start`,
+    /// without recording the path): what the Python binding's `trace` of user rays runs.
+    pub fn trace_from_start(&self, ray: &mut Ray) -> RayStatus {
+        self.walk_from_start(ray, |_| {})
+    }
+
+    /// The walk of `trace_path_from_start`: `on_point` gets every surface point reached before the ray
+    /// would have to travel backwards.
+    fn walk_from_start(&self, ray: &mut Ray, mut on_point: impl FnMut([f64; 3])) -> RayStatus {
         let mut surface = 0usize;
         let mut backwards_at: Option<u32> = None;
-        let status = self.walk(&mut ray, self.image_index(), false, |before, after, _| {
+        let status = self.walk(ray, self.image_index(), false, |before, after, _| {
             let delta = [0, 1, 2].map(|k| after.position_mm[k] - before.position_mm[k]);
             let d = before.direction;
             let along = delta[0] * d[0] + delta[1] * d[1] + delta[2] * d[2];
@@ -206,13 +219,13 @@ impl TraceSystem {
                 backwards_at = Some(surface as u32);
             }
             if backwards_at.is_none() {
-                points.push(after.position_mm);
+                on_point(after.position_mm);
             }
             surface += 1;
         });
         match backwards_at {
-            Some(surface) => (points, RayStatus::Missed { surface }),
-            None => (points, status),
+            Some(surface) => RayStatus::Missed { surface },
+            None => status,
         }
     }
 
