@@ -20,7 +20,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use serde::Serialize;
 
-use crate::analysis::{fit_line, LineFit};
+use crate::analysis::{bootstrap_ci95, fit_line, spearman, LineFit, BOOTSTRAP_RESAMPLES};
 use crate::fid::{frechet_distance, Gaussian};
 use crate::op::{overall_performance, OpInputs};
 
@@ -98,6 +98,15 @@ pub struct Analysis {
     pub lenses: usize,
     pub fit_ode: Option<LineFit>,
     pub fit_rms: Option<LineFit>,
+    /// Spearman's rank correlation of the per-lens mean O.P. with ODE and with the RMS radius.
+    pub spearman_ode: Option<f64>,
+    pub spearman_rms: Option<f64>,
+    /// 95% percentile bootstrap intervals over lenses (`bootstrap_resamples` resamples, seeded).
+    pub r2_ode_ci95: Option<[f64; 2]>,
+    pub r2_rms_ci95: Option<[f64; 2]>,
+    pub spearman_ode_ci95: Option<[f64; 2]>,
+    pub spearman_rms_ci95: Option<[f64; 2]>,
+    pub bootstrap_resamples: usize,
     /// The models whose mean O.P. the points are.
     pub models: Vec<String>,
     pub op_terms: Vec<&'static str>,
@@ -280,14 +289,23 @@ fn analyse(scores: &Scores, models: &[String], lenses: &BTreeMap<String, LensInf
             });
         }
     }
-    let fit_ode = fit_line(&points.iter().map(|p| (p.ode, p.op)).collect::<Vec<_>>());
-    let fit_rms = fit_line(&points.iter().map(|p| (p.rms_radius_um, p.op)).collect::<Vec<_>>());
+    let by_ode: Vec<(f64, f64)> = points.iter().map(|p| (p.ode, p.op)).collect();
+    let by_rms: Vec<(f64, f64)> = points.iter().map(|p| (p.rms_radius_um, p.op)).collect();
+    let (fit_ode, fit_rms) = (fit_line(&by_ode), fit_line(&by_rms));
+    let r2 = |p: &[(f64, f64)]| fit_line(p).map(|f| f.r2);
     Analysis {
         r2_ode: fit_ode.map(|f| f.r2),
         r2_rms: fit_rms.map(|f| f.r2),
         lenses: points.len(),
         fit_ode,
         fit_rms,
+        spearman_ode: spearman(&by_ode),
+        spearman_rms: spearman(&by_rms),
+        r2_ode_ci95: bootstrap_ci95(&by_ode, r2),
+        r2_rms_ci95: bootstrap_ci95(&by_rms, r2),
+        spearman_ode_ci95: bootstrap_ci95(&by_ode, spearman),
+        spearman_rms_ci95: bootstrap_ci95(&by_rms, spearman),
+        bootstrap_resamples: BOOTSTRAP_RESAMPLES,
         models: restorers,
         op_terms: terms,
         points,

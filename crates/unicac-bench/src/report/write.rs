@@ -159,6 +159,19 @@ pub fn write_report(dir: &Path, report: &Report, pairs: &[PairScore]) -> Result<
         r2(a.r2_ode),
         r2(a.r2_rms)
     ));
+    let ci = |v: Option<[f64; 2]>| v.map_or("n/a".to_string(), |[lo, hi]| format!("[{lo:.3}, {hi:.3}]"));
+    md.push_str(&format!(
+        "\n| lens metric | R^2 | 95% interval | Spearman rho | 95% interval |\n|---|---|---|---|---|\n| ODE | {} | {} | {} | {} |\n| RMS spot radius | {} | {} | {} | {} |\n\nIntervals: percentile bootstrap over lenses, {} resamples, seeded.\n",
+        r2(a.r2_ode),
+        ci(a.r2_ode_ci95),
+        r2(a.spearman_ode),
+        ci(a.spearman_ode_ci95),
+        r2(a.r2_rms),
+        ci(a.r2_rms_ci95),
+        r2(a.spearman_rms),
+        ci(a.spearman_rms_ci95),
+        a.bootstrap_resamples
+    ));
     if !report.notices.is_empty() {
         md.push_str("\n### Notices\n\n");
         for n in &report.notices {
