@@ -104,7 +104,10 @@ pub const BOOTSTRAP_SEED: u64 = 19;
 /// The 95% percentile bootstrap interval of `statistic` over `points` (resampled with replacement,
 /// `BOOTSTRAP_RESAMPLES` times, seeded). Resamples where the statistic is undefined (e.g. every drawn
 /// lens the same) are dropped; `None` when more than half are, or with fewer than 3 points.
-pub fn bootstrap_ci95(points: &[(f64, f64)], statistic: impl Fn(&[(f64, f64)]) -> Option<f64>) -> Option<[f64; 2]> {
+pub fn bootstrap_ci95(
+    points: &[(f64, f64)],
+    statistic: impl Fn(&[(f64, f64)]) -> Option<f64>,
+) -> Option<[f64; 2]> {
     use rand::rngs::ChaCha8Rng;
     use rand::{RngExt, SeedableRng};
     if points.len() < 3 {
@@ -149,7 +152,9 @@ mod tests {
     fn bootstrap_intervals_hold_the_estimate_and_shrink_with_more_lenses() {
         // y = x + a deterministic wobble: R^2 well below 1, known to lie inside its interval.
         let points = |n: usize| -> Vec<(f64, f64)> {
-            (0..n).map(|i| (i as f64, i as f64 + 3.0 * ((i * 7919) % 13) as f64 / 13.0)).collect()
+            (0..n)
+                .map(|i| (i as f64, i as f64 + 3.0 * ((i * 7919) % 13) as f64 / 13.0))
+                .collect()
         };
         let r2 = |p: &[(f64, f64)]| fit_line(p).map(|f| f.r2);
         let small = points(12);
