@@ -49,9 +49,13 @@ def main(argv: list[str] | None = None) -> int:
         options = ort.SessionOptions()
         options.intra_op_num_threads = a.threads
         options.inter_op_num_threads = 1
-        session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
-        feeds = _inputs(session, a.size)
-        session.run(None, feeds)  # warm-up
+        try:
+            session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+            feeds = _inputs(session, a.size)
+            session.run(None, feeds)  # warm-up
+        except Exception as error:  # onnxruntime raises its own types for unreadable or invalid models
+            print(f"model_latency.py: {path}: not a runnable ONNX model ({error})", file=sys.stderr)
+            return 2
         best = float("inf")
         for _ in range(a.repeats):
             t0 = time.perf_counter()

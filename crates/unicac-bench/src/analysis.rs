@@ -19,25 +19,10 @@ pub struct LineFit {
 /// The ordinary least-squares line through `points`; `None` with fewer than 3 points or when x or y
 /// does not vary (R^2 undefined).
 pub fn fit_line(points: &[(f64, f64)]) -> Option<LineFit> {
-    let points: Vec<(f64, f64)> = points
-        .iter()
-        .copied()
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .collect();
-    let n = points.len() as f64;
-    if points.len() < 3 {
-        return None;
-    }
-    let mean_x = points.iter().map(|p| p.0).sum::<f64>() / n;
-    let mean_y = points.iter().map(|p| p.1).sum::<f64>() / n;
-    let sxx: f64 = points.iter().map(|p| (p.0 - mean_x).powi(2)).sum();
-    let sxy: f64 = points.iter().map(|p| (p.0 - mean_x) * (p.1 - mean_y)).sum();
-    let syy: f64 = points.iter().map(|p| (p.1 - mean_y).powi(2)).sum();
-    if sxx <= 0.0 || syy <= 0.0 {
-        return None;
-    }
-    let slope = sxy / sxx;
-    let intercept = mean_y - slope * mean_x;
+    let points = finite_points(points)?;
+    let m = Moments::of(&points)?;
+    let slope = m.sxy / m.sxx;
+    let intercept = m.mean_y - slope * m.mean_x;
     let residual: f64 = points
         .iter()
         .map(|p| (p.1 - intercept - slope * p.0).powi(2))
@@ -45,32 +30,57 @@ pub fn fit_line(points: &[(f64, f64)]) -> Option<LineFit> {
     Some(LineFit {
         intercept,
         slope,
-        r2: 1.0 - residual / syy,
+        r2: 1.0 - residual / m.syy,
     })
 }
 
 /// Spearman's rank correlation: Pearson's correlation of the ranks (ties get their mean rank). `None`
 /// with fewer than 3 finite points or when either variable is constant.
 pub fn spearman(points: &[(f64, f64)]) -> Option<f64> {
-    let points: Vec<(f64, f64)> = points
+    let points = finite_points(points)?;
+    let xs = ranks(&points.iter().map(|p| p.0).collect::<Vec<_>>());
+    let ys = ranks(&points.iter().map(|p| p.1).collect::<Vec<_>>());
+    let ranked: Vec<(f64, f64)> = xs.into_iter().zip(ys).collect();
+    let m = Moments::of(&ranked)?;
+    Some(m.sxy / (m.sxx * m.syy).sqrt())
+}
+
+/// The points with both coordinates finite; `None` when fewer than 3 remain.
+fn finite_points(points: &[(f64, f64)]) -> Option<Vec<(f64, f64)>> {
+    let finite: Vec<(f64, f64)> = points
         .iter()
         .copied()
         .filter(|(x, y)| x.is_finite() && y.is_finite())
         .collect();
-    if points.len() < 3 {
-        return None;
+    (finite.len() >= 3).then_some(finite)
+}
+
+/// Means and centred sums of squares and products of a point set.
+struct Moments {
+    mean_x: f64,
+    mean_y: f64,
+    sxx: f64,
+    sxy: f64,
+    syy: f64,
+}
+
+impl Moments {
+    /// `None` when x or y does not vary.
+    fn of(points: &[(f64, f64)]) -> Option<Moments> {
+        let n = points.len() as f64;
+        let mean_x = points.iter().map(|p| p.0).sum::<f64>() / n;
+        let mean_y = points.iter().map(|p| p.1).sum::<f64>() / n;
+        let sxx: f64 = points.iter().map(|p| (p.0 - mean_x).powi(2)).sum();
+        let sxy: f64 = points.iter().map(|p| (p.0 - mean_x) * (p.1 - mean_y)).sum();
+        let syy: f64 = points.iter().map(|p| (p.1 - mean_y).powi(2)).sum();
+        (sxx > 0.0 && syy > 0.0).then_some(Moments {
+            mean_x,
+            mean_y,
+            sxx,
+            sxy,
+            syy,
+        })
     }
-    let xs = ranks(&points.iter().map(|p| p.0).collect::<Vec<_>>());
-    let ys = ranks(&points.iter().map(|p| p.1).collect::<Vec<_>>());
-    let n = xs.len() as f64;
-    let (mean_x, mean_y) = (xs.iter().sum::<f64>() / n, ys.iter().sum::<f64>() / n);
-    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mean_x) * (y - mean_y)).sum();
-    let sxx: f64 = xs.iter().map(|x| (x - mean_x).powi(2)).sum();
-    let syy: f64 = ys.iter().map(|y| (y - mean_y).powi(2)).sum();
-    if sxx <= 0.0 || syy <= 0.0 {
-        return None;
-    }
-    Some(sxy / (sxx * syy).sqrt())
 }
 
 /// 1-based ranks of `values`, ties sharing their mean rank.

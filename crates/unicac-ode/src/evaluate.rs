@@ -350,14 +350,13 @@ fn score_channel(
     let ideal_plane = single_channel(&ideal.checker_encoded, c);
     let p = psnr(&encoded, &ideal_plane, &options)?;
     let s = ssim(&encoded, &ideal_plane, &options)?;
-    let edges =
-        measure_edges(patches_from(kernel, &ideal.edges)).map_err(|(direction, e)| OdeError::Edge {
-            field_fraction: fraction,
-            channel: CHANNELS[c],
-            direction: direction.to_string(),
-            kernel_px: k,
-            source: Box::new(e),
-        })?;
+    let edges = measure_edges(kernel, &ideal.edges).map_err(|(direction, e)| OdeError::Edge {
+        field_fraction: fraction,
+        channel: CHANNELS[c],
+        direction: direction.to_string(),
+        kernel_px: k,
+        source: Box::new(e),
+    })?;
     let (sagittal, tangential) = (edges[0].summary(), edges[1].summary());
     let quality = oiqe(&tangential, &sagittal, &settings.oiqe_weights)?;
     Ok(FieldChannelScore {
@@ -391,56 +390,70 @@ pub fn edge_patches(
     kernel: &Kernel,
     settings: &OdeSettings,
 ) -> Result<[EdgePatch; 2], (&'static str, OdeError)> {
-    Ok(patches_from(kernel, &ideal_edges(kernel.size, settings)?))
+    let [sagittal, tangential] = ideal_edges(kernel.size, settings)?;
+    let patch = |ideal: Planar, direction: &'static str| {
+        let (blurred, roi) = image_edge(kernel, &ideal);
+        EdgePatch {
+            direction,
+            ideal,
+            blurred,
+            roi,
+        }
+    };
+    Ok([
+        patch(sagittal, EDGE_DIRECTIONS[0]),
+        patch(tangential, EDGE_DIRECTIONS[1]),
+    ])
 }
+
+/// The edges' names, in the order of `ideal_edges`.
+const EDGE_DIRECTIONS: [&str; 2] = ["sagittal", "tangential"];
 
 /// The ideal [sagittal, tangential] edge charts for kernels of `kernel_px`: an isolated edge of
 /// max(`min_edge_px`, 4 kernel widths) and its transpose.
 fn ideal_edges(kernel_px: usize, settings: &OdeSettings) -> Result<[Planar; 2], (&'static str, OdeError)> {
     let edge_size = settings.min_edge_px.max(4 * kernel_px);
     let vertical = charts::slanted_edge(edge_size, edge_size, settings.slant_deg, 0.2, 0.8)
-        .map_err(|e| ("sagittal", e.into()))?;
+        .map_err(|e| (EDGE_DIRECTIONS[0], e.into()))?;
     let horizontal = transpose(&vertical);
     Ok([vertical, horizontal])
 }
 
-/// The two edge patches of `kernel` from ideal edges of its size (`ideal_edges`).
-fn patches_from(kernel: &Kernel, ideal: &[Planar; 2]) -> [EdgePatch; 2] {
+/// An ideal edge imaged through `kernel`, and the region its MTF is measured on (the kernel's reach
+/// cropped from every side).
+fn image_edge(kernel: &Kernel, ideal: &Planar) -> (Planar, Roi) {
     let crop = kernel.size / 2 + 1;
-    let edge_size = ideal[0].width;
+    let edge_size = ideal.width;
+    let blurred = Planar {
+        width: edge_size,
+        height: edge_size,
+        channels: 1,
+        data: convolve_patch(ideal.plane(0), edge_size, kernel),
+    };
     let roi = Roi {
         x: crop,
         y: crop,
         width: edge_size - 2 * crop,
         height: edge_size - 2 * crop,
     };
-    let patch = |ideal: &Planar, direction: &'static str| EdgePatch {
-        direction,
-        blurred: Planar {
-            width: edge_size,
-            height: edge_size,
-            channels: 1,
-            data: convolve_patch(ideal.plane(0), edge_size, kernel),
-        },
-        ideal: ideal.clone(),
-        roi,
-    };
-    [patch(&ideal[0], "sagittal"), patch(&ideal[1], "tangential")]
+    (blurred, roi)
 }
 
 /// Slanted-edge MTFs of one kernel: [sagittal (near-vertical edge), tangential (its transpose)], measured
 /// on the patches of `edge_patches`.
 pub fn edge_mtfs(kernel: &Kernel, settings: &OdeSettings) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
-    measure_edges(edge_patches(kernel, settings)?)
+    measure_edges(kernel, &ideal_edges(kernel.size, settings)?)
 }
 
-fn measure_edges(patches: [EdgePatch; 2]) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
-    let measure = |patch: &EdgePatch| {
-        slanted_edge_mtf(&patch.blurred, 0, patch.roi, &SlantedEdgeOptions::default())
-            .map_err(|e| (patch.direction, e.into()))
+/// The MTFs of `ideal_edges` imaged through `kernel` (the ideal edges are shared, not copied: the ODE
+/// scores 15 kernels against one set).
+fn measure_edges(kernel: &Kernel, ideal: &[Planar; 2]) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
+    let measure = |i: usize| {
+        let (blurred, roi) = image_edge(kernel, &ideal[i]);
+        slanted_edge_mtf(&blurred, 0, roi, &SlantedEdgeOptions::default())
+            .map_err(|e| (EDGE_DIRECTIONS[i], e.into()))
     };
-    let [sagittal, tangential] = patches;
-    Ok([measure(&sagittal)?, measure(&tangential)?])
+    Ok([measure(0)?, measure(1)?])
 }
 
 /// Side of the checkerboard area PSNR and SSIM are computed on (after the border crop).

@@ -183,6 +183,9 @@ impl LensSimulator {
             )
             .into());
         }
+        let max_radius_px = 0.5 * (width as f64).hypot(height as f64);
+        let warp_scale = RadialTable::sample(max_radius_px, |r| exact_warp_scale(&chief, &grid, r));
+        let shading = RadialTable::sample(max_radius_px, |r| exact_shading(&chief, &radial, &grid, r));
         let mut simulator = LensSimulator {
             grid,
             chief,
@@ -192,34 +195,22 @@ impl LensSimulator {
             psfs_from_cache,
             cache_warning,
             kernels: Vec::new(),
-            warp_scale: RadialTable::sample(0.0, |_| 1.0),
-            shading: RadialTable::sample(0.0, |_| 1.0),
+            warp_scale,
+            shading,
         };
         let frame = simulator.frame();
         simulator.kernels = (0..3).map(|c| simulator.kernel_grid(c, frame)).collect();
-        let max_radius_px = 0.5 * (width as f64).hypot(height as f64);
-        simulator.warp_scale = RadialTable::sample(max_radius_px, |r| simulator.exact_warp_scale(r));
-        simulator.shading = RadialTable::sample(max_radius_px, |r| simulator.exact_shading(r));
         Ok(simulator)
     }
 
-    /// The warp's scale at `radius_px` from the frame centre, evaluated from the chief-ray map: the
-    /// output pixel at real radius r samples the ideal image at r times this.
-    fn exact_warp_scale(&self, radius_px: f64) -> f64 {
-        if self.chief.paraxial_height_per_tan_mm() == 0.0 {
-            return 1.0;
+    /// The warp's scale at `radius_px` (1 with the distortion off).
+    #[inline]
+    fn warp_scale_at(&self, radius_px: f64) -> f64 {
+        if self.settings.distortion {
+            self.warp_scale.at(radius_px)
+        } else {
+            1.0
         }
-        // On the axis, the limit of ideal / real (the first chief-ray segment is linear).
-        let radius_mm = (radius_px * self.grid.pitch_um * 1e-3).max(1e-9);
-        self.chief.ideal_height(radius_mm) / radius_mm
-    }
-
-    /// The shading factor at `radius_px` from the frame centre, evaluated from the chief-ray map and the
-    /// radial PSFs' transmission.
-    fn exact_shading(&self, radius_px: f64) -> f64 {
-        let radius_mm = radius_px * self.grid.pitch_um * 1e-3;
-        let axis = self.radial.peak_transmission().max(1e-12);
-        self.chief.illumination_factor(radius_mm) * self.radial.transmission_at(radius_mm) / axis
     }
 
     /// Real (distorted) sensor position of the field whose ideal image is at `ideal_mm`.
@@ -317,15 +308,11 @@ impl LensSimulator {
 
     /// The ideal (undistorted) frame position that output pixel (column, row) shows: the warp samples
     /// the blurred ideal image there.
-    #[inline]
     fn ideal_source(&self, column: usize, row: usize) -> [f64; 2] {
-        if !self.settings.distortion {
-            return [column as f64, row as f64];
-        }
         // Pixel offsets from the centre scale like sensor millimetres (the same factor on both axes).
         let [cx, cy] = self.grid.centre_px();
         let (dx, dy) = (column as f64 - cx, row as f64 - cy);
-        let scale = self.warp_scale.at((dx * dx + dy * dy).sqrt());
+        let scale = self.warp_scale_at((dx * dx + dy * dy).sqrt());
         [cx + dx * scale, cy + dy * scale]
     }
 
@@ -341,7 +328,7 @@ impl LensSimulator {
         let (red, rest) = out.data.split_at_mut(window.width * window.height);
         let (green, blue) = rest.split_at_mut(window.width * window.height);
         let [cx, cy] = self.grid.centre_px();
-        let (distortion, illumination) = (self.settings.distortion, self.settings.illumination);
+        let illumination = self.settings.illumination;
         red.par_chunks_mut(window.width)
             .zip(green.par_chunks_mut(window.width))
             .zip(blue.par_chunks_mut(window.width))
@@ -351,11 +338,7 @@ impl LensSimulator {
                 for column in 0..window.width {
                     let dx = (window.x0 + column) as f64 - cx;
                     let radius = (dx * dx + dy * dy).sqrt();
-                    let scale = if distortion {
-                        self.warp_scale.at(radius)
-                    } else {
-                        1.0
-                    };
+                    let scale = self.warp_scale_at(radius);
                     let shade = if illumination {
                         self.shading.at(radius) as f32
                     } else {
@@ -468,6 +451,26 @@ impl LensSimulator {
         }
         Ok(())
     }
+}
+
+/// The warp's scale at `radius_px` from the frame centre, evaluated from the chief-ray map: the output
+/// pixel at real radius r samples the ideal image at r times this (tabulated in `LensSimulator::new`).
+fn exact_warp_scale(chief: &ChiefRayMap, grid: &SensorGrid, radius_px: f64) -> f64 {
+    if chief.paraxial_height_per_tan_mm() == 0.0 {
+        return 1.0;
+    }
+    // On the axis, the limit of ideal / real (the first chief-ray segment is linear).
+    let radius_mm = (radius_px * grid.pitch_um * 1e-3).max(1e-9);
+    chief.ideal_height(radius_mm) / radius_mm
+}
+
+/// The shading factor at `radius_px` from the frame centre: the chief-ray map's relative illumination
+/// times the radial PSFs' transmission, normalised by the peak transmission (tabulated in
+/// `LensSimulator::new`).
+fn exact_shading(chief: &ChiefRayMap, radial: &RadialPsfs, grid: &SensorGrid, radius_px: f64) -> f64 {
+    let radius_mm = radius_px * grid.pitch_um * 1e-3;
+    let axis = radial.peak_transmission().max(1e-12);
+    chief.illumination_factor(radius_mm) * radial.transmission_at(radius_mm) / axis
 }
 
 /// A rectangle of frame pixels: columns `x0 .. x0 + width`, rows `y0 .. y0 + height`.
@@ -585,9 +588,9 @@ mod tests {
                     .map(|(dx, dy)| dx.hypot(dy));
                 let sweep = (0..20_000).map(|i| i as f64 / 20_000.0 * cx.hypot(cy));
                 for radius in quadrant.chain(sweep) {
-                    let exact = simulator.exact_warp_scale(radius);
+                    let exact = exact_warp_scale(&simulator.chief, &simulator.grid, radius);
                     warp_error = warp_error.max(radius * (simulator.warp_scale.at(radius) - exact).abs());
-                    let exact = simulator.exact_shading(radius);
+                    let exact = exact_shading(&simulator.chief, &simulator.radial, &simulator.grid, radius);
                     shading_error = shading_error.max((simulator.shading.at(radius) - exact).abs());
                 }
                 println!("{name} {width}x{height}: warp {warp_error:.2e} px, shading {shading_error:.2e}");

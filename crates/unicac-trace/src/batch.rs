@@ -9,13 +9,7 @@ const CHUNK: usize = 2048;
 
 /// Traces every ray to the image surface in place and returns one status per ray.
 pub fn trace_rays(system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
-    let mut statuses = vec![RayStatus::Ok; rays.len()];
-    rays.par_chunks_mut(CHUNK)
-        .zip(statuses.par_chunks_mut(CHUNK))
-        .for_each(|(rays, statuses)| {
-            system.trace_chunk(rays, statuses);
-        });
-    statuses
+    in_parallel_chunks(rays, |rays, statuses| system.trace_chunk(rays, statuses))
 }
 
 /// Traces rays that physically start where they are (rays given by a user, e.g. through Python): a ray
@@ -23,14 +17,22 @@ pub fn trace_rays(system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
 /// Ray by ray, not in SIMD lanes: user rays need the per-surface direction check, aimed rays (which
 /// start on a possibly virtual entrance pupil) use `trace_rays`.
 pub fn trace_rays_from_start(system: &TraceSystem, rays: &mut [Ray]) -> Vec<RayStatus> {
+    in_parallel_chunks(rays, |rays, statuses| {
+        for (ray, status) in rays.iter_mut().zip(statuses) {
+            *status = system.trace_from_start(ray);
+        }
+    })
+}
+
+/// One status per ray, with `trace` run on chunks of `CHUNK` rays (and their statuses) in parallel.
+fn in_parallel_chunks(
+    rays: &mut [Ray],
+    trace: impl Fn(&mut [Ray], &mut [RayStatus]) + Sync,
+) -> Vec<RayStatus> {
     let mut statuses = vec![RayStatus::Ok; rays.len()];
     rays.par_chunks_mut(CHUNK)
         .zip(statuses.par_chunks_mut(CHUNK))
-        .for_each(|(rays, statuses)| {
-            for (ray, status) in rays.iter_mut().zip(statuses) {
-                *status = system.trace_from_start(ray);
-            }
-        });
+        .for_each(|(rays, statuses)| trace(rays, statuses));
     statuses
 }
 

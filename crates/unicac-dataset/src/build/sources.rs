@@ -333,69 +333,68 @@ pub const SCENE_CACHE_BYTES: usize = 1 << 30;
 
 /// Decoded scenes kept between lenses: every lens renders the same images, and decoding a file or
 /// generating a chart costs as much as rendering its pair (0.6 s for a 1 MP dead-leaves chart). Holds
-/// scenes until `budget_bytes` is reached; later ones are decoded each time they are needed (the first
-/// ones stay, which suits the build's loop over lenses that each visit the images in the same order).
+/// scenes until `budget_bytes` is reached; later ones are decoded each time they are needed (held
+/// scenes are never evicted, which suits the build's loop over lenses that each visit the images in the same order).
 pub struct SceneCache {
     budget_bytes: usize,
-    held: Mutex<(usize, HashMap<String, Arc<Planar>>)>,
+    held: Mutex<Held>,
+}
+
+/// What the cache holds, and whether the budget has refused a scene (then warming stops: decoding more
+/// up front would only be thrown away).
+#[derive(Default)]
+struct Held {
+    bytes: usize,
+    scenes: HashMap<String, Arc<Planar>>,
+    full: bool,
 }
 
 impl SceneCache {
     pub fn new(budget_bytes: usize) -> SceneCache {
         SceneCache {
             budget_bytes,
-            held: Mutex::new((0, HashMap::new())),
+            held: Mutex::new(Held::default()),
         }
     }
 
-    /// Decodes `scenes` (in order, while the budget lasts) in parallel before they are needed: a build
+    /// Decodes `scenes` in parallel before they are needed, until the budget refuses one: a build
     /// renders one lens at a time, and a lens with few pairs would otherwise decode them one by one.
     pub fn warm(&self, scenes: &[&Scene]) -> Result<()> {
-        let mut planned = 0usize;
-        let fitting: Vec<&Scene> = scenes
-            .iter()
-            .copied()
-            .take_while(|scene| {
-                planned += scene.decoded_bytes_estimate();
-                planned <= self.budget_bytes
-            })
-            .collect();
-        fitting
-            .par_iter()
-            .try_for_each(|scene| self.get(scene).map(|_| ()))
+        scenes.par_iter().try_for_each(|scene| {
+            if self.lock().full {
+                return Ok(());
+            }
+            self.get(scene).map(|_| ())
+        })
     }
 
     /// The scene's linear pixels, decoded once while the budget lasts.
     pub fn get(&self, scene: &Scene) -> Result<Arc<Planar>> {
-        // A panic elsewhere cannot leave the map half-updated (inserts are single calls), so a poisoned
-        // lock is still usable.
-        let lock = || self.held.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-        if let Some(image) = lock().1.get(&scene.image_id) {
+        if let Some(image) = self.lock().scenes.get(&scene.image_id) {
             return Ok(Arc::clone(image));
         }
         // Decoded outside the lock, so threads decode different scenes at once (two threads may decode
         // the same scene; the result is the same).
         let image = Arc::new(scene.load_linear()?);
         let bytes = image.data.len() * std::mem::size_of::<f32>();
-        let mut held = lock();
-        if held.0 + bytes <= self.budget_bytes && !held.1.contains_key(&scene.image_id) {
-            held.0 += bytes;
-            held.1.insert(scene.image_id.clone(), Arc::clone(&image));
+        let mut held = self.lock();
+        if held.bytes + bytes > self.budget_bytes {
+            held.full = true;
+        } else if !held.scenes.contains_key(&scene.image_id) {
+            held.bytes += bytes;
+            held.scenes.insert(scene.image_id.clone(), Arc::clone(&image));
         }
         Ok(image)
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Held> {
+        // A panic elsewhere cannot leave the map half-updated (inserts are single calls), so a poisoned
+        // lock is still usable.
+        self.held.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 }
 
 impl Scene {
-    /// Bytes of the decoded scene when its size is known without decoding (charts), else 0 (a file's
-    /// size shows only when decoded; `SceneCache::get` still enforces the budget).
-    fn decoded_bytes_estimate(&self) -> usize {
-        match &self.kind {
-            SceneKind::DeadLeaves { width, height, .. } => 3 * width * height * std::mem::size_of::<f32>(),
-            SceneKind::File { .. } => 0,
-        }
-    }
-
     /// The scene's size without decoding pixels (charts) or by decoding the file.
     pub fn load_linear(&self) -> Result<Planar> {
         match &self.kind {
