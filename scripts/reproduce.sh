@@ -11,7 +11,7 @@
 # --ray N runs design and dataset on Ray (`unicac-ray`, N tasks in flight; same bytes as the CLI);
 # training on several processes is `torchrun` (docs/scale.md), not driven from here.
 # The scales (docs/reproduce.md): tiny (minutes, a smoke test), cpu (six models briefly trained, about
-# an hour here), small (this 2-core machine, hours),
+# an hour here), small (this 2-core machine, about 1.5 hours),
 # paper (the paper's sizes: a cluster; supply real scenes with --images / --test-images).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -54,10 +54,10 @@ case "$scale" in
     ;;
   small)
     grid=(--grid-elements 1,2,3,4 --grid-half-fov-deg 20,30,40 --grid-f-numbers 2,3,4 --grid-stops front,middle,back)
-    design_count=1 design_budget_s=7200
+    design_count=1 design_budget_s=2400
     levels=5 per_level=5 val_lenses=10
-    images=${images:-dead-leaves:60:512x384} test_images=${test_images:-dead-leaves:4:512x384} frame=512x384
-    pairs_per_lens=8 crop=128x128 iters=3000
+    images=${images:-dead-leaves:60:384x288} test_images=${test_images:-dead-leaves:3:384x288} frame=384x288
+    pairs_per_lens=8 crop=128x128 iters=1000
     models=(nafnet nafnet-fov nafnet-psf nafnet-psf-blind restormer nafnet-gan)
     ;;
   paper)

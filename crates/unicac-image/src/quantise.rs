@@ -23,8 +23,15 @@ pub fn to_code(value: f32, max_code: u32) -> Option<u32> {
     if !value.is_finite() {
         return None;
     }
-    let scaled = (f64::from(value) * f64::from(max_code)).round();
-    Some(scaled.clamp(0.0, f64::from(max_code)) as u32)
+    // Round half away from zero as floor(x + 0.5) by truncation (`f64::round` is a libm call on
+    // baseline x86-64): the product of an f32 and a code <= 2^16 is exact in f64, and so is adding 0.5
+    // below 2^36, so this equals `round` wherever the result is not clamped.
+    let shifted = f64::from(value) * f64::from(max_code) + 0.5;
+    Some(if shifted <= 0.0 {
+        0
+    } else {
+        (shifted as u32).min(max_code)
+    })
 }
 
 /// Unit-range value of an integer code.
@@ -36,11 +43,13 @@ pub fn from_code(code: u32, max_code: u32) -> f32 {
 /// 8- or 16-bit output would store it, but keeps f32 storage. Fails on NaN/infinite samples.
 pub fn quantise(image: &Planar, bits: u8) -> Result<Planar> {
     let max = max_code(bits)?;
+    // One division per code instead of one per sample (the same values as `from_code`).
+    let level: Vec<f32> = (0..=max).map(|code| from_code(code, max)).collect();
     let mut out = image.clone();
     for v in &mut out.data {
         let code = to_code(*v, max)
             .ok_or_else(|| ImageError::invalid("image", "NaN or infinite sample cannot be quantised"))?;
-        *v = from_code(code, max);
+        *v = level[code as usize];
     }
     Ok(out)
 }
@@ -60,6 +69,27 @@ mod tests {
         for code in 0..=255 {
             assert_eq!(to_code(from_code(code, 255), 255), Some(code));
         }
+    }
+
+    #[test]
+    fn codes_equal_round_half_away_from_zero_on_every_16_bit_half_step() {
+        let reference =
+            |v: f32, max: u32| (f64::from(v) * f64::from(max)).round().clamp(0.0, f64::from(max)) as u32;
+        for max in [255u32, 1023, 65535] {
+            for step in 0..=(2 * max + 2) {
+                let exact_half = step as f32 * 0.5 / max as f32;
+                for v in [
+                    exact_half,
+                    exact_half.next_up(),
+                    exact_half.next_down(),
+                    -exact_half,
+                ] {
+                    assert_eq!(to_code(v, max), Some(reference(v, max)), "{v} at max {max}");
+                }
+            }
+        }
+        assert_eq!(to_code(f32::MAX, 255), Some(255));
+        assert_eq!(to_code(-f32::MAX, 255), Some(0));
     }
 
     #[test]

@@ -92,21 +92,19 @@ fn channel_ssim(a: &[f64], b: &[f64], w: usize, h: usize, kernel: &[f64]) -> f64
 pub(crate) fn filter_valid(plane: &[f64], w: usize, h: usize, kernel: &[f64]) -> Vec<f64> {
     let k = kernel.len();
     let (ow, oh) = (w + 1 - k, h + 1 - k);
+    // Each output accumulates its taps in kernel order (0 + g0 v0 + g1 v1 + ...), tap by tap over a
+    // whole row: the same sums as one dot product per pixel, but contiguous, so they vectorise.
     let mut rows = vec![0.0; ow * h];
-    for y in 0..h {
-        let src = &plane[y * w..(y + 1) * w];
-        for x in 0..ow {
-            rows[y * ow + x] = kernel.iter().zip(&src[x..x + k]).map(|(g, v)| g * v).sum();
+    for (row, src) in rows.chunks_exact_mut(ow).zip(plane.chunks_exact(w)) {
+        for (i, g) in kernel.iter().enumerate() {
+            row.iter_mut().zip(&src[i..i + ow]).for_each(|(r, v)| *r += g * v);
         }
     }
     let mut out = vec![0.0; ow * oh];
-    for y in 0..oh {
-        for x in 0..ow {
-            out[y * ow + x] = kernel
-                .iter()
-                .enumerate()
-                .map(|(j, g)| g * rows[(y + j) * ow + x])
-                .sum();
+    for (y, row) in out.chunks_exact_mut(ow).enumerate() {
+        for (j, g) in kernel.iter().enumerate() {
+            let src = &rows[(y + j) * ow..(y + j + 1) * ow];
+            row.iter_mut().zip(src).for_each(|(r, v)| *r += g * v);
         }
     }
     out

@@ -12,6 +12,7 @@ use unicac_psf::{
     visible_wavelengths_um, DarkFields, Kernel, PsfError, PsfSettings, PsfTracer, RayBackend,
     SpectralResponse, SpectralWeights,
 };
+use unicac_sim::convolve::convolve_invariant_many;
 use unicac_sim::ChiefRayMap;
 use unicac_trace::{spots, Aiming, PupilSampling};
 
@@ -264,26 +265,44 @@ pub fn score_fields(
     fields: &[FieldKernels],
     settings: &OdeSettings,
 ) -> Result<(unicac_metrics::OdeBreakdown, Vec<FieldChannelScore>), OdeError> {
-    // Every field shares one kernel size, so one set of ideal charts serves all of them (the charts
-    // cost as much to draw as a patch costs to score); one task per field and channel.
-    let mut charts: Vec<IdealCharts> = Vec::new();
-    for size in fields.iter().flat_map(|f| &f.kernels).map(|k| k.size) {
-        if !charts.iter().any(|c| c.kernel_px == size) {
-            charts.push(IdealCharts::new(size, settings)?);
+    // One task per field and channel. The kernels of one size share their ideal charts (which cost as
+    // much to draw as a patch costs to score) and each chart's transform (`convolve_invariant_many`).
+    let tasks: Vec<(&FieldKernels, usize)> = fields
+        .iter()
+        .flat_map(|f| (0..f.kernels.len()).map(move |c| (f, c)))
+        .collect();
+    let mut sizes: Vec<usize> = tasks.iter().map(|(f, c)| f.kernels[*c].size).collect();
+    sizes.sort_unstable();
+    sizes.dedup();
+    let mut table: Vec<Option<FieldChannelScore>> = vec![None; tasks.len()];
+    for size in sizes {
+        let ideal = IdealCharts::new(size, settings)?;
+        let members: Vec<usize> = (0..tasks.len())
+            .filter(|&i| tasks[i].0.kernels[tasks[i].1].size == size)
+            .collect();
+        let kernels: Vec<&Kernel> = members.iter().map(|&i| &tasks[i].0.kernels[tasks[i].1]).collect();
+        let imaged = ideal.image(&kernels);
+        let scores: Vec<FieldChannelScore> = members
+            .par_iter()
+            .zip(imaged.into_par_iter())
+            .map(|(&i, imaged)| {
+                let (f, c) = tasks[i];
+                score_channel(
+                    f.fraction,
+                    f.angle_deg,
+                    c,
+                    &f.kernels[c],
+                    &ideal,
+                    imaged,
+                    settings,
+                )
+            })
+            .collect::<Result<_, OdeError>>()?;
+        for (i, score) in members.into_iter().zip(scores) {
+            table[i] = Some(score);
         }
     }
-    let table: Vec<FieldChannelScore> = fields
-        .par_iter()
-        .flat_map_iter(|f| (0..f.kernels.len()).map(move |c| (f, c)))
-        .map(|(f, c)| {
-            let kernel = &f.kernels[c];
-            let ideal = charts
-                .iter()
-                .find(|i| i.kernel_px == kernel.size)
-                .expect("charts for every kernel size");
-            score_channel(f.fraction, f.angle_deg, c, kernel, ideal, settings)
-        })
-        .collect::<Result<_, OdeError>>()?;
+    let table: Vec<FieldChannelScore> = table.into_iter().map(|s| s.expect("every task scored")).collect();
     let oiq_grid: Vec<Vec<f64>> = table
         .chunks(3)
         .map(|field| field.iter().map(|s| s.oiq).collect())
@@ -291,72 +310,111 @@ pub fn score_fields(
     Ok((ode_from_oiq_grid(&oiq_grid, &settings.weights)?, table))
 }
 
-/// The ideal charts a kernel of `kernel_px` is scored with: the checkerboard (linear and encoded) and
-/// the two slanted edges. They depend on the kernel size and the settings only.
+/// The ideal charts a kernel of `kernel_px` is scored with: the grey checkerboard (linear, one plane, and
+/// encoded) and the two slanted edges. They depend on the kernel size and the settings only.
 struct IdealCharts {
-    kernel_px: usize,
-    checker: Planar,
+    checker_side: usize,
+    checker: Vec<f32>,
     checker_encoded: Planar,
     edges: [Planar; 2],
+}
+
+/// One kernel's charts imaged through it: the checkerboard and the [sagittal, tangential] edges.
+struct ImagedCharts {
+    checker: Vec<f32>,
+    edges: [Vec<f32>; 2],
 }
 
 impl IdealCharts {
     fn new(kernel_px: usize, settings: &OdeSettings) -> Result<IdealCharts, OdeError> {
         let crop = kernel_px / 2 + 1;
         // Fixed checkerboard period and evaluated area, so PSNR and SSIM compare across lenses.
-        let checker_size = CHECKER_AREA_PX + 2 * crop;
+        let checker_side = CHECKER_AREA_PX + 2 * crop;
         let checker = charts::checkerboard(
-            checker_size,
-            checker_size,
+            checker_side,
+            checker_side,
             2.0 * settings.square_px as f64,
             settings.contrast,
             settings.slant_deg,
         )?;
         let checker_encoded = encode(&checker)?;
+        // The chart is grey (equal planes), so every channel's kernel blurs the same plane.
+        let checker = checker.plane(0).to_vec();
         let edges = ideal_edges(kernel_px, settings).map_err(|(_, e)| e)?;
         Ok(IdealCharts {
-            kernel_px,
+            checker_side,
             checker,
             checker_encoded,
             edges,
         })
     }
+
+    /// The charts imaged through each of `kernels` (all of this chart set's size), in their order.
+    fn image(&self, kernels: &[&Kernel]) -> Vec<ImagedCharts> {
+        let side = self.checker_side;
+        let checker = convolve_invariant_many(&self.checker, side, side, kernels);
+        let [sagittal, tangential] = self
+            .edges
+            .each_ref()
+            .map(|e| convolve_invariant_many(e.plane(0), e.width, e.height, kernels));
+        checker
+            .into_iter()
+            .zip(sagittal.into_iter().zip(tangential))
+            .map(|(checker, (s, t))| ImagedCharts {
+                checker,
+                edges: [s, t],
+            })
+            .collect()
+    }
 }
 
-/// Images the checkerboard patch (PSNR, SSIM) and the two slanted edges (OIQE) through channel `c`'s
-/// kernel of one field and scores it.
+/// Scores channel `c`'s kernel of one field from its imaged charts: the checkerboard patch (PSNR, SSIM)
+/// and the two slanted edges (OIQE).
 fn score_channel(
     fraction: f64,
     angle: f64,
     c: usize,
     kernel: &Kernel,
     ideal: &IdealCharts,
+    imaged: ImagedCharts,
     settings: &OdeSettings,
 ) -> Result<FieldChannelScore, OdeError> {
     let k = kernel.size;
     let crop = k / 2 + 1;
-    let checker_size = ideal.checker.width;
     let options = FullReferenceOptions {
         crop_border: crop,
         ..Default::default()
     };
     let blurred = Planar {
-        width: checker_size,
-        height: checker_size,
+        width: ideal.checker_side,
+        height: ideal.checker_side,
         channels: 1,
-        data: convolve_patch(ideal.checker.plane(c), checker_size, kernel),
+        data: imaged.checker,
     };
     let encoded = encode(&blurred)?;
     let ideal_plane = single_channel(&ideal.checker_encoded, c);
     let p = psnr(&encoded, &ideal_plane, &options)?;
     let s = ssim(&encoded, &ideal_plane, &options)?;
-    let edges = measure_edges(kernel, &ideal.edges).map_err(|(direction, e)| OdeError::Edge {
-        field_fraction: fraction,
-        channel: CHANNELS[c],
-        direction: direction.to_string(),
-        kernel_px: k,
-        source: Box::new(e),
-    })?;
+    let [sagittal_edge, tangential_edge] = imaged.edges;
+    let measured = |i: usize, data: Vec<f32>| {
+        let side = ideal.edges[i].width;
+        let blurred = Planar {
+            width: side,
+            height: side,
+            channels: 1,
+            data,
+        };
+        measure_edge(&blurred, edge_roi(k, side), i)
+    };
+    let edges = measured(0, sagittal_edge)
+        .and_then(|s| Ok([s, measured(1, tangential_edge)?]))
+        .map_err(|(direction, e)| OdeError::Edge {
+            field_fraction: fraction,
+            channel: CHANNELS[c],
+            direction: direction.to_string(),
+            kernel_px: k,
+            source: Box::new(e),
+        })?;
     let (sagittal, tangential) = (edges[0].summary(), edges[1].summary());
     let quality = oiqe(&tangential, &sagittal, &settings.oiqe_weights)?;
     Ok(FieldChannelScore {
@@ -419,10 +477,8 @@ fn ideal_edges(kernel_px: usize, settings: &OdeSettings) -> Result<[Planar; 2], 
     Ok([vertical, horizontal])
 }
 
-/// An ideal edge imaged through `kernel`, and the region its MTF is measured on (the kernel's reach
-/// cropped from every side).
+/// An ideal edge imaged through `kernel`, and the region its MTF is measured on.
 fn image_edge(kernel: &Kernel, ideal: &Planar) -> (Planar, Roi) {
-    let crop = kernel.size / 2 + 1;
     let edge_size = ideal.width;
     let blurred = Planar {
         width: edge_size,
@@ -430,30 +486,36 @@ fn image_edge(kernel: &Kernel, ideal: &Planar) -> (Planar, Roi) {
         channels: 1,
         data: convolve_patch(ideal.plane(0), edge_size, kernel),
     };
-    let roi = Roi {
+    (blurred, edge_roi(kernel.size, edge_size))
+}
+
+/// The region of an `edge_size` edge patch whose MTF is measured: the reach of a `kernel_px` kernel
+/// cropped from every side.
+fn edge_roi(kernel_px: usize, edge_size: usize) -> Roi {
+    let crop = kernel_px / 2 + 1;
+    Roi {
         x: crop,
         y: crop,
         width: edge_size - 2 * crop,
         height: edge_size - 2 * crop,
-    };
-    (blurred, roi)
+    }
 }
 
 /// Slanted-edge MTFs of one kernel: [sagittal (near-vertical edge), tangential (its transpose)], measured
 /// on the patches of `edge_patches`.
 pub fn edge_mtfs(kernel: &Kernel, settings: &OdeSettings) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
-    measure_edges(kernel, &ideal_edges(kernel.size, settings)?)
-}
-
-/// The MTFs of `ideal_edges` imaged through `kernel` (the ideal edges are shared, not copied: the ODE
-/// scores 15 kernels against one set).
-fn measure_edges(kernel: &Kernel, ideal: &[Planar; 2]) -> Result<[EdgeMtf; 2], (&'static str, OdeError)> {
+    let ideal = ideal_edges(kernel.size, settings)?;
     let measure = |i: usize| {
         let (blurred, roi) = image_edge(kernel, &ideal[i]);
-        slanted_edge_mtf(&blurred, 0, roi, &SlantedEdgeOptions::default())
-            .map_err(|e| (EDGE_DIRECTIONS[i], e.into()))
+        measure_edge(&blurred, roi, i)
     };
     Ok([measure(0)?, measure(1)?])
+}
+
+/// The MTF of blurred edge `i` (0 sagittal, 1 tangential) over `roi`.
+fn measure_edge(blurred: &Planar, roi: Roi, i: usize) -> Result<EdgeMtf, (&'static str, OdeError)> {
+    slanted_edge_mtf(blurred, 0, roi, &SlantedEdgeOptions::default())
+        .map_err(|e| (EDGE_DIRECTIONS[i], e.into()))
 }
 
 /// Side of the checkerboard area PSNR and SSIM are computed on (after the border crop).

@@ -171,29 +171,44 @@ fn reflect(index: isize, n: usize) -> usize {
     (if m >= n as isize { period - m } else { m }) as usize
 }
 
+/// Non-zero taps of a kernel as (row offset 0..5, column offset 0..5, weight), in row-major order: the
+/// order the sum has always been taken in, so results stay bit-identical.
+fn nonzero_taps(kernel: &Kernel) -> Vec<(usize, usize, f32)> {
+    let mut taps = Vec::new();
+    for (j, weights) in kernel.iter().enumerate() {
+        for (i, &weight) in weights.iter().enumerate() {
+            if weight != 0.0 {
+                taps.push((j, i, weight));
+            }
+        }
+    }
+    taps
+}
+
 /// RGB image from a 1-channel RGGB mosaic. Output values are not clipped (Malvar's filters can overshoot
 /// slightly at edges); any width and height work.
 pub fn demosaic(mosaic: &Planar, method: Demosaic) -> Result<Planar> {
     check_layout(mosaic, "mosaic", &[1])?;
     let (width, height) = (mosaic.width, mosaic.height);
     let raw = mosaic.plane(0);
+    // Per site and output channel the taps to sum (None: the site's own sample); reflected column
+    // indices once per image, column x + i for tap offset i (x - 2 .. x + 2).
+    let plan: [[Option<Vec<(usize, usize, f32)>>; 3]; 4] = std::array::from_fn(|site| {
+        std::array::from_fn(|channel| method.kernel(SITES[site][channel]).map(nonzero_taps))
+    });
+    let columns: Vec<usize> = (0..width + 4).map(|x| reflect(x as isize - 2, width)).collect();
     let mut rgb = Planar::new(width, height, 3);
     for y in 0..height {
         let rows: [usize; 5] = std::array::from_fn(|j| reflect(y as isize + j as isize - 2, height) * width);
         for x in 0..width {
-            let columns: [usize; 5] = std::array::from_fn(|i| reflect(x as isize + i as isize - 2, width));
             let site = 2 * (y % 2) + x % 2;
-            for (channel, &neighbours) in SITES[site].iter().enumerate() {
-                let value = match method.kernel(neighbours) {
+            for (channel, taps) in plan[site].iter().enumerate() {
+                let value = match taps {
                     None => raw[y * width + x],
-                    Some(kernel) => {
+                    Some(taps) => {
                         let mut sum = 0.0;
-                        for (row, weights) in rows.iter().zip(kernel) {
-                            for (column, weight) in columns.iter().zip(weights) {
-                                if *weight != 0.0 {
-                                    sum += weight * raw[row + column];
-                                }
-                            }
+                        for &(j, i, weight) in taps {
+                            sum += weight * raw[rows[j] + columns[x + i]];
                         }
                         sum
                     }

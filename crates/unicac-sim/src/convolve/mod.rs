@@ -324,6 +324,24 @@ pub fn convolve_invariant(plane: &[f32], width: usize, height: usize, kernel: &K
     fft::convolve_invariant_fft(plane, width, height, kernel)
 }
 
+/// `plane` convolved with each of `kernels` (all of one size), as `convolve_invariant` would one at a time;
+/// large kernels share the plane's transform and go two to a transform (f32 results within an ulp).
+pub fn convolve_invariant_many(
+    plane: &[f32],
+    width: usize,
+    height: usize,
+    kernels: &[&Kernel],
+) -> Vec<Vec<f32>> {
+    if kernels.first().is_some_and(|k| k.size >= FFT_FROM_KERNEL_PX) {
+        fft::convolve_invariant_fft_many(plane, width, height, kernels)
+    } else {
+        kernels
+            .iter()
+            .map(|k| convolve_invariant(plane, width, height, k))
+            .collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -374,6 +392,28 @@ mod tests {
             .for_each(|(i, v)| *v = 1.0 + ((i * 31 + seed * 17) % 11) as f32);
         k.normalise();
         k
+    }
+
+    #[test]
+    fn many_kernels_at_once_equal_one_at_a_time() {
+        let (w, h) = (53, 41);
+        let plane: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 101) as f32 / 100.0).collect();
+        for size in [5, 21] {
+            let kernels: Vec<Kernel> = (0..5).map(|seed| textured(size, seed)).collect();
+            let refs: Vec<&Kernel> = kernels.iter().collect();
+            let many = convolve_invariant_many(&plane, w, h, &refs);
+            assert_eq!(many.len(), 5);
+            for (kernel, out) in kernels.iter().zip(&many) {
+                let one = convolve_invariant(&plane, w, h, kernel);
+                let worst = one
+                    .iter()
+                    .zip(out)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0f32, f32::max);
+                assert!(worst <= 2.0 * f32::EPSILON, "size {size}: {worst}");
+            }
+        }
+        assert!(convolve_invariant_many(&plane, w, h, &[]).is_empty());
     }
 
     #[test]
