@@ -173,7 +173,10 @@ fn reflect(index: isize, n: usize) -> usize {
 
 /// Non-zero taps of a kernel as (row offset 0..5, column offset 0..5, weight), in row-major order: the
 /// order the sum has always been taken in, so results stay bit-identical.
-fn nonzero_taps(kernel: &Kernel) -> Vec<(usize, usize, f32)> {
+type Taps = Vec<(usize, usize, f32)>;
+
+/// The [`Taps`] of `kernel`.
+fn nonzero_taps(kernel: &Kernel) -> Taps {
     let mut taps = Vec::new();
     for (j, weights) in kernel.iter().enumerate() {
         for (i, &weight) in weights.iter().enumerate() {
@@ -193,7 +196,7 @@ pub fn demosaic(mosaic: &Planar, method: Demosaic) -> Result<Planar> {
     let raw = mosaic.plane(0);
     // Per site and output channel the taps to sum (None: the site's own sample); reflected column
     // indices once per image, column x + i for tap offset i (x - 2 .. x + 2).
-    let plan: [[Option<Vec<(usize, usize, f32)>>; 3]; 4] = std::array::from_fn(|site| {
+    let plan: [[Option<Taps>; 3]; 4] = std::array::from_fn(|site| {
         std::array::from_fn(|channel| method.kernel(SITES[site][channel]).map(nonzero_taps))
     });
     let columns: Vec<usize> = (0..width + 4).map(|x| reflect(x as isize - 2, width)).collect();
