@@ -136,42 +136,12 @@ fn kernel_spectrum<T: FftNum>(
     spectrum
 }
 
-/// One kernel over the whole plane with replicated borders, in f64 (the invariant path is used for
-/// reference-quality metrics).
+/// One plane convolved with each of `kernels` (all of one size) over the whole plane with replicated
+/// borders, in f64 (the invariant path is used for reference-quality metrics). The plane's transform is
+/// computed once, and two kernels share each kernel transform and each inverse (real and imaginary
+/// parts, as the tiles' corner pairs do); a lone kernel is exactly the plain one-kernel convolution, and a
+/// packed one equals it to f64 rounding (the f32 outputs differ by at most an ulp).
 pub(super) fn convolve_invariant_fft(
-    plane: &[f32],
-    width: usize,
-    height: usize,
-    kernel: &Kernel,
-) -> Vec<f32> {
-    let reach = kernel.size - 1;
-    let fft = Fft2::<f64>::new(fast_len(width + reach), fast_len(height + reach));
-    let half = kernel.half() as i64;
-    let mut grid = vec![Complex::new(0.0, 0.0); fft.len()];
-    fill_patch(
-        plane,
-        (width, height),
-        (-half, -half),
-        (width + reach, height + reach),
-        &mut grid,
-        fft.width,
-    );
-    let mut spectrum = vec![Complex::new(0.0, 0.0); fft.len()];
-    fft.forward(&mut grid, &mut spectrum);
-    let filter = kernel_spectrum(&fft, kernel, None, kernel.size);
-    spectrum.iter_mut().zip(&filter).for_each(|(a, b)| *a *= b);
-    fft.inverse(&mut spectrum, &mut grid);
-    let scale = 1.0 / fft.len() as f64;
-    (0..width * height)
-        .map(|i| (grid[(i / width + reach) * fft.width + i % width + reach].re * scale) as f32)
-        .collect()
-}
-
-/// One plane convolved with each of several kernels of one size, as `convolve_invariant_fft` does one:
-/// the plane's transform is computed once, and two kernels share each kernel transform and each inverse
-/// (real and imaginary parts, as the tiles' corner pairs do). The results equal one-at-a-time
-/// convolution to f64 rounding (the f32 outputs differ by at most an ulp).
-pub(super) fn convolve_invariant_fft_many(
     plane: &[f32],
     width: usize,
     height: usize,
@@ -184,7 +154,7 @@ pub(super) fn convolve_invariant_fft_many(
     assert!(kernels.iter().all(|k| k.size == size), "kernels of one size");
     let reach = size - 1;
     let fft = Fft2::<f64>::new(fast_len(width + reach), fast_len(height + reach));
-    let half = (size / 2) as i64;
+    let half = first.half() as i64;
     let mut grid = vec![Complex::new(0.0, 0.0); fft.len()];
     fill_patch(
         plane,
@@ -197,9 +167,11 @@ pub(super) fn convolve_invariant_fft_many(
     let mut plane_spectrum = vec![Complex::new(0.0, 0.0); fft.len()];
     fft.forward(&mut grid, &mut plane_spectrum);
     let scale = 1.0 / fft.len() as f64;
-    let pairs: Vec<[Vec<f32>; 2]> = kernels
+    // The first kernel of a pair comes back in the real parts, the second in the imaginary ones.
+    let parts: [fn(&Complex<f64>) -> f64; 2] = [|c| c.re, |c| c.im];
+    kernels
         .par_chunks(2)
-        .map(|pair| {
+        .flat_map_iter(|pair| {
             let mut spectrum = kernel_spectrum(&fft, pair[0], pair.get(1).copied(), size);
             spectrum
                 .iter_mut()
@@ -207,24 +179,18 @@ pub(super) fn convolve_invariant_fft_many(
                 .for_each(|(k, x)| *k *= x);
             let mut grid = vec![Complex::new(0.0, 0.0); fft.len()];
             fft.inverse(&mut spectrum, &mut grid);
-            let part = |value: fn(&Complex<f64>) -> f64| -> Vec<f32> {
-                (0..width * height)
-                    .map(|i| {
-                        (value(&grid[(i / width + reach) * fft.width + i % width + reach]) * scale) as f32
-                    })
-                    .collect()
-            };
-            [
-                part(|c| c.re),
-                if pair.len() == 2 {
-                    part(|c| c.im)
-                } else {
-                    Vec::new()
-                },
-            ]
+            parts[..pair.len()]
+                .iter()
+                .map(|part| {
+                    (0..width * height)
+                        .map(|i| {
+                            (part(&grid[(i / width + reach) * fft.width + i % width + reach]) * scale) as f32
+                        })
+                        .collect()
+                })
+                .collect::<Vec<Vec<f32>>>()
         })
-        .collect();
-    pairs.into_iter().flatten().take(kernels.len()).collect()
+        .collect()
 }
 
 /// The corner kernels of one tile: [top-left, top-right, bottom-left, bottom-right], and the node

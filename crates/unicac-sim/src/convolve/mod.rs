@@ -321,7 +321,9 @@ pub fn convolve_invariant(plane: &[f32], width: usize, height: usize, kernel: &K
             .map(|i| direct::convolve_at(plane, width, height, kernel, i % width, i / width))
             .collect();
     }
-    fft::convolve_invariant_fft(plane, width, height, kernel)
+    fft::convolve_invariant_fft(plane, width, height, &[kernel])
+        .pop()
+        .expect("one kernel, one plane")
 }
 
 /// `plane` convolved with each of `kernels` (all of one size), as `convolve_invariant` would one at a time;
@@ -333,7 +335,7 @@ pub fn convolve_invariant_many(
     kernels: &[&Kernel],
 ) -> Vec<Vec<f32>> {
     if kernels.first().is_some_and(|k| k.size >= FFT_FROM_KERNEL_PX) {
-        fft::convolve_invariant_fft_many(plane, width, height, kernels)
+        fft::convolve_invariant_fft(plane, width, height, kernels)
     } else {
         kernels
             .iter()
@@ -372,7 +374,7 @@ mod tests {
             .enumerate()
             .for_each(|(i, v)| *v = 1.0 + ((i * 31) % 7) as f32);
         k.normalise();
-        let fft = fft::convolve_invariant_fft(&plane, w, h, &k);
+        let fft = convolve_invariant(&plane, w, h, &k);
         let direct: Vec<f32> = (0..w * h)
             .map(|i| direct::convolve_at(&plane, w, h, &k, i % w, i / w))
             .collect();
