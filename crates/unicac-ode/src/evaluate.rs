@@ -12,7 +12,7 @@ use unicac_psf::{
     visible_wavelengths_um, DarkFields, Kernel, PsfError, PsfSettings, PsfTracer, RayBackend,
     SpectralResponse, SpectralWeights,
 };
-use unicac_sim::convolve::convolve_invariant_many;
+use unicac_sim::convolve::{convolve_invariant_many, convolve_invariant_many_and_transpose};
 use unicac_sim::ChiefRayMap;
 use unicac_trace::{spots, Aiming, PupilSampling};
 
@@ -353,17 +353,13 @@ impl IdealCharts {
     fn image(&self, kernels: &[&Kernel]) -> Vec<ImagedCharts> {
         let side = self.checker_side;
         let checker = convolve_invariant_many(&self.checker, side, side, kernels);
-        let [sagittal, tangential] = self
-            .edges
-            .each_ref()
-            .map(|e| convolve_invariant_many(e.plane(0), e.width, e.height, kernels));
+        // The tangential edge is the sagittal one transposed (`ideal_edges`): both from one transform.
+        let sagittal = &self.edges[0];
+        let edges = convolve_invariant_many_and_transpose(sagittal.plane(0), sagittal.width, kernels);
         checker
             .into_iter()
-            .zip(sagittal.into_iter().zip(tangential))
-            .map(|(checker, (s, t))| ImagedCharts {
-                checker,
-                edges: [s, t],
-            })
+            .zip(edges)
+            .map(|(checker, edges)| ImagedCharts { checker, edges })
             .collect()
     }
 }

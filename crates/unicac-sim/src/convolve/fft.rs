@@ -19,7 +19,7 @@ use std::sync::Arc;
 use unicac_psf::Kernel;
 
 /// Smallest n >= `minimum` whose only prime factors are 2, 3 and 5 (rustfft's fastest sizes).
-pub(super) fn fast_len(minimum: usize) -> usize {
+pub fn fast_len(minimum: usize) -> usize {
     (minimum.max(1)..)
         .find(|&n| {
             let mut m = n;
@@ -82,12 +82,27 @@ fn process_rows<T: FftNum>(fft: &Arc<dyn Fft<T>>, data: &mut [Complex<T>], row_l
         .for_each(|rows| fft.process(rows));
 }
 
-fn transpose<T: Copy>(source: &[T], target: &mut [T], width: usize, height: usize) {
-    for (y, row) in source.chunks_exact(width).enumerate() {
-        for (x, &value) in row.iter().enumerate() {
-            target[x * height + y] = value;
-        }
-    }
+/// `target` (`height` wide) = `source` (`width` wide) transposed, in blocks of `BLOCK` x `BLOCK` so
+/// that reads and writes both stay within a few cache lines (a whole-row sweep writes one element per
+/// cache line and thrashes the cache once a grid outgrows it; the transposes were a tenth of the ODE's
+/// profile), and over groups of target rows in parallel.
+fn transpose<T: Copy + Send + Sync>(source: &[T], target: &mut [T], width: usize, height: usize) {
+    const BLOCK: usize = 16;
+    target
+        .par_chunks_mut(BLOCK * height)
+        .enumerate()
+        .for_each(|(chunk, rows)| {
+            let x0 = chunk * BLOCK;
+            for y0 in (0..height).step_by(BLOCK) {
+                let y1 = (y0 + BLOCK).min(height);
+                for (dx, row) in rows.chunks_exact_mut(height).enumerate() {
+                    let x = x0 + dx;
+                    for (y, value) in (y0..y1).zip(&mut row[y0..y1]) {
+                        *value = source[y * width + x];
+                    }
+                }
+            }
+        });
 }
 
 /// Writes the plane's pixels from (`x0`, `y0`) over `patch_width` x `patch_height` (replicated borders)
@@ -141,17 +156,26 @@ fn kernel_spectrum<T: FftNum>(
 /// computed once, and two kernels share each kernel transform and each inverse (real and imaginary
 /// parts, as the tiles' corner pairs do); a lone kernel is exactly the plain one-kernel convolution, and a
 /// packed one equals it to f64 rounding (the f32 outputs differ by at most an ulp).
+///
+/// With `and_transpose` (a square plane) each kernel also convolves the plane's transpose, from the same
+/// two transforms: (P^T * K)(r, c) = (P * K^T)(c, r), and K^T's spectrum is K's spectrum transposed, so
+/// only the inverse is extra. The result holds, per kernel in order, P * K and then (if asked) P^T * K.
 pub(super) fn convolve_invariant_fft(
     plane: &[f32],
     width: usize,
     height: usize,
     kernels: &[&Kernel],
+    and_transpose: bool,
 ) -> Vec<Vec<f32>> {
     let Some(first) = kernels.first() else {
         return Vec::new();
     };
     let size = first.size;
     assert!(kernels.iter().all(|k| k.size == size), "kernels of one size");
+    assert!(
+        !and_transpose || width == height,
+        "only a square plane has a transpose of its shape"
+    );
     let reach = size - 1;
     let fft = Fft2::<f64>::new(fast_len(width + reach), fast_len(height + reach));
     let half = first.half() as i64;
@@ -167,27 +191,51 @@ pub(super) fn convolve_invariant_fft(
     let mut plane_spectrum = vec![Complex::new(0.0, 0.0); fft.len()];
     fft.forward(&mut grid, &mut plane_spectrum);
     let scale = 1.0 / fft.len() as f64;
+    let n = fft.width;
     // The first kernel of a pair comes back in the real parts, the second in the imaginary ones.
     let parts: [fn(&Complex<f64>) -> f64; 2] = [|c| c.re, |c| c.im];
+    let views = if and_transpose { 2 } else { 1 };
     kernels
         .par_chunks(2)
         .flat_map_iter(|pair| {
-            let mut spectrum = kernel_spectrum(&fft, pair[0], pair.get(1).copied(), size);
-            spectrum
-                .iter_mut()
-                .zip(&plane_spectrum)
-                .for_each(|(k, x)| *k *= x);
-            let mut grid = vec![Complex::new(0.0, 0.0); fft.len()];
-            fft.inverse(&mut spectrum, &mut grid);
-            parts[..pair.len()]
-                .iter()
-                .map(|part| {
-                    (0..width * height)
-                        .map(|i| {
-                            (part(&grid[(i / width + reach) * fft.width + i % width + reach]) * scale) as f32
+            let spectrum = kernel_spectrum(&fft, pair[0], pair.get(1).copied(), size);
+            // outputs[view][part]: view 0 is P * K, view 1 is P^T * K.
+            let mut outputs: Vec<Vec<Vec<f32>>> = (0..views)
+                .map(|view| {
+                    // Spectra are column-major: (u, v) sits at u * height + v; the grids are square
+                    // when view 1 is asked for, so K^T's spectrum at (u, v) is K's at (v, u).
+                    let mut product: Vec<Complex<f64>> = if view == 0 {
+                        spectrum.iter().zip(&plane_spectrum).map(|(k, x)| k * x).collect()
+                    } else {
+                        plane_spectrum
+                            .iter()
+                            .enumerate()
+                            .map(|(i, x)| spectrum[(i % n) * n + i / n] * x)
+                            .collect()
+                    };
+                    let mut grid = vec![Complex::new(0.0, 0.0); fft.len()];
+                    fft.inverse(&mut product, &mut grid);
+                    parts[..pair.len()]
+                        .iter()
+                        .map(|part| {
+                            (0..width * height)
+                                .map(|i| {
+                                    let (row, column) = if view == 0 {
+                                        (i / width, i % width)
+                                    } else {
+                                        (i % width, i / width)
+                                    };
+                                    (part(&grid[(row + reach) * fft.width + column + reach]) * scale) as f32
+                                })
+                                .collect()
                         })
                         .collect()
                 })
+                .collect();
+            // Per kernel of the pair: its views in order.
+            (0..pair.len())
+                .flat_map(|k| (0..views).map(move |view| (view, k)))
+                .map(|(view, k)| std::mem::take(&mut outputs[view][k]))
                 .collect::<Vec<Vec<f32>>>()
         })
         .collect()
@@ -326,5 +374,29 @@ impl TileCorners<'_> {
         let index = (row - self.origin.1 + self.reach) * self.stride + column - self.origin.0 + self.reach;
         let (l, r) = (self.left[index], self.right[index]);
         [l.re, r.re, l.im, r.im].map(|v| v * self.scale)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocked_transpose_equals_the_definition() {
+        // Sizes below, at and across the block size, square and not.
+        for (width, height) in [(1, 1), (3, 40), (16, 16), (17, 33), (50, 7)] {
+            let source: Vec<u32> = (0..(width * height) as u32).collect();
+            let mut target = vec![0; width * height];
+            transpose(&source, &mut target, width, height);
+            for y in 0..height {
+                for x in 0..width {
+                    assert_eq!(
+                        target[x * height + y],
+                        source[y * width + x],
+                        "{width} x {height} at ({x}, {y})"
+                    );
+                }
+            }
+        }
     }
 }

@@ -24,6 +24,7 @@ mod extent;
 mod fft;
 
 pub use extent::{centre_crop, half_width_holding, KERNEL_TAIL_TOLERANCE};
+pub use fft::fast_len;
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -321,7 +322,7 @@ pub fn convolve_invariant(plane: &[f32], width: usize, height: usize, kernel: &K
             .map(|i| direct::convolve_at(plane, width, height, kernel, i % width, i / width))
             .collect();
     }
-    fft::convolve_invariant_fft(plane, width, height, &[kernel])
+    fft::convolve_invariant_fft(plane, width, height, &[kernel], false)
         .pop()
         .expect("one kernel, one plane")
 }
@@ -335,11 +336,43 @@ pub fn convolve_invariant_many(
     kernels: &[&Kernel],
 ) -> Vec<Vec<f32>> {
     if kernels.first().is_some_and(|k| k.size >= FFT_FROM_KERNEL_PX) {
-        fft::convolve_invariant_fft(plane, width, height, kernels)
+        fft::convolve_invariant_fft(plane, width, height, kernels, false)
     } else {
         kernels
             .iter()
             .map(|k| convolve_invariant(plane, width, height, k))
+            .collect()
+    }
+}
+
+/// A square `side` x `side` plane P and its transpose P^T, each convolved with each of `kernels` (all of
+/// one size): per kernel `[P * K, P^T * K]`, as `convolve_invariant_many` would give them for the two
+/// planes. Large kernels take P's transform only (P^T * K is (P * K^T)^T, and K^T's spectrum is K's
+/// transposed): one plane transform and one transform per kernel pair fewer (f32 results within an ulp).
+pub fn convolve_invariant_many_and_transpose(
+    plane: &[f32],
+    side: usize,
+    kernels: &[&Kernel],
+) -> Vec<[Vec<f32>; 2]> {
+    assert_eq!(plane.len(), side * side, "a square plane");
+    if kernels.first().is_some_and(|k| k.size >= FFT_FROM_KERNEL_PX) {
+        let mut views = fft::convolve_invariant_fft(plane, side, side, kernels, true).into_iter();
+        kernels
+            .iter()
+            .map(|_| [views.next().expect("P * K"), views.next().expect("P^T * K")])
+            .collect()
+    } else {
+        let transposed: Vec<f32> = (0..side * side)
+            .map(|i| plane[(i % side) * side + i / side])
+            .collect();
+        kernels
+            .iter()
+            .map(|k| {
+                [
+                    convolve_invariant(plane, side, side, k),
+                    convolve_invariant(&transposed, side, side, k),
+                ]
+            })
             .collect()
     }
 }
@@ -416,6 +449,39 @@ mod tests {
             }
         }
         assert!(convolve_invariant_many(&plane, w, h, &[]).is_empty());
+    }
+
+    #[test]
+    fn a_plane_and_its_transpose_at_once_equal_each_alone() {
+        // An asymmetric plane and asymmetric kernels, so a wrong transpose (of the spectrum or of the
+        // read-out) cannot pass.
+        let side = 37;
+        let plane: Vec<f32> = (0..side * side)
+            .map(|i| ((i * 7919 + (i / side) * 13) % 101) as f32 / 100.0)
+            .collect();
+        let transposed: Vec<f32> = (0..side * side)
+            .map(|i| plane[(i % side) * side + i / side])
+            .collect();
+        for size in [5, 21] {
+            // Odd count: the last kernel goes alone through the packed path.
+            let kernels: Vec<Kernel> = (0..3).map(|seed| textured(size, seed)).collect();
+            let refs: Vec<&Kernel> = kernels.iter().collect();
+            let both = convolve_invariant_many_and_transpose(&plane, side, &refs);
+            assert_eq!(both.len(), 3);
+            for (kernel, [direct, transpose]) in kernels.iter().zip(&both) {
+                for (expected, got) in [
+                    (convolve_invariant(&plane, side, side, kernel), direct),
+                    (convolve_invariant(&transposed, side, side, kernel), transpose),
+                ] {
+                    let worst = expected
+                        .iter()
+                        .zip(got)
+                        .map(|(a, b)| (a - b).abs())
+                        .fold(0.0f32, f32::max);
+                    assert!(worst <= 2.0 * f32::EPSILON, "size {size}: {worst}");
+                }
+            }
+        }
     }
 
     #[test]
