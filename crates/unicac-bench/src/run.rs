@@ -626,11 +626,12 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
                 .find(|p| p.lens_id == edge.lens_id)
                 .expect("lens has pairs");
             let table = table_for(&lens_pair.psf, &edge.lens_id)?;
+            let features = table.features();
             let mut p = Planar::new(lq.width, lq.height, unicac_dataset::PSF_FEATURES);
             for row in 0..lq.height {
                 for column in 0..lq.width {
                     let (x, y) = position(row, column);
-                    for (c, v) in table.features_at(x, y).iter().enumerate() {
+                    for (c, v) in features.at(x, y).iter().enumerate() {
                         p.set(c, column, row, *v);
                     }
                 }

@@ -5,7 +5,7 @@
 //! [`WIENER_TILE_PX`] px overlapping by [`WIENER_OVERLAP_PX`] px, and each tile is deconvolved with the
 //! PSF at its centre: the lens's radial kernel at the centre's field radius (linear interpolation between
 //! the stored radii) rotated to its azimuth (docs/dataset.md), per colour channel. Per tile and channel,
-//! with the tile padded by one kernel width of replicated edge pixels against wrap-around:
+//! with the tile padded by at least one kernel width (to an FFT-friendly size) against wrap-around:
 //!
 //! ```text
 //! X = conj(H) Y / (|H|^2 + NSR)
@@ -21,6 +21,7 @@ use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
 use unicac_dataset::PsfTable;
 use unicac_image::Planar;
+use unicac_sim::convolve::fast_len;
 
 use crate::error::{BenchError, Result};
 use crate::tiling::{run_tiled, TileRect, Tiling};
@@ -122,7 +123,10 @@ fn deconvolve_rect(
     nsr: f64,
 ) -> Vec<f32> {
     let pad = k;
-    let (w, h) = (rect.width + 2 * pad, rect.height + 2 * pad);
+    // At least one kernel width of replicated pixels on every side, grown to a size with prime factors
+    // 2, 3 and 5 only: a tile plus two pads is often 2 x a prime (128 + 2 x 127 = 382 = 2 x 191), whose
+    // transform rustfft can only do by Rader's algorithm, several times slower.
+    let (w, h) = (fast_len(rect.width + 2 * pad), fast_len(rect.height + 2 * pad));
     let mut planner = FftPlanner::new();
     let mut y = vec![Complex::new(0.0, 0.0); w * h];
     for row in 0..h {

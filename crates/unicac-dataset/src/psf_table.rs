@@ -157,9 +157,26 @@ impl PsfTable {
             .collect()
     }
 
+    /// The table's PSF features, ready to be evaluated anywhere on the frame (`PsfFeatures::at`).
+    pub fn features(&self) -> PsfFeatures<'_> {
+        PsfFeatures {
+            moments: self.raw_moments(),
+            radii: &self.meta.field_radius_norm,
+        }
+    }
+}
+
+/// The kernels' raw moments, computed once: each costs K^2 per field and channel, and a feature map
+/// evaluates them at every pixel (computing them per pixel made a bench's edge patches take minutes).
+pub struct PsfFeatures<'a> {
+    moments: Vec<[[f64; 5]; 3]>,
+    radii: &'a [f64],
+}
+
+impl PsfFeatures<'_> {
     /// The 15 features at a normalised frame position (x right, y down; docs/models.md).
-    pub fn features_at(&self, x_norm: f64, y_norm: f64) -> [f32; PSF_FEATURES] {
-        features_from(&self.raw_moments(), &self.meta.field_radius_norm, x_norm, y_norm)
+    pub fn at(&self, x_norm: f64, y_norm: f64) -> [f32; PSF_FEATURES] {
+        features_from(&self.moments, self.radii, x_norm, y_norm)
     }
 }
 
@@ -235,15 +252,14 @@ pub fn psf_feature_map(table: &PsfTable, crop: FrameCrop) -> Result<ChannelMap> 
     table.validate().map_err(|message| {
         DatasetError::Invalid(format!("PSF table of {}: {message}", table.meta.lens_id))
     })?;
-    let moments = table.raw_moments();
+    let features = table.features();
     let (w, h) = (crop.w, crop.h);
     let plane = w * h;
     let mut data = vec![0.0f32; PSF_FEATURES * plane];
     for row in 0..h {
         for column in 0..w {
             let [x, y] = crop.normalised(row, column);
-            let features = features_from(&moments, &table.meta.field_radius_norm, x, y);
-            for (channel, value) in features.iter().enumerate() {
+            for (channel, value) in features.at(x, y).iter().enumerate() {
                 data[channel * plane + row * w + column] = *value;
             }
         }
@@ -331,7 +347,7 @@ mod tests {
     #[test]
     fn at_azimuth_zero_the_features_are_the_stored_fields() {
         let t = table(&[kernel(0.2), kernel(0.6)], &[0.0, 1.0]);
-        let at_edge = t.features_at(1.0, 0.0);
+        let at_edge = t.features().at(1.0, 0.0);
         let expected = direct_features(&kernel(0.6));
         for c in 0..3 {
             for n in 0..5 {
@@ -347,7 +363,7 @@ mod tests {
         let k = kernel(0.6);
         let t = table(&[k.clone(), k.clone()], &[0.0, 1.0]);
         // Straight below the centre: phi = +90 deg in the image frame (y down).
-        let below = t.features_at(0.0, 0.7);
+        let below = t.features().at(0.0, 0.7);
         let expected = direct_features(&rotate_90(&k));
         for n in 0..5 {
             assert!(
@@ -371,12 +387,12 @@ mod tests {
         // A quarter of the way from field 0 to field 1: the moments of 0.75 a + 0.25 b.
         let mixed: Vec<f32> = a.iter().zip(&b).map(|(x, y)| 0.75 * x + 0.25 * y).collect();
         let expected = direct_features(&mixed);
-        let got = t.features_at(0.125, 0.0);
+        let got = t.features().at(0.125, 0.0);
         for n in 0..5 {
             assert!((got[n] as f64 - expected[n]).abs() < 1e-6, "feature {n}");
         }
         // Beyond the last field the table is clamped; between fields 1 and 2 it is constant.
-        assert_eq!(t.features_at(0.75, 0.0), t.features_at(1.3, 0.0));
+        assert_eq!(t.features().at(0.75, 0.0), t.features().at(1.3, 0.0));
     }
 
     #[test]
@@ -392,7 +408,7 @@ mod tests {
         let map = psf_feature_map(&t, crop).unwrap();
         assert_eq!((map.channels, map.height, map.width), (15, 12, 20));
         let [x, y] = crop.normalised(7, 3);
-        let point = t.features_at(x, y);
+        let point = t.features().at(x, y);
         for (c, v) in point.iter().enumerate() {
             assert_eq!(map.at(c, 7, 3), *v);
         }

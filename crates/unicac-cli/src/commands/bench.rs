@@ -32,13 +32,22 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         wiener_nsr: args.wiener_nsr,
     };
     let bar = super::progress(0, "bench");
-    if !std::io::stderr().is_terminal() {
+    let terminal = std::io::stderr().is_terminal();
+    if !terminal {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
+    // Without a terminal (a log file, a script), a plain line at most every LOG_EVERY, so a long run
+    // still shows that it moves and how far it is.
+    const LOG_EVERY: std::time::Duration = std::time::Duration::from_secs(30);
+    let mut last_line = std::time::Instant::now();
     let mut progress = |done: usize, total: usize, what: &str| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
         bar.set_message(what.to_string());
+        if !terminal && (last_line.elapsed() >= LOG_EVERY || done == total) {
+            eprintln!("bench: {done}/{total} ({what})");
+            last_line = std::time::Instant::now();
+        }
     };
     let (report, written) = run_bench(&settings, &mut progress)?;
     bar.finish_and_clear();
