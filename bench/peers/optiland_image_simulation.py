@@ -7,7 +7,13 @@ is built as in tests/reference (constant-index media at the primary wavelength, 
 the timing is what is compared). The fields are scaled by 1/sqrt(2) (see main). The input is a seeded random RGB image of WIDTHxHEIGHT. One run is
 timed end to end (engine.run), the first PSF evaluation included, as a user would see it.
 
-Run: bench/.venv-peers/bin/python bench/peers/optiland_image_simulation.py [LENS] [WIDTHxHEIGHT]
+`--equal-work` gives the engine unicac's spectral sampling instead of its defaults: the 31 wavelengths
+unicac integrates (0.40-0.70 um) and a 4 x 4 PSF grid per wavelength (16 PSFs against unicac's 17
+radial ones, so optiland still does slightly less). The engine maps one wavelength to one channel, so
+the 31 wavelengths run as 11 engine runs (10 of three wavelengths on the image's three channels, one of
+a single wavelength on one channel); the reported seconds are their sum.
+
+Run: bench/.venv-peers/bin/python bench/peers/optiland_image_simulation.py [LENS] [WIDTHxHEIGHT] [--equal-work]
 Prints one JSON object.
 """
 from __future__ import annotations
@@ -26,8 +32,10 @@ import make_references as mr  # noqa: E402  (lens reader and optiland builder)
 
 
 def main() -> None:
-    name = sys.argv[1] if len(sys.argv) > 1 else "phone_asphere"
-    width, height = map(int, (sys.argv[2] if len(sys.argv) > 2 else "1000x750").split("x"))
+    equal_work = "--equal-work" in sys.argv
+    args = [a for a in sys.argv[1:] if a != "--equal-work"]
+    name = args[0] if args else "phone_asphere"
+    width, height = map(int, (args[1] if len(args) > 1 else "1000x750").split("x"))
     mr.offline_rii_database()
     lens = mr.load_lens(ROOT / "lenses" / f"{name}.json")
     # The engine samples normalised fields on a square [-1, 1]^2 grid, so its corners sit at sqrt(2)
@@ -37,22 +45,35 @@ def main() -> None:
     primary = mr.wavelengths(lens)[mr.primary_index(lens)]
     model = mr.OptilandModel(lens, mr.lens_indices(lens)[mr.primary_index(lens)], primary)
     op = model.op
-    # The engine asks for PSFs at 0.65, 0.55 and 0.45 um: declare them (same constant indices).
-    for wl in (0.65, 0.45):
+    if equal_work:
+        # unicac's visible_wavelengths_um(31), in groups of at most three (one per channel).
+        spectrum = [round(0.4 + 0.3 * i / 30, 6) for i in range(31)]
+        groups = [spectrum[i:i + 3] for i in range(0, 31, 3)]
+        config = {"psf_grid_shape": (4, 4)}
+    else:
+        groups = [[0.65, 0.55, 0.45]]
+        config = {}
+    # The engine asks for PSFs at its wavelengths: declare them (same constant indices).
+    for wl in sorted({wl for group in groups for wl in group} - {primary}):
         op.wavelengths.add(value=wl)
-    op.wavelengths.add(value=0.55)
     from optiland.analysis.image_simulation import ImageSimulationEngine
 
     image = np.random.default_rng(7).random((height, width, 3))
-    engine = ImageSimulationEngine(op)
-    start = time.perf_counter()
-    out = engine.run(image)
-    seconds = time.perf_counter() - start
+    seconds = 0.0
+    finite = True
+    for group in groups:
+        engine = ImageSimulationEngine(op, config | {"wavelengths": group})
+        start = time.perf_counter()
+        # A lone wavelength takes one channel as a grey (H, W) image: the engine maps one wavelength per channel.
+        out = engine.run(image if len(group) == 3 else image[:, :, 0])
+        seconds += time.perf_counter() - start
+        finite &= bool(np.isfinite(np.asarray(out)).all())
     print(json.dumps({
         "tool": "optiland", "version": version("optiland"), "numpy": np.__version__,
         "lens": name, "width": width, "height": height, "seconds": round(seconds, 2),
-        "config": engine.config | {"distortion_reference": None},
-        "finite": bool(np.isfinite(np.asarray(out)).all()),
+        "engine_runs": len(groups), "wavelengths_um": [wl for group in groups for wl in group],
+        "config": engine.config | {"distortion_reference": None, "wavelengths": "see wavelengths_um"},
+        "finite": finite,
     }, default=str))
 
 
