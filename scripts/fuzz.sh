@@ -41,7 +41,10 @@ run_one() {
     case "$name" in zmx|lens_json|lens_model) sanitizer=none ;; esac
     sanitizer=${FUZZ_SANITIZER:-$sanitizer}
     # One target folder per sanitizer: switching flags in one would rebuild every dependency.
-    cargo +nightly fuzz run -O --sanitizer "$sanitizer" --target-dir "fuzz/target-$sanitizer" --fuzz-dir fuzz "$name" "$corpus" "fuzz/seeds/$name" -- \
+    # lens_model builds its inputs from raw bytes (`arbitrary`) and has no seed folder.
+    local seeds=()
+    [[ -d "fuzz/seeds/$name" ]] && seeds=("fuzz/seeds/$name")
+    cargo +nightly fuzz run -O --sanitizer "$sanitizer" --target-dir "fuzz/target-$sanitizer" --fuzz-dir fuzz "$name" "$corpus" "${seeds[@]}" -- \
         -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 -timeout=10 \
         -print_final_stats=1 >"$log" 2>&1
     local rc=$?

@@ -123,11 +123,23 @@ impl Aimer {
 
     /// The ray of field angle `field_deg` through normalised pupil point (px, py).
     pub fn ray(&self, field_deg: f64, px: f64, py: f64) -> TraceResult<Ray> {
-        match self.aiming {
-            Aiming::Paraxial => Ok(self.paraxial_ray(field_deg, px, py)),
+        let ray = match self.aiming {
+            Aiming::Paraxial => self.paraxial_ray(field_deg, px, py),
             // `new` resolves Auto; an Aimer built otherwise aims for real.
-            Aiming::Real | Aiming::Auto => self.real_ray(field_deg, px, py),
+            Aiming::Real | Aiming::Auto => self.real_ray(field_deg, px, py)?,
+        };
+        // Extreme but finite lens data (found by fuzzing: an object 6e-314 mm away, a pupil 6e257 mm
+        // behind it) overflow the start point or the direction: such a ray is refused here rather than
+        // handed on holding NaN or infinity.
+        if !ray.is_finite() {
+            return Err(TraceError::AimFailed {
+                field_deg,
+                px,
+                py,
+                reason: "the aimed ray is not finite (the lens's dimensions overflow f64)".into(),
+            });
         }
+        Ok(ray)
     }
 
     /// The ray of field F through the point (sx, sy) of the paraxial entrance-pupil plane.

@@ -647,10 +647,19 @@ fn finish_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
             let tir = v.and(arrived, v.lt(radicand, zero));
             let g = v.div(v.mul(sign, v.sub(v.sqrt(radicand), v.mul(mu, p))), q);
             let refracted = v.and(arrived, v.not(tir));
-            ls[j] = v.select(refracted, v.add(v.mul(mu, l), v.mul(g, nx)), l);
-            ms[j] = v.select(refracted, v.add(v.mul(mu, m), v.mul(g, ny)), m);
-            ns[j] = v.select(refracted, v.add(v.mul(mu, n), v.mul(g, nz)), n);
+            let (new_l, new_m, new_n) = (
+                v.add(v.mul(mu, l), v.mul(g, nx)),
+                v.add(v.mul(mu, m), v.mul(g, ny)),
+                v.add(v.mul(mu, n), v.mul(g, nz)),
+            );
+            // An overflowing normal gives no direction: missed here, as in the scalar `finish`.
+            let finite_direction = v.and(v.and(v.finite(new_l), v.finite(new_m)), v.finite(new_n));
+            let turned = v.and(refracted, finite_direction);
+            ls[j] = v.select(turned, new_l, l);
+            ms[j] = v.select(turned, new_m, m);
+            ns[j] = v.select(turned, new_n, n);
             code = v.fail(tir, TIR, index, code);
+            code = v.fail(v.and(refracted, v.not(finite_direction)), MISSED, index, code);
         }
         codes[j] = code;
     }

@@ -389,7 +389,10 @@ fn finish(
             [-c * point[0], -c * point[1], 1.0 - c * (1.0 + p.conic) * point[2]]
         };
         match refract_direction(ray.direction, normal, n_before / surface.index_after) {
-            Some(direction) => ray.direction = direction,
+            Some(direction) if direction.iter().all(|d| d.is_finite()) => ray.direction = direction,
+            // A normal that overflows (found by fuzzing: an r^2 coefficient of 6e306) gives no direction:
+            // the ray is lost at this surface and keeps its last valid direction.
+            Some(_) => return RayStatus::Missed { surface: index },
             None => return RayStatus::Tir { surface: index },
         }
     }

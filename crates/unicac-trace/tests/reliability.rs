@@ -186,3 +186,109 @@ fn random_valid_lenses_full_size() {
     eprintln!("{result:?} in {:.1} s", start.elapsed().as_secs_f64());
     assert!(result.lenses >= 5_000, "{result:?}");
 }
+
+/// Fuzzing regression (`lens_model`, 2026-12-02): a lens with finite but extreme data (an object
+/// 6e-314 mm away, a pupil 6e257 mm behind it) made paraxial aiming return a ray whose direction was
+/// [NaN, -inf, inf]. Aiming now refuses a non-finite ray with an error; any ray it gives is finite.
+#[test]
+fn extreme_lens_data_never_aim_a_non_finite_ray() {
+    let mut spec: LensSpec = examples::spec("singlet").unwrap();
+    spec.object_distance_mm = Some(6.3659885167e-314);
+    spec.aperture = ApertureSpec::EntrancePupilDiameterMm(4.38362120400908e-193);
+    spec.fields = FieldSpec::ImageHeightsMm(vec![
+        6.444099150936363e257,
+        6.444099150936363e257,
+        -1.8293195150832117e-253,
+    ]);
+    spec.field_weights = None;
+    spec.wavelengths = [
+        6.444099150936386e257,
+        6.444099150936363e257,
+        6.444099150936363e257,
+        4.186342259261225e-149,
+        4.186341030828635e-149,
+        1.257582681175048e-308,
+    ]
+    .iter()
+    .map(|&w| unicac_optics::spec::WavelengthSpec {
+        wavelength_um: w,
+        weight: 1.0,
+    })
+    .collect();
+    spec.primary_wavelength_index = None;
+    spec.surfaces = vec![
+        SurfaceSpec {
+            curvature_per_mm: Some(7.291122019556398e-304),
+            thickness_mm: 6.44409914276555e257,
+            conic: 6.444099150936363e257,
+            material: Some(MaterialSpec::Model {
+                nd: 2.2953128657477968e256,
+                vd: 1.63594197111569e261,
+            }),
+            stop: true,
+            ..SurfaceSpec::default()
+        },
+        SurfaceSpec {
+            curvature_per_mm: Some(1.81574e-319),
+            ..SurfaceSpec::default()
+        },
+    ];
+    // The lens may be refused outright; what it must never do is aim a non-finite ray.
+    let Ok(lens) = Lens::from_spec(&spec) else { return };
+    let Ok(first) = lens.first_order() else { return };
+    let wavelength = lens.primary_wavelength_um();
+    let Ok(aimer) = unicac_trace::Aimer::new(&lens, wavelength, Aiming::Paraxial) else {
+        return;
+    };
+    let mut refused = 0;
+    for &field in first.field_angles_deg.iter().take(3) {
+        for [px, py] in [[0.0, 0.0], [0.0, 1.0], [0.7, -0.7], [-1.0, 0.0]] {
+            match aimer.ray(field, px, py) {
+                Ok(ray) => assert!(ray.is_finite(), "aimed ray not finite: {ray:?}"),
+                Err(_) => refused += 1,
+            }
+        }
+    }
+    assert!(
+        refused > 0,
+        "the fuzzed lens's overflowing rays are refused, not traced"
+    );
+}
+
+/// Fuzzing regression (`lens_json`, 2026-12-02): a phone lens whose surface 12 has an r^2 coefficient of
+/// 6.14e306 overflowed the surface normal, refraction gave a NaN direction with status `ok` for that
+/// surface, and the ray reached the caller holding NaN (as `missed` at the next surface). Both tracers
+/// now report `missed` at the surface whose normal overflows, and the ray keeps finite data.
+#[test]
+fn an_overflowing_surface_normal_misses_the_ray_and_keeps_it_finite() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz_lens_json_overflowing_normal.json");
+    let bytes = std::fs::read(&path).unwrap();
+    let spec = unicac_optics::format::json::parse(&bytes, &path).unwrap();
+    let lens = Lens::from_spec(&spec).unwrap();
+    let first = lens.first_order().unwrap();
+    let wavelength = lens.primary_wavelength_um();
+    let system = TraceSystem::new(&lens, wavelength, Clipping::Apertures).unwrap();
+    let aimer = unicac_trace::Aimer::new(&lens, wavelength, Aiming::Paraxial).unwrap();
+    let mut rays = Vec::new();
+    for &field in first.field_angles_deg.iter().take(3) {
+        for [px, py] in [[0.0, 0.0], [0.0, 1.0], [0.7, -0.7], [-1.0, 0.0]] {
+            if let Ok(ray) = aimer.ray(field, px, py) {
+                rays.push(ray);
+            }
+        }
+    }
+    let mut lanes = rays.clone();
+    let mut lane_statuses = vec![RayStatus::Ok; lanes.len()];
+    system.trace_chunk(&mut lanes, &mut lane_statuses);
+    let mut missed_at_12 = 0;
+    for ((mut ray, lane), lane_status) in rays.into_iter().zip(&lanes).zip(&lane_statuses) {
+        let status = system.trace(&mut ray);
+        assert!(ray.is_finite(), "{status}: {ray:?}");
+        assert_eq!(status, *lane_status, "scalar and lane tracers agree");
+        assert_eq!(ray.position_mm, lane.position_mm);
+        assert_eq!(ray.direction, lane.direction);
+        missed_at_12 += usize::from(status == RayStatus::Missed { surface: 12 });
+    }
+    assert!(missed_at_12 > 0, "the overflowing surface loses some rays");
+}
