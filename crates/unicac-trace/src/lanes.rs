@@ -652,14 +652,22 @@ fn finish_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
                 v.add(v.mul(mu, m), v.mul(g, ny)),
                 v.add(v.mul(mu, n), v.mul(g, nz)),
             );
-            // An overflowing normal gives no direction: missed here, as in the scalar `finish`.
-            let finite_direction = v.and(v.and(v.finite(new_l), v.finite(new_m)), v.finite(new_n));
-            let turned = v.and(refracted, finite_direction);
+            // No valid direction (an overflowing normal, a cancelled one): missed here, as in the scalar
+            // `finish`, by the same test in the same operation order.
+            let length2 = v.add(
+                v.add(v.mul(new_l, new_l), v.mul(new_m, new_m)),
+                v.mul(new_n, new_n),
+            );
+            let valid_direction = v.le(
+                v.abs(v.sub(length2, one)),
+                v.splat(crate::system::UNIT_DIRECTION_TOLERANCE),
+            );
+            let turned = v.and(refracted, valid_direction);
             ls[j] = v.select(turned, new_l, l);
             ms[j] = v.select(turned, new_m, m);
             ns[j] = v.select(turned, new_n, n);
             code = v.fail(tir, TIR, index, code);
-            code = v.fail(v.and(refracted, v.not(finite_direction)), MISSED, index, code);
+            code = v.fail(v.and(refracted, v.not(valid_direction)), MISSED, index, code);
         }
         codes[j] = code;
     }

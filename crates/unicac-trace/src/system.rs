@@ -389,14 +389,24 @@ fn finish(
             [-c * point[0], -c * point[1], 1.0 - c * (1.0 + p.conic) * point[2]]
         };
         match refract_direction(ray.direction, normal, n_before / surface.index_after) {
-            Some(direction) if direction.iter().all(|d| d.is_finite()) => ray.direction = direction,
-            // A normal that overflows (found by fuzzing: an r^2 coefficient of 6e306) gives no direction:
-            // the ray is lost at this surface and keeps its last valid direction.
+            Some(direction) if is_unit(direction) => ray.direction = direction,
+            // Found by fuzzing: a normal that overflows (an r^2 coefficient of 6e306) gives a NaN
+            // direction, and an index ratio of 1e36 cancels the refracted direction to zero. No valid
+            // direction: the ray is lost at this surface and keeps its last valid one.
             Some(_) => return RayStatus::Missed { surface: index },
             None => return RayStatus::Tir { surface: index },
         }
     }
     RayStatus::Ok
+}
+
+/// How far a refracted direction's squared length may stray from 1 before it counts as lost (a valid
+/// one is within a few ulps; a NaN fails the comparison too). The lane tracer uses the same test.
+pub(crate) const UNIT_DIRECTION_TOLERANCE: f64 = 1e-6;
+
+#[inline]
+fn is_unit(d: [f64; 3]) -> bool {
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - 1.0).abs() <= UNIT_DIRECTION_TOLERANCE
 }
 
 /// Vector Snell's law. `normal` need not be unit length or face the ray; `mu` = n_before / n_after.

@@ -292,3 +292,97 @@ fn an_overflowing_surface_normal_misses_the_ray_and_keeps_it_finite() {
     }
     assert!(missed_at_12 > 0, "the overflowing surface loses some rays");
 }
+
+/// Fuzzing regression (`lens_model`, 2026-12-02): an index ratio of about 5e36 between two model glasses
+/// (nd 8.6e192 then 1.8e156) cancelled the refracted direction to [0, 0, 0], reported `ok`. Both tracers
+/// now report such a ray `missed` at that surface; every ray reported `ok` has a unit direction.
+#[test]
+fn a_refraction_that_cancels_the_direction_misses_the_ray() {
+    let mut spec: LensSpec = examples::spec("singlet").unwrap();
+    let surface =
+        |c: f64, t: f64, k: f64, a: Vec<f64>, glass: Option<(f64, f64)>, semi: Option<f64>, stop: bool| {
+            SurfaceSpec {
+                surface_type: if a.is_empty() {
+                    unicac_optics::spec::SurfaceType::Standard
+                } else {
+                    unicac_optics::spec::SurfaceType::EvenAsphere
+                },
+                curvature_per_mm: Some(c),
+                thickness_mm: t,
+                conic: k,
+                aspheric_coefficients: a,
+                material: glass.map(|(nd, vd)| MaterialSpec::Model { nd, vd }),
+                semi_diameter_mm: semi,
+                stop,
+                ..SurfaceSpec::default()
+            }
+        };
+    spec.object_distance_mm = Some(1.390671153797295e-309);
+    spec.aperture = ApertureSpec::EntrancePupilDiameterMm(3.658696952696364e-111);
+    spec.fields = FieldSpec::ImageHeightsMm(vec![-1.829175133157691e-253]);
+    spec.field_weights = None;
+    spec.wavelengths = [6.444099150936454e257, 6.444099150936363e257]
+        .iter()
+        .map(|&w| unicac_optics::spec::WavelengthSpec {
+            wavelength_um: w,
+            weight: 1.0,
+        })
+        .collect();
+    spec.primary_wavelength_index = None;
+    spec.surfaces = vec![
+        surface(
+            4.186342259261225e-149,
+            6.141501531882228e-149,
+            2.028752738975725e-309,
+            vec![1.14970054116e-313],
+            None,
+            None,
+            false,
+        ),
+        surface(
+            1.678076560593478e-147,
+            6.593295591259359e259,
+            -8.348572013879745e-234,
+            vec![],
+            Some((8.554576158041617e192, 6.443833381907996e257)),
+            Some(6.44409915093624e257),
+            true,
+        ),
+        surface(
+            -1.8291751280872214e-253,
+            1.9889752002392534e-304,
+            2.568425733177917e207,
+            vec![-8.618545049796882e-188],
+            Some((1.7565805777302384e156, 1.756580577739303e156)),
+            None,
+            false,
+        ),
+        surface(8.288793e-317, 0.0, 0.0, vec![], None, None, false),
+    ];
+    let lens = Lens::from_spec(&spec).unwrap();
+    let first = lens.first_order().unwrap();
+    let wavelength = lens.primary_wavelength_um();
+    let system = TraceSystem::new(&lens, wavelength, Clipping::Apertures).unwrap();
+    let aimer = unicac_trace::Aimer::new(&lens, wavelength, Aiming::Paraxial).unwrap();
+    let rays: Vec<Ray> = [[0.0, 0.0], [0.0, 1.0], [0.7, -0.7], [-1.0, 0.0]]
+        .iter()
+        .filter_map(|&[px, py]| aimer.ray(first.field_angles_deg[0], px, py).ok())
+        .collect();
+    assert!(!rays.is_empty());
+    let mut lanes = rays.clone();
+    let mut lane_statuses = vec![RayStatus::Ok; lanes.len()];
+    system.trace_chunk(&mut lanes, &mut lane_statuses);
+    for ((mut ray, lane), lane_status) in rays.into_iter().zip(&lanes).zip(&lane_statuses) {
+        let status = system.trace(&mut ray);
+        assert_eq!(status, *lane_status, "scalar and lane tracers agree");
+        assert_eq!(ray.direction, lane.direction);
+        assert!(ray.is_finite());
+        if status.is_ok() {
+            let norm: f64 = ray.direction.iter().map(|d| d * d).sum();
+            assert!(
+                (norm - 1.0).abs() < 1e-6,
+                "ok ray without a unit direction: {ray:?}"
+            );
+        }
+    }
+}
