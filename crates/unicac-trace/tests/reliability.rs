@@ -187,52 +187,135 @@ fn random_valid_lenses_full_size() {
     assert!(result.lenses >= 5_000, "{result:?}");
 }
 
+/// The singlet example with a fuzzer's extreme data: a finite object distance, an entrance-pupil
+/// diameter, field image heights, equally weighted wavelengths and surfaces.
+fn fuzzed_lens_spec(
+    object_distance_mm: f64,
+    epd_mm: f64,
+    image_heights_mm: Vec<f64>,
+    wavelengths_um: &[f64],
+    surfaces: Vec<SurfaceSpec>,
+) -> LensSpec {
+    let mut spec: LensSpec = examples::spec("singlet").unwrap();
+    spec.object_distance_mm = Some(object_distance_mm);
+    spec.aperture = ApertureSpec::EntrancePupilDiameterMm(epd_mm);
+    spec.fields = FieldSpec::ImageHeightsMm(image_heights_mm);
+    spec.field_weights = None;
+    spec.wavelengths = wavelengths_um
+        .iter()
+        .map(|&w| unicac_optics::spec::WavelengthSpec {
+            wavelength_um: w,
+            weight: 1.0,
+        })
+        .collect();
+    spec.primary_wavelength_index = None;
+    spec.surfaces = surfaces;
+    spec
+}
+
+/// A surface of a fuzzed spec: curvature, thickness, conic, even-asphere terms (none: standard), an
+/// optional model glass (nd, Vd), an optional semi-diameter, and whether it is the stop.
+fn fuzzed_surface(
+    c: f64,
+    t: f64,
+    k: f64,
+    a: Vec<f64>,
+    glass: Option<(f64, f64)>,
+    semi: Option<f64>,
+    stop: bool,
+) -> SurfaceSpec {
+    SurfaceSpec {
+        surface_type: if a.is_empty() {
+            unicac_optics::spec::SurfaceType::Standard
+        } else {
+            unicac_optics::spec::SurfaceType::EvenAsphere
+        },
+        curvature_per_mm: Some(c),
+        thickness_mm: t,
+        conic: k,
+        aspheric_coefficients: a,
+        material: glass.map(|(nd, vd)| MaterialSpec::Model { nd, vd }),
+        semi_diameter_mm: semi,
+        stop,
+        ..SurfaceSpec::default()
+    }
+}
+
+/// The fuzz harness's pupil points (`fuzz/fuzz_targets/common.rs`).
+const FUZZ_PUPIL_POINTS: [[f64; 2]; 4] = [[0.0, 0.0], [0.0, 1.0], [0.7, -0.7], [-1.0, 0.0]];
+
+/// Traces the paraxially aimed rays of the lens's first three fields through the scalar and the lane
+/// tracer; asserts that both agree bit for bit and that every ray stays finite, and every `ok` one has a
+/// unit direction. Returns the statuses.
+fn trace_both_ways(lens: &Lens) -> Vec<RayStatus> {
+    let first = lens.first_order().unwrap();
+    let wavelength = lens.primary_wavelength_um();
+    let system = TraceSystem::new(lens, wavelength, Clipping::Apertures).unwrap();
+    let aimer = unicac_trace::Aimer::new(lens, wavelength, Aiming::Paraxial).unwrap();
+    let rays: Vec<Ray> = first
+        .field_angles_deg
+        .iter()
+        .take(3)
+        .flat_map(|&field| FUZZ_PUPIL_POINTS.iter().map(move |&[px, py]| (field, px, py)))
+        .filter_map(|(field, px, py)| aimer.ray(field, px, py).ok())
+        .collect();
+    assert!(!rays.is_empty());
+    let mut lanes = rays.clone();
+    let mut lane_statuses = vec![RayStatus::Ok; lanes.len()];
+    system.trace_chunk(&mut lanes, &mut lane_statuses);
+    let mut statuses = Vec::new();
+    for ((mut ray, lane), lane_status) in rays.into_iter().zip(&lanes).zip(&lane_statuses) {
+        let status = system.trace(&mut ray);
+        assert!(ray.is_finite(), "{status}: {ray:?}");
+        assert_eq!(status, *lane_status, "scalar and lane tracers agree");
+        assert_eq!(ray.position_mm, lane.position_mm);
+        assert_eq!(ray.direction, lane.direction);
+        if status.is_ok() {
+            let norm: f64 = ray.direction.iter().map(|d| d * d).sum();
+            assert!(
+                (norm - 1.0).abs() < 1e-6,
+                "ok ray without a unit direction: {ray:?}"
+            );
+        }
+        statuses.push(status);
+    }
+    statuses
+}
+
 /// Fuzzing regression (`lens_model`, 2026-12-02): a lens with finite but extreme data (an object
 /// 6e-314 mm away, a pupil 6e257 mm behind it) made paraxial aiming return a ray whose direction was
 /// [NaN, -inf, inf]. Aiming now refuses a non-finite ray with an error; any ray it gives is finite.
 #[test]
 fn extreme_lens_data_never_aim_a_non_finite_ray() {
-    let mut spec: LensSpec = examples::spec("singlet").unwrap();
-    spec.object_distance_mm = Some(6.3659885167e-314);
-    spec.aperture = ApertureSpec::EntrancePupilDiameterMm(4.38362120400908e-193);
-    spec.fields = FieldSpec::ImageHeightsMm(vec![
-        6.444099150936363e257,
-        6.444099150936363e257,
-        -1.8293195150832117e-253,
-    ]);
-    spec.field_weights = None;
-    spec.wavelengths = [
-        6.444099150936386e257,
-        6.444099150936363e257,
-        6.444099150936363e257,
-        4.186342259261225e-149,
-        4.186341030828635e-149,
-        1.257582681175048e-308,
-    ]
-    .iter()
-    .map(|&w| unicac_optics::spec::WavelengthSpec {
-        wavelength_um: w,
-        weight: 1.0,
-    })
-    .collect();
-    spec.primary_wavelength_index = None;
-    spec.surfaces = vec![
-        SurfaceSpec {
-            curvature_per_mm: Some(7.291122019556398e-304),
-            thickness_mm: 6.44409914276555e257,
-            conic: 6.444099150936363e257,
-            material: Some(MaterialSpec::Model {
-                nd: 2.2953128657477968e256,
-                vd: 1.63594197111569e261,
-            }),
-            stop: true,
-            ..SurfaceSpec::default()
-        },
-        SurfaceSpec {
-            curvature_per_mm: Some(1.81574e-319),
-            ..SurfaceSpec::default()
-        },
-    ];
+    let spec = fuzzed_lens_spec(
+        6.3659885167e-314,
+        4.38362120400908e-193,
+        vec![
+            6.444099150936363e257,
+            6.444099150936363e257,
+            -1.8293195150832117e-253,
+        ],
+        &[
+            6.444099150936386e257,
+            6.444099150936363e257,
+            6.444099150936363e257,
+            4.186342259261225e-149,
+            4.186341030828635e-149,
+            1.257582681175048e-308,
+        ],
+        vec![
+            fuzzed_surface(
+                7.291122019556398e-304,
+                6.44409914276555e257,
+                6.444099150936363e257,
+                vec![],
+                Some((2.2953128657477968e256, 1.63594197111569e261)),
+                None,
+                true,
+            ),
+            fuzzed_surface(1.81574e-319, 0.0, 0.0, vec![], None, None, false),
+        ],
+    );
     // The lens may be refused outright; what it must never do is aim a non-finite ray.
     let Ok(lens) = Lens::from_spec(&spec) else { return };
     let Ok(first) = lens.first_order() else { return };
@@ -242,7 +325,7 @@ fn extreme_lens_data_never_aim_a_non_finite_ray() {
     };
     let mut refused = 0;
     for &field in first.field_angles_deg.iter().take(3) {
-        for [px, py] in [[0.0, 0.0], [0.0, 1.0], [0.7, -0.7], [-1.0, 0.0]] {
+        for [px, py] in FUZZ_PUPIL_POINTS {
             match aimer.ray(field, px, py) {
                 Ok(ray) => assert!(ray.is_finite(), "aimed ray not finite: {ray:?}"),
                 Err(_) => refused += 1,
@@ -265,32 +348,11 @@ fn an_overflowing_surface_normal_misses_the_ray_and_keeps_it_finite() {
         .join("tests/data/fuzz_lens_json_overflowing_normal.json");
     let bytes = std::fs::read(&path).unwrap();
     let spec = unicac_optics::format::json::parse(&bytes, &path).unwrap();
-    let lens = Lens::from_spec(&spec).unwrap();
-    let first = lens.first_order().unwrap();
-    let wavelength = lens.primary_wavelength_um();
-    let system = TraceSystem::new(&lens, wavelength, Clipping::Apertures).unwrap();
-    let aimer = unicac_trace::Aimer::new(&lens, wavelength, Aiming::Paraxial).unwrap();
-    let mut rays = Vec::new();
-    for &field in first.field_angles_deg.iter().take(3) {
-        for [px, py] in [[0.0, 0.0], [0.0, 1.0], [0.7, -0.7], [-1.0, 0.0]] {
-            if let Ok(ray) = aimer.ray(field, px, py) {
-                rays.push(ray);
-            }
-        }
-    }
-    let mut lanes = rays.clone();
-    let mut lane_statuses = vec![RayStatus::Ok; lanes.len()];
-    system.trace_chunk(&mut lanes, &mut lane_statuses);
-    let mut missed_at_12 = 0;
-    for ((mut ray, lane), lane_status) in rays.into_iter().zip(&lanes).zip(&lane_statuses) {
-        let status = system.trace(&mut ray);
-        assert!(ray.is_finite(), "{status}: {ray:?}");
-        assert_eq!(status, *lane_status, "scalar and lane tracers agree");
-        assert_eq!(ray.position_mm, lane.position_mm);
-        assert_eq!(ray.direction, lane.direction);
-        missed_at_12 += usize::from(status == RayStatus::Missed { surface: 12 });
-    }
-    assert!(missed_at_12 > 0, "the overflowing surface loses some rays");
+    let statuses = trace_both_ways(&Lens::from_spec(&spec).unwrap());
+    assert!(
+        statuses.contains(&RayStatus::Missed { surface: 12 }),
+        "the overflowing surface loses some rays"
+    );
 }
 
 /// Fuzzing regression (`lens_model`, 2026-12-02): an index ratio of about 5e36 between two model glasses
@@ -298,91 +360,41 @@ fn an_overflowing_surface_normal_misses_the_ray_and_keeps_it_finite() {
 /// now report such a ray `missed` at that surface; every ray reported `ok` has a unit direction.
 #[test]
 fn a_refraction_that_cancels_the_direction_misses_the_ray() {
-    let mut spec: LensSpec = examples::spec("singlet").unwrap();
-    let surface =
-        |c: f64, t: f64, k: f64, a: Vec<f64>, glass: Option<(f64, f64)>, semi: Option<f64>, stop: bool| {
-            SurfaceSpec {
-                surface_type: if a.is_empty() {
-                    unicac_optics::spec::SurfaceType::Standard
-                } else {
-                    unicac_optics::spec::SurfaceType::EvenAsphere
-                },
-                curvature_per_mm: Some(c),
-                thickness_mm: t,
-                conic: k,
-                aspheric_coefficients: a,
-                material: glass.map(|(nd, vd)| MaterialSpec::Model { nd, vd }),
-                semi_diameter_mm: semi,
-                stop,
-                ..SurfaceSpec::default()
-            }
-        };
-    spec.object_distance_mm = Some(1.390671153797295e-309);
-    spec.aperture = ApertureSpec::EntrancePupilDiameterMm(3.658696952696364e-111);
-    spec.fields = FieldSpec::ImageHeightsMm(vec![-1.829175133157691e-253]);
-    spec.field_weights = None;
-    spec.wavelengths = [6.444099150936454e257, 6.444099150936363e257]
-        .iter()
-        .map(|&w| unicac_optics::spec::WavelengthSpec {
-            wavelength_um: w,
-            weight: 1.0,
-        })
-        .collect();
-    spec.primary_wavelength_index = None;
-    spec.surfaces = vec![
-        surface(
-            4.186342259261225e-149,
-            6.141501531882228e-149,
-            2.028752738975725e-309,
-            vec![1.14970054116e-313],
-            None,
-            None,
-            false,
-        ),
-        surface(
-            1.678076560593478e-147,
-            6.593295591259359e259,
-            -8.348572013879745e-234,
-            vec![],
-            Some((8.554576158041617e192, 6.443833381907996e257)),
-            Some(6.44409915093624e257),
-            true,
-        ),
-        surface(
-            -1.8291751280872214e-253,
-            1.9889752002392534e-304,
-            2.568425733177917e207,
-            vec![-8.618545049796882e-188],
-            Some((1.7565805777302384e156, 1.756580577739303e156)),
-            None,
-            false,
-        ),
-        surface(8.288793e-317, 0.0, 0.0, vec![], None, None, false),
-    ];
-    let lens = Lens::from_spec(&spec).unwrap();
-    let first = lens.first_order().unwrap();
-    let wavelength = lens.primary_wavelength_um();
-    let system = TraceSystem::new(&lens, wavelength, Clipping::Apertures).unwrap();
-    let aimer = unicac_trace::Aimer::new(&lens, wavelength, Aiming::Paraxial).unwrap();
-    let rays: Vec<Ray> = [[0.0, 0.0], [0.0, 1.0], [0.7, -0.7], [-1.0, 0.0]]
-        .iter()
-        .filter_map(|&[px, py]| aimer.ray(first.field_angles_deg[0], px, py).ok())
-        .collect();
-    assert!(!rays.is_empty());
-    let mut lanes = rays.clone();
-    let mut lane_statuses = vec![RayStatus::Ok; lanes.len()];
-    system.trace_chunk(&mut lanes, &mut lane_statuses);
-    for ((mut ray, lane), lane_status) in rays.into_iter().zip(&lanes).zip(&lane_statuses) {
-        let status = system.trace(&mut ray);
-        assert_eq!(status, *lane_status, "scalar and lane tracers agree");
-        assert_eq!(ray.direction, lane.direction);
-        assert!(ray.is_finite());
-        if status.is_ok() {
-            let norm: f64 = ray.direction.iter().map(|d| d * d).sum();
-            assert!(
-                (norm - 1.0).abs() < 1e-6,
-                "ok ray without a unit direction: {ray:?}"
-            );
-        }
-    }
+    let spec = fuzzed_lens_spec(
+        1.390671153797295e-309,
+        3.658696952696364e-111,
+        vec![-1.829175133157691e-253],
+        &[6.444099150936454e257, 6.444099150936363e257],
+        vec![
+            fuzzed_surface(
+                4.186342259261225e-149,
+                6.141501531882228e-149,
+                2.028752738975725e-309,
+                vec![1.14970054116e-313],
+                None,
+                None,
+                false,
+            ),
+            fuzzed_surface(
+                1.678076560593478e-147,
+                6.593295591259359e259,
+                -8.348572013879745e-234,
+                vec![],
+                Some((8.554576158041617e192, 6.443833381907996e257)),
+                Some(6.44409915093624e257),
+                true,
+            ),
+            fuzzed_surface(
+                -1.8291751280872214e-253,
+                1.9889752002392534e-304,
+                2.568425733177917e207,
+                vec![-8.618545049796882e-188],
+                Some((1.7565805777302384e156, 1.756580577739303e156)),
+                None,
+                false,
+            ),
+            fuzzed_surface(8.288793e-317, 0.0, 0.0, vec![], None, None, false),
+        ],
+    );
+    trace_both_ways(&Lens::from_spec(&spec).unwrap());
 }
