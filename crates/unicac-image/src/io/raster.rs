@@ -38,6 +38,9 @@ pub(super) fn decode(path: &Path, bytes: &[u8], raster: Raster) -> Result<Loaded
         format: format.name(),
         message,
     };
+    if raster == Raster::Png {
+        check_png_palette(bytes).map_err(decode_error)?;
+    }
     let codec = match raster {
         Raster::Png => image::ImageFormat::Png,
         Raster::Tiff => image::ImageFormat::Tiff,
@@ -160,4 +163,32 @@ fn colour_type(channels: usize, depth: SampleDepth) -> ExtendedColorType {
 fn interleave(image: &Planar) -> impl Iterator<Item = f32> + '_ {
     let n = image.pixels();
     (0..n * image.channels).map(move |i| image.data[(i % image.channels) * n + i / image.channels])
+}
+
+/// Refuses a PNG whose palette (PLTE chunk) is not a whole number of 3-byte RGB entries, which the
+/// PNG specification forbids and which makes the `png` crate (0.18.1) panic while expanding the palette
+/// (found by the `image` fuzz target). Walks the chunk headers only; anything else malformed is left to
+/// the decoder, which reports it.
+fn check_png_palette(bytes: &[u8]) -> std::result::Result<(), String> {
+    const SIGNATURE_LEN: usize = 8;
+    let mut at = SIGNATURE_LEN;
+    // Each chunk: length (4 bytes, big-endian), type (4), data, CRC (4).
+    while let Some(header) = bytes.get(at..at + 8) {
+        let length = u32::from_be_bytes([header[0], header[1], header[2], header[3]]) as usize;
+        let kind = &header[4..8];
+        if kind == b"PLTE" && length % 3 != 0 {
+            return Err(format!(
+                "its palette (PLTE chunk) has {length} bytes, not a whole number of 3-byte RGB entries"
+            ));
+        }
+        if kind == b"IEND" || kind == b"IDAT" {
+            // The palette comes before the image data.
+            return Ok(());
+        }
+        at = match at.checked_add(12).and_then(|a| a.checked_add(length)) {
+            Some(next) => next,
+            None => return Ok(()),
+        };
+    }
+    Ok(())
 }
