@@ -8,7 +8,7 @@
 
 use crate::chief::ChiefRayMap;
 use crate::convolve::{
-    convolve_varying_with, node_positions, Blend, KernelGrid, Method, KERNEL_TAIL_TOLERANCE,
+    convolve_varying_into, node_positions, Blend, KernelGrid, Method, KERNEL_TAIL_TOLERANCE,
 };
 use crate::error::SimResult;
 use crate::geometry::SensorGrid;
@@ -274,14 +274,9 @@ impl LensSimulator {
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
         self.check_frame(image)?;
         let (w, h) = (self.grid.width_px, self.grid.height_px);
-        let mut blurred = Planar {
-            width: w,
-            height: h,
-            channels: 3,
-            data: Vec::with_capacity(3 * w * h),
-        };
+        let mut blurred = Planar::new(w, h, 3);
         for c in 0..3 {
-            blurred.data.extend(convolve_varying_with(
+            convolve_varying_into(
                 image.plane(c),
                 w,
                 h,
@@ -289,7 +284,8 @@ impl LensSimulator {
                 self.settings.method,
                 self.settings.blend,
                 self.settings.kernel_tail,
-            ));
+                blurred.plane_mut(c),
+            );
         }
         if !self.settings.distortion && !self.settings.illumination {
             return Ok(blurred);
@@ -413,7 +409,7 @@ impl LensSimulator {
         let mut blurred = Planar::new(source.width, source.height, 3);
         for c in 0..3 {
             let grid = self.kernel_grid(c, source);
-            let plane = convolve_varying_with(
+            convolve_varying_into(
                 region.plane(c),
                 source.width,
                 source.height,
@@ -421,8 +417,8 @@ impl LensSimulator {
                 self.settings.method,
                 self.settings.blend,
                 self.settings.kernel_tail,
+                blurred.plane_mut(c),
             );
-            blurred.plane_mut(c).copy_from_slice(&plane);
         }
         if !self.settings.distortion && !self.settings.illumination {
             return Ok(crop(

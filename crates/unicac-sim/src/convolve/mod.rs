@@ -189,7 +189,28 @@ pub fn convolve_varying_with(
     blend: Blend,
     kernel_tail: f64,
 ) -> Vec<f32> {
+    let mut out = vec![0.0f32; width * height];
+    convolve_varying_into(plane, width, height, grid, method, blend, kernel_tail, &mut out);
+    out
+}
+
+/// `convolve_varying_with` into a buffer the caller owns (every pixel of `out` is written): a 12 MP
+/// simulation writes its three planes straight into one image instead of copying them there, which
+/// spares 144 MB of freshly faulted memory per image (page faults and page clearing were ~20% of the
+/// 12 MP profile on the 2-core machine).
+#[allow(clippy::too_many_arguments)]
+pub fn convolve_varying_into(
+    plane: &[f32],
+    width: usize,
+    height: usize,
+    grid: &KernelGrid,
+    method: Method,
+    blend: Blend,
+    kernel_tail: f64,
+    out: &mut [f32],
+) {
     assert_eq!(plane.len(), width * height);
+    assert_eq!(out.len(), width * height);
     assert!(
         grid.nodes_x >= 2 && grid.nodes_y >= 2,
         "need at least 2 x 2 nodes"
@@ -204,9 +225,8 @@ pub fn convolve_varying_with(
     let ys = node_positions(height, grid.nodes_y);
     let columns = intervals(&xs, width);
     let bands = intervals(&ys, height);
-    let mut out = vec![0.0f32; width * height];
     let mut slices: Vec<&mut [f32]> = Vec::with_capacity(bands.len());
-    let mut rest = out.as_mut_slice();
+    let mut rest = out;
     for rows in &bands {
         let (band, tail) = rest.split_at_mut(rows.len() * width);
         slices.push(band);
@@ -263,7 +283,6 @@ pub fn convolve_varying_with(
                 }
             }
         });
-    out
 }
 
 /// The value of the input patch a tile's `size` px kernels read (the tile grown by size / 2 on every
