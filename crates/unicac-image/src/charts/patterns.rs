@@ -59,8 +59,19 @@ pub fn checkerboard(
     Ok(render_grey(width, height, SUPERSAMPLING, |x, y| {
         let u = (x - cx) * cos + (y - cy) * sin;
         let v = -(x - cx) * sin + (y - cy) * cos;
-        let parity = ((u / side).floor() + (v / side).floor()).rem_euclid(2.0);
-        CHART_MEAN as f64 + if parity < 0.5 { amplitude } else { -amplitude }
+        // The square's parity from integer cell indices (truncation, one down for negative
+        // non-integers: the floor for every index a chart can reach, |index| < 2^52), without the
+        // libm floor and remainder calls, which cost more than the rest of the chart drawing.
+        let cell = |t: f64| {
+            let index = t as i64;
+            if (index as f64) > t {
+                index - 1
+            } else {
+                index
+            }
+        };
+        let even = (cell(u / side) + cell(v / side)).rem_euclid(2) == 0;
+        CHART_MEAN as f64 + if even { amplitude } else { -amplitude }
     }))
 }
 

@@ -284,9 +284,15 @@ fn fit_centroids(region: &Region, previous: Option<EdgeLine>) -> Result<EdgeLine
         let (mut sum, mut moment) = (0.0, 0.0);
         for x in 0..w - 1 {
             // The difference of pixels x and x + 1 sits between their centres, at x + 1.
+            let difference = row[x + 1] - row[x];
+            if difference == 0.0 {
+                // Adds exactly nothing (the flat sides of an edge patch are most of its pixels), so
+                // the window's cosine is not worth computing.
+                continue;
+            }
             let position = x as f64 + 1.0;
             let weight = previous.map_or(1.0, |line| hamming(position, line.x_at(yc), half));
-            let d = (row[x + 1] - row[x]) * weight;
+            let d = difference * weight;
             sum += d;
             moment += d * position;
         }
