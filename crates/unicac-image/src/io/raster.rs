@@ -176,7 +176,7 @@ fn check_png_palette(bytes: &[u8]) -> std::result::Result<(), String> {
     while let Some(header) = bytes.get(at..at + 8) {
         let length = u32::from_be_bytes([header[0], header[1], header[2], header[3]]) as usize;
         let kind = &header[4..8];
-        if kind == b"PLTE" && length % 3 != 0 {
+        if kind == b"PLTE" && !length.is_multiple_of(3) {
             return Err(format!(
                 "its palette (PLTE chunk) has {length} bytes, not a whole number of 3-byte RGB entries"
             ));
