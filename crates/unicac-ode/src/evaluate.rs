@@ -12,7 +12,7 @@ use unicac_psf::{
     visible_wavelengths_um, DarkFields, Kernel, PsfError, PsfSettings, PsfTracer, RayBackend,
     SpectralResponse, SpectralWeights,
 };
-use unicac_sim::convolve::{convolve_invariant_many, convolve_invariant_many_and_transpose};
+use unicac_sim::convolve::{convolve_invariant_many, convolve_invariant_many_and_transpose, Borders};
 use unicac_sim::ChiefRayMap;
 use unicac_trace::{spots, Aiming, PupilSampling};
 
@@ -352,10 +352,17 @@ impl IdealCharts {
     /// The charts imaged through each of `kernels` (all of this chart set's size), in their order.
     fn image(&self, kernels: &[&Kernel]) -> Vec<ImagedCharts> {
         let side = self.checker_side;
-        let checker = convolve_invariant_many(&self.checker, side, side, kernels);
+        // Only the interior is scored (the border crop and the edge ROI keep `kernel_px / 2 + 1` px from
+        // every side), so the border pixels are not computed.
+        let checker = convolve_invariant_many(&self.checker, side, side, kernels, Borders::Interior);
         // The tangential edge is the sagittal one transposed (`ideal_edges`): both from one transform.
         let sagittal = &self.edges[0];
-        let edges = convolve_invariant_many_and_transpose(sagittal.plane(0), sagittal.width, kernels);
+        let edges = convolve_invariant_many_and_transpose(
+            sagittal.plane(0),
+            sagittal.width,
+            kernels,
+            Borders::Interior,
+        );
         checker
             .into_iter()
             .zip(edges)

@@ -12,7 +12,7 @@
 
 use crate::error::{PsfError, PsfResult};
 use crate::hit_tracer::RayBackend;
-use crate::kernel::{rasterise, size_for_fraction, Kernel};
+use crate::kernel::{size_for_fraction, Kernel, Rasteriser};
 use crate::spectrum::{combine_channels, SpectralWeights};
 use serde::{Deserialize, Serialize};
 use unicac_optics::Lens;
@@ -268,17 +268,12 @@ impl PsfTracer {
         let size = size.min(self.settings.max_kernel_px) | 1;
         let channels = if monochromatic { 1 } else { 3 };
         let traced = self.pupil.len();
+        let mut rasteriser = Rasteriser::new(size, self.settings.pixel_um, self.settings.oversample);
         let per_wavelength: Vec<Kernel> = hits
             .iter()
             .map(|h| {
                 let weight = 1.0 / traced as f32;
-                rasterise(
-                    &h.offsets_um,
-                    &vec![weight; h.offsets_um.len()],
-                    size,
-                    self.settings.pixel_um,
-                    self.settings.oversample,
-                )
+                rasteriser.rasterise(&h.offsets_um, &vec![weight; h.offsets_um.len()])
             })
             .collect();
         let arrived: Vec<f64> = hits

@@ -11,6 +11,7 @@
 //! four corner kernels therefore cost two inverse transforms, and its left and right corner pairs are
 //! each one transform shared with the neighbouring tile.
 
+use super::Borders;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftNum, FftPlanner};
@@ -199,6 +200,7 @@ pub(super) fn convolve_invariant_fft(
     height: usize,
     kernels: &[&Kernel],
     and_transpose: bool,
+    borders: Borders,
 ) -> Vec<Vec<f32>> {
     let Some(first) = kernels.first() else {
         return Vec::new();
@@ -209,18 +211,32 @@ pub(super) fn convolve_invariant_fft(
         !and_transpose || width == height,
         "only a square plane has a transpose of its shape"
     );
-    let reach = size - 1;
-    let fft = Fft2::<f64>::new(fast_len(width + reach), fast_len(height + reach));
-    let half = first.half() as i64;
+    let half = first.half();
+    // Replicated borders: the plane padded by a kernel's reach on every side, so that nothing wraps
+    // around. Interior: the plane alone; its circular convolution equals the linear one wherever the
+    // kernel stays inside the plane (`half` px from every edge), read `half` samples in.
+    let (padding, read_offset) = match borders {
+        Borders::Replicated => (size - 1, size - 1),
+        Borders::Interior => (0, half),
+    };
+    let fft = Fft2::<f64>::new(fast_len(width + padding), fast_len(height + padding));
     let mut grid = vec![Complex::new(0.0, 0.0); fft.len()];
+    let start = -((padding / 2) as i64);
     fill_patch(
         plane,
         (width, height),
-        (-half, -half),
-        (width + reach, height + reach),
+        (start, start),
+        (width + padding, height + padding),
         &mut grid,
         fft.width,
     );
+    let inside = |row: usize, column: usize| match borders {
+        Borders::Replicated => true,
+        Borders::Interior => {
+            (half..height.saturating_sub(half)).contains(&row)
+                && (half..width.saturating_sub(half)).contains(&column)
+        }
+    };
     let mut plane_spectrum = vec![Complex::new(0.0, 0.0); fft.len()];
     fft.forward(&mut grid, &mut plane_spectrum);
     let scale = 1.0 / fft.len() as f64;
@@ -262,7 +278,11 @@ pub(super) fn convolve_invariant_fft(
                                 } else {
                                     (i % width, i / width)
                                 };
-                                (part(&grid[(row + reach) * fft.width + column + reach]) * scale) as f32
+                                if !inside(row, column) {
+                                    return 0.0;
+                                }
+                                let index = (row + read_offset) * fft.width + column + read_offset;
+                                (part(&grid[index]) * scale) as f32
                             })
                             .collect()
                     })

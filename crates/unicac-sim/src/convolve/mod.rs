@@ -336,32 +336,69 @@ pub const FFT_FROM_KERNEL_PX: usize = 15;
 /// One kernel over the whole plane, replicated borders: direct for small kernels, FFT (f64) for large ones.
 pub fn convolve_invariant(plane: &[f32], width: usize, height: usize, kernel: &Kernel) -> Vec<f32> {
     if kernel.size < FFT_FROM_KERNEL_PX {
-        return (0..width * height)
-            .into_par_iter()
-            .map(|i| direct::convolve_at(plane, width, height, kernel, i % width, i / width))
-            .collect();
+        return convolve_direct(plane, width, height, kernel, Borders::Replicated);
     }
-    fft::convolve_invariant_fft(plane, width, height, &[kernel], false)
+    fft::convolve_invariant_fft(plane, width, height, &[kernel], false, Borders::Replicated)
         .pop()
         .expect("one kernel, one plane")
 }
 
-/// `plane` convolved with each of `kernels` (all of one size), as `convolve_invariant` would one at a time;
-/// large kernels share the plane's transform and go two to a transform (f32 results within an ulp).
+/// Which output pixels an invariant convolution computes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Borders {
+    /// Every pixel, the plane's border pixels replicated outward (as `convolve_invariant`).
+    Replicated,
+    /// Only the pixels whose kernel footprint lies inside the plane (at least `kernel_px / 2` from every
+    /// edge); the others are 0. For callers that score an interior region only (the ODE's charts): the
+    /// transforms need no padding, about half the work for a 127 px kernel on a 384 px chart.
+    Interior,
+}
+
+/// `plane` convolved with each of `kernels` (all of one size), as `convolve_invariant` would one at a time
+/// (on the pixels `borders` asks for); large kernels share the plane's transform and go two to a transform
+/// (f32 results within an ulp).
 pub fn convolve_invariant_many(
     plane: &[f32],
     width: usize,
     height: usize,
     kernels: &[&Kernel],
+    borders: Borders,
 ) -> Vec<Vec<f32>> {
     if kernels.first().is_some_and(|k| k.size >= FFT_FROM_KERNEL_PX) {
-        fft::convolve_invariant_fft(plane, width, height, kernels, false)
+        fft::convolve_invariant_fft(plane, width, height, kernels, false, borders)
     } else {
         kernels
             .iter()
-            .map(|k| convolve_invariant(plane, width, height, k))
+            .map(|k| convolve_direct(plane, width, height, k, borders))
             .collect()
     }
+}
+
+/// Direct summation at the pixels `borders` asks for (0 elsewhere).
+fn convolve_direct(
+    plane: &[f32],
+    width: usize,
+    height: usize,
+    kernel: &Kernel,
+    borders: Borders,
+) -> Vec<f32> {
+    let half = kernel.half();
+    let inside = |x: usize, y: usize| {
+        borders == Borders::Replicated
+            || ((half..width.saturating_sub(half)).contains(&x)
+                && (half..height.saturating_sub(half)).contains(&y))
+    };
+    (0..width * height)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            if inside(x, y) {
+                direct::convolve_at(plane, width, height, kernel, x, y)
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 /// A square `side` x `side` plane P and its transpose P^T, each convolved with each of `kernels` (all of
@@ -372,10 +409,11 @@ pub fn convolve_invariant_many_and_transpose(
     plane: &[f32],
     side: usize,
     kernels: &[&Kernel],
+    borders: Borders,
 ) -> Vec<[Vec<f32>; 2]> {
     assert_eq!(plane.len(), side * side, "a square plane");
     if kernels.first().is_some_and(|k| k.size >= FFT_FROM_KERNEL_PX) {
-        let mut views = fft::convolve_invariant_fft(plane, side, side, kernels, true).into_iter();
+        let mut views = fft::convolve_invariant_fft(plane, side, side, kernels, true, borders).into_iter();
         kernels
             .iter()
             .map(|_| [views.next().expect("P * K"), views.next().expect("P^T * K")])
@@ -388,8 +426,8 @@ pub fn convolve_invariant_many_and_transpose(
             .iter()
             .map(|k| {
                 [
-                    convolve_invariant(plane, side, side, k),
-                    convolve_invariant(&transposed, side, side, k),
+                    convolve_direct(plane, side, side, k, borders),
+                    convolve_direct(&transposed, side, side, k, borders),
                 ]
             })
             .collect()
@@ -455,7 +493,7 @@ mod tests {
         for size in [5, 21] {
             let kernels: Vec<Kernel> = (0..5).map(|seed| textured(size, seed)).collect();
             let refs: Vec<&Kernel> = kernels.iter().collect();
-            let many = convolve_invariant_many(&plane, w, h, &refs);
+            let many = convolve_invariant_many(&plane, w, h, &refs, Borders::Replicated);
             assert_eq!(many.len(), 5);
             for (kernel, out) in kernels.iter().zip(&many) {
                 let one = convolve_invariant(&plane, w, h, kernel);
@@ -467,7 +505,46 @@ mod tests {
                 assert!(worst <= 2.0 * f32::EPSILON, "size {size}: {worst}");
             }
         }
-        assert!(convolve_invariant_many(&plane, w, h, &[]).is_empty());
+        assert!(convolve_invariant_many(&plane, w, h, &[], Borders::Replicated).is_empty());
+    }
+
+    #[test]
+    fn interior_convolution_equals_the_replicated_one_inside_and_is_zero_outside() {
+        // Direct (5 px) and FFT (21 px) kernels; odd and even sides; the transposed view as well.
+        let side = 46;
+        let plane: Vec<f32> = (0..side * side)
+            .map(|i| ((i * 7919 + (i / side) * 13) % 101) as f32 / 100.0)
+            .collect();
+        for size in [5, 21] {
+            let kernels: Vec<Kernel> = (0..3).map(|seed| textured(size, seed)).collect();
+            let refs: Vec<&Kernel> = kernels.iter().collect();
+            let half = size / 2;
+            let inside = |i: usize| {
+                let (x, y) = (i % side, i / side);
+                (half..side - half).contains(&x) && (half..side - half).contains(&y)
+            };
+            let full = convolve_invariant_many_and_transpose(&plane, side, &refs, Borders::Replicated);
+            let interior = convolve_invariant_many_and_transpose(&plane, side, &refs, Borders::Interior);
+            let single = convolve_invariant_many(&plane, side, side, &refs, Borders::Interior);
+            for ((full, interior), single) in full.iter().zip(&interior).zip(&single) {
+                for (view, (f, g)) in full.iter().zip(interior).enumerate() {
+                    for (i, (a, b)) in f.iter().zip(g).enumerate() {
+                        if inside(i) {
+                            assert!(
+                                (a - b).abs() <= 2.0 * f32::EPSILON,
+                                "size {size} view {view} at {i}: {a} {b}"
+                            );
+                        } else {
+                            assert_eq!(*b, 0.0, "size {size} view {view} at {i}");
+                        }
+                    }
+                }
+                assert_eq!(
+                    &interior[0], single,
+                    "size {size}: the plain view is the single-view result"
+                );
+            }
+        }
     }
 
     #[test]
@@ -485,7 +562,7 @@ mod tests {
             // Odd count: the last kernel goes alone through the packed path.
             let kernels: Vec<Kernel> = (0..3).map(|seed| textured(size, seed)).collect();
             let refs: Vec<&Kernel> = kernels.iter().collect();
-            let both = convolve_invariant_many_and_transpose(&plane, side, &refs);
+            let both = convolve_invariant_many_and_transpose(&plane, side, &refs, Borders::Replicated);
             assert_eq!(both.len(), 3);
             for (kernel, [direct, transpose]) in kernels.iter().zip(&both) {
                 for (expected, got) in [
