@@ -230,12 +230,13 @@ pub(super) fn convolve_invariant_fft(
         &mut grid,
         fft.width,
     );
-    let inside = |row: usize, column: usize| match borders {
-        Borders::Replicated => true,
-        Borders::Interior => {
-            (half..height.saturating_sub(half)).contains(&row)
-                && (half..width.saturating_sub(half)).contains(&column)
-        }
+    // The output rows and columns computed (the others stay 0).
+    let (rows, columns) = match borders {
+        Borders::Replicated => (0..height, 0..width),
+        Borders::Interior => (
+            half..height.saturating_sub(half).max(half),
+            half..width.saturating_sub(half).max(half),
+        ),
     };
     let mut plane_spectrum = vec![Complex::new(0.0, 0.0); fft.len()];
     fft.forward(&mut grid, &mut plane_spectrum);
@@ -256,35 +257,37 @@ pub(super) fn convolve_invariant_fft(
             .map(|view| {
                 // Spectra are column-major: (u, v) sits at u * height + v; the grids are square when
                 // view 1 is asked for, so K^T's spectrum at (u, v) is K's at (v, u).
-                product.clear();
                 if view == 0 {
+                    product.clear();
                     product.extend(spectrum.iter().zip(&plane_spectrum).map(|(k, x)| k * x));
                 } else {
-                    product.extend(
-                        plane_spectrum
-                            .iter()
-                            .enumerate()
-                            .map(|(i, x)| spectrum[(i % n) * n + i / n] * x),
-                    );
+                    // product(a, b) = K(b, a) X(a, b), in blocks so that the transposed reads stay in cache.
+                    product.resize(fft.len(), Complex::new(0.0, 0.0));
+                    for_each_in_blocks(0..n, 0..n, |a, b| {
+                        product[a * n + b] = spectrum[b * n + a] * plane_spectrum[a * n + b];
+                    });
                 }
                 fft.inverse(product, grid);
                 parts[..pair.len()]
                     .iter()
                     .map(|part| {
-                        (0..width * height)
-                            .map(|i| {
-                                let (row, column) = if view == 0 {
-                                    (i / width, i % width)
-                                } else {
-                                    (i % width, i / width)
-                                };
-                                if !inside(row, column) {
-                                    return 0.0;
+                        let mut out = vec![0.0f32; width * height];
+                        let value = |row: usize, column: usize| {
+                            (part(&grid[(row + read_offset) * n + column + read_offset]) * scale) as f32
+                        };
+                        if view == 0 {
+                            for row in rows.clone() {
+                                for column in columns.clone() {
+                                    out[row * width + column] = value(row, column);
                                 }
-                                let index = (row + read_offset) * fft.width + column + read_offset;
-                                (part(&grid[index]) * scale) as f32
-                            })
-                            .collect()
+                            }
+                        } else {
+                            // Output (x, y) of P^T * K is (P * K^T) at grid (row x, column y).
+                            for_each_in_blocks(rows.clone(), columns.clone(), |y, x| {
+                                out[y * width + x] = value(x, y);
+                            });
+                        }
+                        out
                     })
                     .collect()
             })
@@ -309,6 +312,21 @@ pub(super) fn convolve_invariant_fft(
                 .collect::<Vec<Vec<f32>>>()
         })
         .collect()
+}
+
+/// Calls `f(a, b)` for every a in `outer`, b in `inner`, in 16 x 16 blocks: a loop that reads or
+/// writes one of two grids transposed then touches few cache lines at a time.
+fn for_each_in_blocks(outer: Range<usize>, inner: Range<usize>, mut f: impl FnMut(usize, usize)) {
+    const BLOCK: usize = 16;
+    for a0 in outer.clone().step_by(BLOCK) {
+        for b0 in inner.clone().step_by(BLOCK) {
+            for a in a0..(a0 + BLOCK).min(outer.end) {
+                for b in b0..(b0 + BLOCK).min(inner.end) {
+                    f(a, b);
+                }
+            }
+        }
+    }
 }
 
 /// The corner kernels of one tile: [top-left, top-right, bottom-left, bottom-right], and the node
