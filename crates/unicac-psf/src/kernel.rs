@@ -159,29 +159,21 @@ impl Rasteriser {
         let (size, oversample) = (self.size, self.oversample);
         let mut kernel = Kernel::zeros(size, self.pitch_um);
         let fine = size * oversample;
-        let sub_pitch = self.pitch_um / oversample as f64;
-        // Fine-grid coordinates: cell centres at integer + 0.5; the kernel centre is fine / 2.
-        let centre = fine as f64 / 2.0;
-        for (offset, &w) in offsets_um.iter().zip(weights) {
-            let fx = offset[0] / sub_pitch + centre - 0.5;
-            let fy = offset[1] / sub_pitch + centre - 0.5;
-            let (x0, y0) = (fx.floor(), fy.floor());
-            let (tx, ty) = ((fx - x0) as f32, (fy - y0) as f32);
-            for (dy, wy) in [(0, 1.0 - ty), (1, ty)] {
-                for (dx, wx) in [(0, 1.0 - tx), (1, tx)] {
-                    let (x, y) = (x0 as i64 + dx, y0 as i64 + dy);
-                    if x >= 0 && y >= 0 && (x as usize) < fine && (y as usize) < fine {
-                        let (x, y) = (x as usize, y as usize);
-                        self.grid[y * fine + x] += w * wx * wy;
-                        let pixel = (y / oversample) * size + x / oversample;
-                        if !self.touched[pixel] {
-                            self.touched[pixel] = true;
-                            self.touched_pixels.push(pixel);
-                        }
-                    }
+        let (grid, touched, touched_pixels) = (&mut self.grid, &mut self.touched, &mut self.touched_pixels);
+        splat(
+            offsets_um,
+            weights,
+            fine,
+            self.pitch_um / oversample as f64,
+            |x, y, value| {
+                grid[y * fine + x] += value;
+                let pixel = (y / oversample) * size + x / oversample;
+                if !touched[pixel] {
+                    touched[pixel] = true;
+                    touched_pixels.push(pixel);
                 }
-            }
-        }
+            },
+        );
         // Untouched pixels sum only zeros: they stay 0.
         for pixel in self.touched_pixels.drain(..) {
             let (x, y) = (pixel % size, pixel / size);
@@ -196,6 +188,33 @@ impl Rasteriser {
             self.touched[pixel] = false;
         }
         kernel
+    }
+}
+
+/// Each hit's bilinear shares over the four nearest cells of a `fine` x `fine` grid of `sub_pitch_um`
+/// cells centred on the kernel centre, as `add(x, y, share)` in hit order; cells off the grid are dropped.
+fn splat(
+    offsets_um: &[[f64; 2]],
+    weights: &[f32],
+    fine: usize,
+    sub_pitch_um: f64,
+    mut add: impl FnMut(usize, usize, f32),
+) {
+    // Fine-grid coordinates: cell centres at integer + 0.5; the kernel centre is fine / 2.
+    let centre = fine as f64 / 2.0;
+    for (offset, &w) in offsets_um.iter().zip(weights) {
+        let fx = offset[0] / sub_pitch_um + centre - 0.5;
+        let fy = offset[1] / sub_pitch_um + centre - 0.5;
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = ((fx - x0) as f32, (fy - y0) as f32);
+        for (dy, wy) in [(0, 1.0 - ty), (1, ty)] {
+            for (dx, wx) in [(0, 1.0 - tx), (1, tx)] {
+                let (x, y) = (x0 as i64 + dx, y0 as i64 + dy);
+                if x >= 0 && y >= 0 && (x as usize) < fine && (y as usize) < fine {
+                    add(x as usize, y as usize, w * wx * wy);
+                }
+            }
+        }
     }
 }
 
@@ -229,7 +248,7 @@ pub fn size_for_fraction(offsets_um: &[[f64; 2]], weights: &[f32], pitch_um: f64
 mod tests {
     use super::*;
 
-    /// The whole-grid pass the sparse rasteriser replaced: splat every hit, then sum every pixel.
+    /// The whole-grid pass the sparse rasteriser replaced: splat every hit, then sum every pixel of the grid.
     fn rasterise_whole_grid(
         offsets_um: &[[f64; 2]],
         weight: f32,
@@ -239,22 +258,13 @@ mod tests {
     ) -> Vec<f32> {
         let fine = size * oversample;
         let mut grid = vec![0.0f32; fine * fine];
-        let sub_pitch = pitch_um / oversample as f64;
-        let centre = fine as f64 / 2.0;
-        for offset in offsets_um {
-            let fx = offset[0] / sub_pitch + centre - 0.5;
-            let fy = offset[1] / sub_pitch + centre - 0.5;
-            let (x0, y0) = (fx.floor(), fy.floor());
-            let (tx, ty) = ((fx - x0) as f32, (fy - y0) as f32);
-            for (dy, wy) in [(0, 1.0 - ty), (1, ty)] {
-                for (dx, wx) in [(0, 1.0 - tx), (1, tx)] {
-                    let (x, y) = (x0 as i64 + dx, y0 as i64 + dy);
-                    if x >= 0 && y >= 0 && (x as usize) < fine && (y as usize) < fine {
-                        grid[y as usize * fine + x as usize] += weight * wx * wy;
-                    }
-                }
-            }
-        }
+        splat(
+            offsets_um,
+            &vec![weight; offsets_um.len()],
+            fine,
+            pitch_um / oversample as f64,
+            |x, y, value| grid[y * fine + x] += value,
+        );
         (0..size * size)
             .map(|pixel| {
                 let (x, y) = (pixel % size, pixel / size);
