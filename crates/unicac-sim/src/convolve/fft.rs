@@ -76,6 +76,9 @@ impl<T: FftNum> Fft2<T> {
     }
 }
 
+/// Side of the square blocks that transposed sweeps work through (16 x 16 complex f64 = 4 KB).
+const BLOCK: usize = 16;
+
 /// Transforms every row; rows are handed out in groups so that small transforms stay cheap to schedule.
 fn process_rows<T: FftNum>(fft: &Arc<dyn Fft<T>>, data: &mut [Complex<T>], row_len: usize) {
     const ROWS_PER_TASK: usize = 16;
@@ -88,7 +91,6 @@ fn process_rows<T: FftNum>(fft: &Arc<dyn Fft<T>>, data: &mut [Complex<T>], row_l
 /// cache line and thrashes the cache once a grid outgrows it; the transposes were a tenth of the ODE's
 /// profile), and over groups of target rows in parallel.
 fn transpose<T: Copy + Send + Sync>(source: &[T], target: &mut [T], width: usize, height: usize) {
-    const BLOCK: usize = 16;
     target
         .par_chunks_mut(BLOCK * height)
         .enumerate()
@@ -219,7 +221,12 @@ pub(super) fn convolve_invariant_fft(
         Borders::Replicated => (size - 1, size - 1),
         Borders::Interior => (0, half),
     };
-    let fft = Fft2::<f64>::new(fast_len(width + padding), fast_len(height + padding));
+    // The grid also holds the whole kernel (a plane narrower than the kernel has no interior, but its
+    // kernel's spectrum is still formed).
+    let fft = Fft2::<f64>::new(
+        fast_len((width + padding).max(size)),
+        fast_len((height + padding).max(size)),
+    );
     let mut grid = vec![Complex::new(0.0, 0.0); fft.len()];
     let start = -((padding / 2) as i64);
     fill_patch(
@@ -231,13 +238,7 @@ pub(super) fn convolve_invariant_fft(
         fft.width,
     );
     // The output rows and columns computed (the others stay 0).
-    let (rows, columns) = match borders {
-        Borders::Replicated => (0..height, 0..width),
-        Borders::Interior => (
-            half..height.saturating_sub(half).max(half),
-            half..width.saturating_sub(half).max(half),
-        ),
-    };
+    let (rows, columns) = (borders.computed(height, half), borders.computed(width, half));
     let mut plane_spectrum = vec![Complex::new(0.0, 0.0); fft.len()];
     fft.forward(&mut grid, &mut plane_spectrum);
     let scale = 1.0 / fft.len() as f64;
@@ -317,7 +318,6 @@ pub(super) fn convolve_invariant_fft(
 /// Calls `f(a, b)` for every a in `outer`, b in `inner`, in 16 x 16 blocks: a loop that reads or
 /// writes one of two grids transposed then touches few cache lines at a time.
 fn for_each_in_blocks(outer: Range<usize>, inner: Range<usize>, mut f: impl FnMut(usize, usize)) {
-    const BLOCK: usize = 16;
     for a0 in outer.clone().step_by(BLOCK) {
         for b0 in inner.clone().step_by(BLOCK) {
             for a in a0..(a0 + BLOCK).min(outer.end) {

@@ -354,6 +354,17 @@ pub enum Borders {
     Interior,
 }
 
+impl Borders {
+    /// The output indices computed along an axis of `len` pixels for a kernel reaching `half` px either
+    /// side (empty when the kernel is wider than the plane and `Interior` is asked for).
+    fn computed(self, len: usize, half: usize) -> std::ops::Range<usize> {
+        match self {
+            Borders::Replicated => 0..len,
+            Borders::Interior => half..len.saturating_sub(half).max(half),
+        }
+    }
+}
+
 /// `plane` convolved with each of `kernels` (all of one size), as `convolve_invariant` would one at a time
 /// (on the pixels `borders` asks for); large kernels share the plane's transform and go two to a transform
 /// (f32 results within an ulp).
@@ -382,12 +393,11 @@ fn convolve_direct(
     kernel: &Kernel,
     borders: Borders,
 ) -> Vec<f32> {
-    let half = kernel.half();
-    let inside = |x: usize, y: usize| {
-        borders == Borders::Replicated
-            || ((half..width.saturating_sub(half)).contains(&x)
-                && (half..height.saturating_sub(half)).contains(&y))
-    };
+    let (columns, rows) = (
+        borders.computed(width, kernel.half()),
+        borders.computed(height, kernel.half()),
+    );
+    let inside = |x: usize, y: usize| columns.contains(&x) && rows.contains(&y);
     (0..width * height)
         .into_par_iter()
         .map(|i| {
@@ -508,20 +518,25 @@ mod tests {
         assert!(convolve_invariant_many(&plane, w, h, &[], Borders::Replicated).is_empty());
     }
 
+    /// A square plane that is not symmetric under transposition.
+    fn asymmetric_plane(side: usize) -> Vec<f32> {
+        (0..side * side)
+            .map(|i| ((i * 7919 + (i / side) * 13) % 101) as f32 / 100.0)
+            .collect()
+    }
+
     #[test]
     fn interior_convolution_equals_the_replicated_one_inside_and_is_zero_outside() {
-        // Direct (5 px) and FFT (21 px) kernels; odd and even sides; the transposed view as well.
-        let side = 46;
-        let plane: Vec<f32> = (0..side * side)
-            .map(|i| ((i * 7919 + (i / side) * 13) % 101) as f32 / 100.0)
-            .collect();
-        for size in [5, 21] {
+        // Direct (5 px) and FFT (21 px) kernels; even and odd sides, and a plane narrower than the large
+        // kernel (no interior: all 0); the transposed view as well.
+        for (side, size) in [(46, 5), (46, 21), (37, 5), (37, 21), (9, 21)] {
+            let plane = asymmetric_plane(side);
             let kernels: Vec<Kernel> = (0..3).map(|seed| textured(size, seed)).collect();
             let refs: Vec<&Kernel> = kernels.iter().collect();
             let half = size / 2;
             let inside = |i: usize| {
                 let (x, y) = (i % side, i / side);
-                (half..side - half).contains(&x) && (half..side - half).contains(&y)
+                side > 2 * half && (half..side - half).contains(&x) && (half..side - half).contains(&y)
             };
             let full = convolve_invariant_many_and_transpose(&plane, side, &refs, Borders::Replicated);
             let interior = convolve_invariant_many_and_transpose(&plane, side, &refs, Borders::Interior);
@@ -532,16 +547,16 @@ mod tests {
                         if inside(i) {
                             assert!(
                                 (a - b).abs() <= 2.0 * f32::EPSILON,
-                                "size {size} view {view} at {i}: {a} {b}"
+                                "side {side} size {size} view {view} at {i}: {a} {b}"
                             );
                         } else {
-                            assert_eq!(*b, 0.0, "size {size} view {view} at {i}");
+                            assert_eq!(*b, 0.0, "side {side} size {size} view {view} at {i}");
                         }
                     }
                 }
                 assert_eq!(
                     &interior[0], single,
-                    "size {size}: the plain view is the single-view result"
+                    "side {side} size {size}: the plain view is the single-view result"
                 );
             }
         }
@@ -552,9 +567,7 @@ mod tests {
         // An asymmetric plane and asymmetric kernels, so a wrong transpose (of the spectrum or of the
         // read-out) cannot pass.
         let side = 37;
-        let plane: Vec<f32> = (0..side * side)
-            .map(|i| ((i * 7919 + (i / side) * 13) % 101) as f32 / 100.0)
-            .collect();
+        let plane = asymmetric_plane(side);
         let transposed: Vec<f32> = (0..side * side)
             .map(|i| plane[(i % side) * side + i / side])
             .collect();
