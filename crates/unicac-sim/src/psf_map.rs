@@ -106,31 +106,68 @@ impl RadialPsfs {
 
 /// Rotates a kernel by `angle` (rad) about its centre, taking sensor +y towards +x (clockwise in the
 /// sensor's x-y plane), by bilinear resampling; renormalised to the input's sum.
+///
+/// Only the targets within reach of the kernel's support are resampled: a rotation keeps the distance
+/// from the centre and a bilinear tap reaches at most sqrt(2) px from its sample, so a target further
+/// than the support's radius + 2 px has four zero taps and stays exactly 0, as its sum would be (most
+/// node kernels of a wide-field lens are far smaller than the field's common kernel size).
 pub fn rotate(kernel: &Kernel, angle: f64) -> Kernel {
-    let (sin, cos) = angle.sin_cos();
     let size = kernel.size;
-    let half = kernel.half() as f64;
     let mut rotated = Kernel::zeros(size, kernel.pitch_um);
-    for row in 0..size {
-        for column in 0..size {
-            // Sensor offset of this target sample (kernel rows run towards -y).
-            let (dx, dy) = (column as f64 - half, half - row as f64);
-            // Rotate back by -angle: R(-a)(x, y) = (x cos a - y sin a, x sin a + y cos a).
-            let (sx, sy) = (dx * cos - dy * sin, dx * sin + dy * cos);
-            let (fc, fr) = (half + sx, half - sy);
-            rotated.data[row * size + column] = bilinear(kernel, fc, fr);
+    let Some(support_px) = support_radius_px(kernel) else {
+        return rotated;
+    };
+    let (sin, cos) = angle.sin_cos();
+    let centre = kernel.half();
+    let half = centre as f64;
+    let span = ((support_px + 2.0).ceil() as usize).min(centre);
+    let targets = centre - span..(centre + span + 1).min(size);
+    for row in targets.clone() {
+        for column in targets.clone() {
+            rotated.data[row * size + column] = rotated_sample(kernel, half, (sin, cos), row, column);
         }
     }
+    renormalise(kernel, &mut rotated);
+    rotated
+}
+
+/// The rotated kernel's sample at (row, column): the input bilinearly resampled where R(-angle) takes it.
+fn rotated_sample(kernel: &Kernel, half: f64, (sin, cos): (f64, f64), row: usize, column: usize) -> f32 {
+    // Sensor offset of this target sample (kernel rows run towards -y).
+    let (dx, dy) = (column as f64 - half, half - row as f64);
+    // Rotate back by -angle: R(-a)(x, y) = (x cos a - y sin a, x sin a + y cos a).
+    let (sx, sy) = (dx * cos - dy * sin, dx * sin + dy * cos);
+    bilinear(kernel, half + sx, half - sy)
+}
+
+/// Scales the rotated kernel back to the input's sum (resampling moves it slightly).
+fn renormalise(kernel: &Kernel, rotated: &mut Kernel) {
     let (before, after) = (kernel.sum(), rotated.sum());
     if after > 0.0 {
         let scale = (before / after) as f32;
         rotated.data.iter_mut().for_each(|v| *v *= scale);
     }
-    rotated
+}
+
+/// The largest distance (px) of a non-zero sample from the kernel's centre; None for a zero kernel.
+fn support_radius_px(kernel: &Kernel) -> Option<f64> {
+    let centre = kernel.half() as f64;
+    let mut largest_squared: Option<f64> = None;
+    for (row, samples) in kernel.data.chunks_exact(kernel.size).enumerate() {
+        let dy = row as f64 - centre;
+        for (column, &value) in samples.iter().enumerate() {
+            if value != 0.0 {
+                let dx = column as f64 - centre;
+                let squared = dx * dx + dy * dy;
+                largest_squared = Some(largest_squared.map_or(squared, |l| l.max(squared)));
+            }
+        }
+    }
+    largest_squared.map(f64::sqrt)
 }
 
 fn bilinear(kernel: &Kernel, column: f64, row: f64) -> f32 {
-    let (c0, r0) = (column.floor(), row.floor());
+    let (c0, r0) = (floor(column), floor(row));
     let (tc, tr) = ((column - c0) as f32, (row - r0) as f32);
     let mut value = 0.0;
     for (dr, wr) in [(0, 1.0 - tr), (1, tr)] {
@@ -142,4 +179,102 @@ fn bilinear(kernel: &Kernel, column: f64, row: f64) -> f32 {
         }
     }
     value
+}
+
+/// `f64::floor` for the kernel's sample coordinates (|x| far below 2^52), without the libm call that
+/// x86-64's baseline instruction set makes of `floor`; a zero's sign may differ, which the bilinear
+/// weights do not see.
+fn floor(x: f64) -> f64 {
+    let truncated = x as i64 as f64;
+    if truncated > x {
+        truncated - 1.0
+    } else {
+        truncated
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rotation over every target sample, with the standard library's floor: what `rotate` was
+    /// before it skipped the targets out of the support's reach.
+    fn rotate_every_sample(kernel: &Kernel, angle: f64) -> Kernel {
+        let mut rotated = Kernel::zeros(kernel.size, kernel.pitch_um);
+        let half = kernel.half() as f64;
+        for row in 0..kernel.size {
+            for column in 0..kernel.size {
+                rotated.data[row * kernel.size + column] =
+                    rotated_sample(kernel, half, angle.sin_cos(), row, column);
+            }
+        }
+        renormalise(kernel, &mut rotated);
+        rotated
+    }
+
+    /// A kernel of `size` px whose non-zero samples lie within `radius_px` of the centre, off-centre
+    /// and asymmetric, so that a wrong reach or orientation shows.
+    fn blob(size: usize, radius_px: f64) -> Kernel {
+        let mut kernel = Kernel::zeros(size, 1.0);
+        let half = kernel.half() as f64;
+        for row in 0..size {
+            for column in 0..size {
+                let (dx, dy) = (column as f64 - half, row as f64 - half);
+                if dx.hypot(dy) <= radius_px {
+                    kernel.data[row * size + column] = (1.0 + 0.3 * dx + 0.1 * dy * dy + 40.0) as f32;
+                }
+            }
+        }
+        kernel
+    }
+
+    #[test]
+    fn rotating_only_the_supports_reach_equals_rotating_every_sample_bit_for_bit() {
+        for (size, radius_px) in [
+            (1, 0.0),
+            (5, 0.0),
+            (9, 1.5),
+            (31, 4.0),
+            (31, 15.0),
+            (33, 22.5),
+            (127, 9.0),
+            (127, 90.0),
+        ] {
+            let kernel = blob(size, radius_px);
+            for angle in [0.3, -1.2, std::f64::consts::FRAC_PI_2, 2.9, -3.1] {
+                let fast = rotate(&kernel, angle);
+                let reference = rotate_every_sample(&kernel, angle);
+                let fast_bits: Vec<u32> = fast.data.iter().map(|v| v.to_bits()).collect();
+                let reference_bits: Vec<u32> = reference.data.iter().map(|v| v.to_bits()).collect();
+                assert_eq!(
+                    fast_bits, reference_bits,
+                    "size {size}, support {radius_px} px, angle {angle}"
+                );
+                assert!((fast.sum() - kernel.sum()).abs() <= 1e-6 * kernel.sum());
+            }
+        }
+        let zero = Kernel::zeros(15, 1.0);
+        assert!(rotate(&zero, 0.7).data.iter().all(|&v| v == 0.0));
+    }
+
+    #[test]
+    fn the_fast_floor_is_the_standard_floor_on_sample_coordinates() {
+        for i in -4000..4000 {
+            let x = i as f64 * 0.0371 + 1e-9 * (i % 7) as f64;
+            assert_eq!(floor(x), x.floor(), "x = {x}");
+        }
+        for x in [
+            -1.0,
+            -0.5,
+            -1e-300,
+            0.0,
+            1e-300,
+            0.5,
+            1.0,
+            126.99999999999999,
+            127.0,
+        ] {
+            assert_eq!(floor(x), x.floor(), "x = {x}");
+        }
+    }
 }

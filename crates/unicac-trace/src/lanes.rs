@@ -483,17 +483,24 @@ fn conic_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
             v.mul(v.splat(2.0), z),
         );
         let discriminant = v.sub(v.mul(bb, bb), v.mul(a, f));
-        let denominator = v.add(bb, v.copysign(v.sqrt(discriminant), bb));
         let f_zero = v.eq(f, zero);
-        let t = v.select(f_zero, zero, v.div(f, denominator));
+        // Every lane already on the surface's vertex (a plane after the transfer: the image plane, a
+        // flat stop): t is 0 and the root is not needed, so its square root and division (the
+        // divider is this loop's bottleneck) are skipped; the selects below give the same values.
+        let (t, denominator_fails) = if v.any(v.not(f_zero)) {
+            let denominator = v.add(bb, v.copysign(v.sqrt(discriminant), bb));
+            (
+                v.select(f_zero, zero, v.div(f, denominator)),
+                v.and(v.eq(denominator, zero), v.not(f_zero)),
+            )
+        } else {
+            (zero, v.not(f_zero))
+        };
         let hx = v.add(x, v.mul(t, l));
         let hy = v.add(y, v.mul(t, m));
         let hz = v.add(z, v.mul(t, n));
         let missed = v.or(
-            v.or(
-                v.not(v.ge(discriminant, zero)),
-                v.and(v.eq(denominator, zero), v.not(f_zero)),
-            ),
+            v.or(v.not(v.ge(discriminant, zero)), denominator_fails),
             v.or(
                 v.gt(v.add(v.mul(hx, hx), v.mul(hy, hy)), v.splat(s.conic_rho_limit)),
                 v.le(v.sub(one, v.mul(v.splat(s.ck1), hz)), zero),
