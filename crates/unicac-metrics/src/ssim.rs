@@ -93,17 +93,28 @@ pub(crate) fn filter_valid(plane: &[f64], w: usize, h: usize, kernel: &[f64]) ->
     let k = kernel.len();
     let (ow, oh) = (w + 1 - k, h + 1 - k);
     // Each output accumulates its taps in kernel order (0 + g0 v0 + g1 v1 + ...), tap by tap over a
-    // whole row: the same sums as one dot product per pixel, but contiguous, so they vectorise.
-    let mut rows = vec![0.0; ow * h];
-    for (row, src) in rows.chunks_exact_mut(ow).zip(plane.chunks_exact(w)) {
-        for (i, g) in kernel.iter().enumerate() {
-            row.iter_mut().zip(&src[i..i + ow]).for_each(|(r, v)| *r += g * v);
+    // whole row: the same sums as one dot product per pixel, but contiguous, so they vectorise. The
+    // first tap writes (0 + g0 v0) rather than adding into zeroed memory: pages read while still the
+    // kernel's shared zero page fault a second time on the write, with a TLB flush on the other threads.
+    let (first, rest) = kernel.split_first().expect("a non-empty kernel");
+    let mut rows = Vec::with_capacity(ow * h);
+    for src in plane.chunks_exact(w) {
+        let start = rows.len();
+        rows.extend(src[..ow].iter().map(|v| 0.0 + first * v));
+        let row = &mut rows[start..];
+        for (i, g) in rest.iter().enumerate() {
+            row.iter_mut()
+                .zip(&src[i + 1..i + 1 + ow])
+                .for_each(|(r, v)| *r += g * v);
         }
     }
-    let mut out = vec![0.0; ow * oh];
-    for (y, row) in out.chunks_exact_mut(ow).enumerate() {
-        for (j, g) in kernel.iter().enumerate() {
-            let src = &rows[(y + j) * ow..(y + j + 1) * ow];
+    let mut out = Vec::with_capacity(ow * oh);
+    for y in 0..oh {
+        let start = out.len();
+        out.extend(rows[y * ow..(y + 1) * ow].iter().map(|v| 0.0 + first * v));
+        let row = &mut out[start..];
+        for (j, g) in rest.iter().enumerate() {
+            let src = &rows[(y + j + 1) * ow..(y + j + 2) * ow];
             row.iter_mut().zip(src).for_each(|(r, v)| *r += g * v);
         }
     }
