@@ -365,10 +365,15 @@ fn binned_esf(region: &Region, line: EdgeLine, oversampling: usize) -> Result<(V
         let edge = line.x_at(y as f64 + 0.5);
         for x in 0..w {
             let distance = (x as f64 + 0.5 - edge) * cos;
-            let bin = ((distance + half_width) * os).floor();
-            if bin >= 0.0 && (bin as usize) < bins {
-                sums[bin as usize] += region.data[y * w + x];
-                counts[bin as usize] += 1;
+            let position = (distance + half_width) * os;
+            // For a position >= 0 the integer conversion is its floor (without the libm call of
+            // `f64::floor` on x86-64's baseline); negative and NaN positions fall outside every bin.
+            if position >= 0.0 {
+                let bin = position as usize;
+                if bin < bins {
+                    sums[bin] += region.data[y * w + x];
+                    counts[bin] += 1;
+                }
             }
         }
     }
