@@ -115,7 +115,7 @@ impl Kernel {
 /// `n` zeros, written now. `vec![0.0; n]` asks the allocator for zeroed memory, which the kernel maps
 /// as its shared zero page until the first write; kernels and grids are then accumulated into (read,
 /// then written), so every page faults twice and the second fault flushes the page from the other
-/// threads' TLBs (an inter-processor interrupt, costly in a VM: ~10% of a whole `unicac ode` process).
+/// threads' TLBs (an inter-processor interrupt, costly in a VM: with SSIM's filter, ~14% of a whole `unicac ode` process).
 /// Writing the zeros up front takes one ordinary fault per page.
 pub fn written_zeros(n: usize) -> Vec<f32> {
     let mut zeros = Vec::with_capacity(n);

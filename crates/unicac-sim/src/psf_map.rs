@@ -121,7 +121,7 @@ pub fn rotate(kernel: &Kernel, angle: f64) -> Kernel {
     let centre = kernel.half();
     let half = centre as f64;
     let span = ((support_px + 2.0).ceil() as usize).min(centre);
-    let targets = centre - span..(centre + span + 1).min(size);
+    let targets = centre - span..=centre + span;
     for row in targets.clone() {
         for column in targets.clone() {
             rotated.data[row * size + column] = rotated_sample(kernel, half, (sin, cos), row, column);

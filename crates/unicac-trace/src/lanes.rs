@@ -494,6 +494,7 @@ fn conic_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
                 v.and(v.eq(denominator, zero), v.not(f_zero)),
             )
         } else {
+            // No lane fails on the denominator: every f is 0, so !f_zero is the all-false mask.
             (zero, v.not(f_zero))
         };
         let hx = v.add(x, v.mul(t, l));
