@@ -4,7 +4,8 @@
 //! wavelength, paraxial aiming), timed on 1 and on 2 threads (median of 15 runs after one warm-up), at
 //! every SIMD level the CPU supports (`"simd"`; the widest is what `trace_rays` uses).
 //!
-//! Run: cargo run --release -p unicac-trace --example throughput [LENS...]
+//! Run: cargo run --release -p unicac-trace --example throughput [LENS...] [LEVEL...]
+//! (LEVEL: portable, avx2, avx512; default every level the CPU supports).
 
 use rayon::prelude::*;
 use std::time::Instant;
@@ -47,17 +48,26 @@ fn median_seconds(system: &TraceSystem, rays: &[Ray], threads: usize, level: Sim
     (times[RUNS / 2], ok)
 }
 
+fn is_level(arg: &str) -> bool {
+    ["portable", "avx2", "avx512"].contains(&arg)
+}
+
 fn main() {
-    let only: Vec<String> = std::env::args().skip(1).collect();
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let levels: Vec<SimdLevel> = SimdLevel::supported()
+        .into_iter()
+        .filter(|level| !args.iter().any(|a| is_level(a)) || args.iter().any(|a| a == level.name()))
+        .collect();
+    let lenses: Vec<&String> = args.iter().filter(|a| !is_level(a)).collect();
     for name in ["cooke_triplet", "phone_asphere"]
         .into_iter()
-        .filter(|n| only.is_empty() || only.iter().any(|o| o == n))
+        .filter(|n| lenses.is_empty() || lenses.iter().any(|o| o == n))
     {
         let lens = examples::lens(name).unwrap();
         let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
         let rays = axis_and_edge_rays(&lens, RAYS, 12345).unwrap();
         let surfaces = lens.surfaces.len();
-        for level in SimdLevel::supported() {
+        for &level in &levels {
             for threads in [1, 2] {
                 let (seconds, ok) = median_seconds(&system, &rays, threads, level);
                 println!(
