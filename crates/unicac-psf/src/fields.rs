@@ -73,26 +73,58 @@ pub struct CommonSizePsfs {
     pub requested_kernel_px: usize,
 }
 
+/// One field traced but not yet rasterised: its reference point and hits per wavelength. Callers
+/// that choose more fields after seeing some (the simulator's adaptive radial samples) trace in
+/// rounds and rasterise once, at the size the largest spot of all of them asks for.
+#[derive(Debug, Clone)]
+pub struct TracedField {
+    pub field_deg: f64,
+    pub reference_mm: [f64; 2],
+    pub hits: Vec<FieldHits>,
+}
+
+impl TracedField {
+    /// No ray of any wavelength reached the image.
+    pub fn is_dark(&self) -> bool {
+        self.hits.iter().all(|h| h.offsets_um.is_empty())
+    }
+}
+
 impl PsfTracer {
     /// Reference point and hits of every field (in parallel).
-    fn trace_fields(&self, fields_deg: &[f64]) -> PsfResult<Vec<([f64; 2], Vec<FieldHits>)>> {
+    pub fn trace_fields(&self, fields_deg: &[f64]) -> PsfResult<Vec<TracedField>> {
         fields_deg
             .par_iter()
-            .map(|&field| {
-                let reference = self.reference_point_mm(field)?;
-                Ok((reference, self.hits(field, reference)?))
+            .map(|&field_deg| {
+                let reference_mm = self.reference_point_mm(field_deg)?;
+                Ok(TracedField {
+                    field_deg,
+                    reference_mm,
+                    hits: self.hits(field_deg, reference_mm)?,
+                })
             })
             .collect()
     }
 
     /// Kernel size (odd, px, before the cap) holding the energy fraction of the largest traced spot,
     /// dark fields included (they ask for 1 px).
-    fn largest_kernel_px(&self, traced: &[([f64; 2], Vec<FieldHits>)]) -> usize {
+    pub fn largest_kernel_px(&self, traced: &[TracedField]) -> usize {
         traced
             .iter()
-            .map(|(_, hits)| self.kernel_size_for(hits))
+            .map(|field| self.kernel_size_for(&field.hits))
             .max()
             .unwrap_or(1)
+    }
+
+    /// `field` rasterised at `size` px (capped at `PsfSettings::max_kernel_px`).
+    pub fn rasterise_field(&self, field: &TracedField, size: usize, monochromatic: bool) -> FieldPsf {
+        self.kernels_from_hits(
+            field.field_deg,
+            field.reference_mm,
+            &field.hits,
+            size,
+            monochromatic,
+        )
     }
 
     /// R, G, B (or monochromatic) kernels of every field at one common size, from the largest spot.
@@ -103,34 +135,40 @@ impl PsfTracer {
         dark: DarkFields,
     ) -> PsfResult<CommonSizePsfs> {
         let traced = self.trace_fields(fields_deg)?;
-        let dark_field = |hits: &[FieldHits]| hits.iter().all(|h| h.offsets_um.is_empty());
+        self.rasterise_common_size(&traced, monochromatic, dark)
+    }
+
+    /// Traced fields rasterised at one common size, from the largest spot (dark fields as `dark` says).
+    pub fn rasterise_common_size(
+        &self,
+        traced: &[TracedField],
+        monochromatic: bool,
+        dark: DarkFields,
+    ) -> PsfResult<CommonSizePsfs> {
         match dark {
             DarkFields::Refused => {
-                for (&field, (_, hits)) in fields_deg.iter().zip(&traced) {
-                    self.require_arrivals(field, hits)?;
+                for field in traced {
+                    self.require_arrivals(field.field_deg, &field.hits)?;
                 }
             }
             DarkFields::AllowedIfAnyLit => {
-                if traced.iter().all(|(_, hits)| dark_field(hits)) {
+                if traced.iter().all(TracedField::is_dark) {
                     return Err(PsfError::AllFieldsVignetted {
-                        max_field_deg: fields_deg.last().copied().unwrap_or(0.0),
+                        max_field_deg: traced.last().map_or(0.0, |field| field.field_deg),
                         rays_traced: traced
                             .iter()
-                            .flat_map(|(_, hits)| hits)
+                            .flat_map(|field| &field.hits)
                             .map(|h| h.counts.total())
                             .sum(),
                     });
                 }
             }
         }
-        let requested_kernel_px = self.largest_kernel_px(&traced);
+        let requested_kernel_px = self.largest_kernel_px(traced);
         let kernel_px = requested_kernel_px.min(self.settings().max_kernel_px);
-        let psfs = fields_deg
+        let psfs = traced
             .par_iter()
-            .zip(&traced)
-            .map(|(&field, (reference, hits))| {
-                self.kernels_from_hits(field, *reference, hits, kernel_px, monochromatic)
-            })
+            .map(|field| self.rasterise_field(field, kernel_px, monochromatic))
             .collect();
         Ok(CommonSizePsfs {
             psfs,
@@ -295,8 +333,9 @@ impl FieldPsfRequest {
                 let tracer = WavePsfTracer::new(lens, weights.clone(), WavePsfSettings::new(pixel_um))?;
                 let mut psfs = Vec::with_capacity(self.fields_deg.len());
                 let mut undersampled = false;
-                for (&field, (reference, _)) in self.fields_deg.iter().zip(&traced) {
-                    let detailed = tracer.field_psf_detailed(field, *reference, size, mono)?;
+                for field in &traced {
+                    let detailed =
+                        tracer.field_psf_detailed(field.field_deg, field.reference_mm, size, mono)?;
                     undersampled |= detailed.undersampled;
                     psfs.push(detailed.psf);
                 }

@@ -19,7 +19,7 @@ pub use cache::{cache_root, lens_fingerprint, PsfCache};
 pub use error::{PsfError, PsfResult};
 pub use fields::{
     weights_for, CommonSizePsfs, DarkFields, FieldPsfRequest, FieldPsfResponse, PsfMetadata, PsfMode,
-    PsfReport, DEFAULT_PIXEL_UM, DEFAULT_WAVELENGTHS, MIN_WAVE_KERNEL_PX,
+    PsfReport, TracedField, DEFAULT_PIXEL_UM, DEFAULT_WAVELENGTHS, MIN_WAVE_KERNEL_PX,
 };
 pub use geometric::{
     check_kernel_cap, ChiefReference, FieldHits, FieldPsf, PsfSettings, PsfTracer, KERNEL_PX_LIMIT,

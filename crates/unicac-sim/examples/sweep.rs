@@ -4,8 +4,8 @@
 //! only). Error: PSNR (dB) of the simulated linear image against the reference, and the mean L1
 //! difference of the on-axis and corner G kernels (kernels of different sizes are compared centred).
 //!
-//! Run: cargo run --release -p unicac-sim --example sweep [LENS] [WIDTHxHEIGHT] (default phone_asphere
-//! 640x480)
+//! Run: cargo run --release -p unicac-sim --example sweep [LENS] [WIDTHxHEIGHT] [KNOB] (default
+//! phone_asphere 640x480, every knob; KNOB: a part of a knob's name)
 
 use std::time::Instant;
 use unicac_image::charts::dead_leaves;
@@ -13,7 +13,8 @@ use unicac_image::Planar;
 use unicac_optics::examples;
 use unicac_psf::Kernel;
 use unicac_sim::convolve::{Blend, Method};
-use unicac_sim::{LensSimulator, SimulationSettings};
+use unicac_sim::psf_map::RADIAL_GRID;
+use unicac_sim::{LensSimulator, RadialSampling, SimulationSettings};
 use unicac_trace::PupilSampling;
 
 /// One knob: a label per setting, the first being the high-fidelity reference.
@@ -41,9 +42,38 @@ fn knobs() -> Vec<Knob> {
             s.psf.pupil_sampling = PupilSampling::Fibonacci { n: v }
         }),
         numeric("wavelengths", &[61, 5, 11, 21, 31], |s, v| s.wavelengths = v),
-        numeric("radial PSF samples", &[49, 9, 17, 33], |s, v| {
-            s.radial_samples = v
-        }),
+        Knob {
+            name: "radial tolerance (half-L1 at a midpoint)",
+            // Tolerance 0 halves every interval while the budget lasts: 9, 17, 33 or 65 uniform samples.
+            values: [
+                (0.0, RADIAL_GRID + 1),
+                (0.0, 9),
+                (0.0, 17),
+                (0.0, 33),
+                (0.1, 33),
+                (0.05, 33),
+                (0.02, 33),
+                (0.01, 33),
+            ]
+            .iter()
+            .map(|&(tolerance, max_samples)| {
+                let label = if tolerance == 0.0 {
+                    format!("0: {max_samples} uniform samples")
+                } else {
+                    format!("{tolerance}, at most {max_samples} samples")
+                };
+                (
+                    label,
+                    with(|s| {
+                        s.radial = RadialSampling {
+                            max_samples,
+                            tolerance,
+                        }
+                    }),
+                )
+            })
+            .collect(),
+        },
         numeric("node intervals (longer side)", &[80, 5, 10, 20, 40], |s, v| {
             s.node_intervals = v
         }),
@@ -125,6 +155,7 @@ fn main() {
         .split_once('x')
         .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
         .expect("size as WIDTHxHEIGHT");
+    let only = args.next().unwrap_or_default();
     let lens = examples::lens(&name).unwrap();
     let chart = dead_leaves(width, height, 7).unwrap();
     let run = |s: &SimulationSettings| {
@@ -149,21 +180,24 @@ fn main() {
         "lens {name}, image {width}x{height}, {} threads; each knob against its own high-fidelity value, the others at their defaults",
         rayon::current_num_threads()
     );
-    println!("| knob | value | kernel px | seconds | PSNR vs reference (dB) | G kernel L1, axis + corner |");
-    println!("|---|---|---|---|---|---|");
-    for knob in knobs() {
+    println!("| knob | value | kernel px | radial PSFs | seconds | PSNR vs reference (dB) | G kernel L1, axis + corner |");
+    println!("|---|---|---|---|---|---|---|");
+    for knob in knobs().into_iter().filter(|k| k.name.contains(&only)) {
         let (reference_label, reference_settings) = &knob.values[0];
         let (reference_s, reference, reference_sim) = run(reference_settings);
         println!(
-            "| {} | {reference_label} (reference) | {} | {reference_s:.2} | - | - |",
-            knob.name, reference_sim.radial.kernel_size
+            "| {} | {reference_label} (reference) | {} | {} | {reference_s:.2} | - | - |",
+            knob.name,
+            reference_sim.radial.kernel_size,
+            reference_sim.radial.radii_mm.len()
         );
         for (label, settings) in &knob.values[1..] {
             let (seconds, out, sim) = run(settings);
             println!(
-                "| {} | {label} | {} | {seconds:.2} | {:.1} | {:.4} |",
+                "| {} | {label} | {} | {} | {seconds:.2} | {:.1} | {:.4} |",
                 knob.name,
                 sim.radial.kernel_size,
+                sim.radial.radii_mm.len(),
                 psnr(&out, &reference),
                 kernels_l1(&sim, &reference_sim)
             );

@@ -1,52 +1,167 @@
 //! PSFs over the sensor. A rotationally symmetric lens needs PSFs along one radius only (sensor +y);
 //! the PSF at any other point is the radial PSF at its distance from the axis, interpolated linearly
 //! between the two nearest radial samples and rotated to its azimuth.
+//!
+//! The radial samples follow the PSF (`RadialSampling`): a coarse uniform set first, then every interval
+//! over which linear interpolation errs by more than a tolerance at its midpoint is halved, so samples
+//! are dense only where the PSF changes fast (usually towards the corner), up to a stated count.
 
 use crate::chief::ChiefRayMap;
 use crate::error::SimResult;
 use serde::Serialize;
-use unicac_psf::{DarkFields, FieldPsf, Kernel, PsfTracer};
+use std::collections::BTreeMap;
+use unicac_psf::{DarkFields, FieldPsf, Kernel, PsfTracer, TracedField};
+
+/// Intervals of the uniform start of the radial refinement (5 samples; 9 once their midpoints are in).
+pub const INITIAL_RADIAL_INTERVALS: usize = 4;
+/// Finest radial step, as a fraction of the radius: every sample sits at k / `RADIAL_GRID` of it, so
+/// at most `RADIAL_GRID` + 1 samples, and the cache can rebuild each radius exactly from its field angle.
+pub const RADIAL_GRID: usize = 64;
+
+/// Default radial sampling: 17 uniform samples (tolerance 0 halves every interval while the budget
+/// lasts). On the bundled lenses a tolerance buys no image PSNR per second over uniform samples
+/// (docs/performance.md, the sweep's radial rows); it guards lenses whose PSF changes abruptly.
+pub const DEFAULT_RADIAL_SAMPLING: RadialSampling = RadialSampling {
+    max_samples: 17,
+    tolerance: 0.0,
+};
+
+/// Where the radial PSF samples go (defaults at the knee of the sweep in docs/performance.md).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RadialSampling {
+    /// Most radial samples traced (>= `INITIAL_RADIAL_INTERVALS` + 1; at most `RADIAL_GRID` + 1 are used).
+    pub max_samples: usize,
+    /// An interval is halved while the PSF interpolated at its midpoint differs from the PSF traced
+    /// there by more than this half-L1 distance (0: equal kernels, 1: disjoint), largest channel; every
+    /// output pixel then moves by at most twice it times the image's largest value. 0 halves every
+    /// interval while `max_samples` lasts: 5, 9, 17, 33 or 65 uniform samples.
+    pub tolerance: f64,
+}
 
 /// Radial PSF samples from the axis to the sensor's half-diagonal.
 #[derive(Debug, Clone, Serialize)]
 pub struct RadialPsfs {
+    /// Increasing, from 0 to the half-diagonal.
     pub radii_mm: Vec<f64>,
     pub psfs: Vec<FieldPsf>,
     pub kernel_size: usize,
     /// Kernel size the spots asked for before the cap (equal to `kernel_size` unless capped).
     pub requested_kernel_size: usize,
+    /// The largest midpoint error (half-L1, as `RadialSampling::tolerance`) of the checks that ended the
+    /// refinement: at most the tolerance unless the sample count or the finest step stopped it (the
+    /// intervals left are halves of the checked ones). `None` when nothing was checked (tolerance 0)
+    /// or the map was rebuilt from the cache.
+    pub checked_half_l1: Option<f64>,
+}
+
+/// One interval of the radial grid waiting for its midpoint check, with its parent's error (the
+/// order in which a short sample budget is spent).
+struct Interval {
+    lo: usize,
+    hi: usize,
+    parent_error: f64,
 }
 
 impl RadialPsfs {
-    /// Traces `samples` radial PSFs (evenly spaced from 0 to `max_radius_mm`), sizing one common
-    /// kernel for all of them from the largest spot.
+    /// Traces the radial PSFs from 0 to `max_radius_mm` with samples placed by `sampling`, sizing one
+    /// common kernel for all of them from the largest spot.
     pub fn trace(
         tracer: &PsfTracer,
         chief: &ChiefRayMap,
         max_radius_mm: f64,
-        samples: usize,
+        sampling: RadialSampling,
         monochromatic: bool,
     ) -> SimResult<RadialPsfs> {
-        let samples = samples.max(2);
-        let radii_mm: Vec<f64> = (0..samples)
-            .map(|i| max_radius_mm * i as f64 / (samples - 1) as f64)
-            .collect();
-        let angles: Vec<f64> = radii_mm.iter().map(|&r| chief.angle_for_height(r)).collect();
+        let radius = |k: usize| grid_radius(max_radius_mm, k);
+        let trace_at = |ks: &[usize]| {
+            let angles: Vec<f64> = ks.iter().map(|&k| chief.angle_for_height(radius(k))).collect();
+            tracer.trace_fields(&angles)
+        };
+        let step = RADIAL_GRID / INITIAL_RADIAL_INTERVALS;
+        let initial: Vec<usize> = (0..=INITIAL_RADIAL_INTERVALS).map(|i| i * step).collect();
+        let first = trace_at(&initial)?;
         // A lens that lights no field at all fails here with PsfError::AllFieldsVignetted (one error
-        // kind for it, whichever stage finds it).
-        let set = tracer.common_size_psfs(&angles, monochromatic, DarkFields::AllowedIfAnyLit)?;
-        let (psfs, kernel_size, requested_kernel_size) = (set.psfs, set.kernel_px, set.requested_kernel_px);
+        // kind for it, whichever stage finds it); the checks rasterise at the first samples' size (the
+        // corner's spot is nearly always the largest) and the result at the size of all of them.
+        let check_px = tracer
+            .rasterise_common_size(&first, monochromatic, DarkFields::AllowedIfAnyLit)?
+            .kernel_px;
+        let mut checked: BTreeMap<usize, FieldPsf> = BTreeMap::new();
+        let mut traced: BTreeMap<usize, TracedField> = BTreeMap::new();
+        for (k, field) in initial.iter().zip(first) {
+            if sampling.tolerance > 0.0 {
+                checked.insert(*k, tracer.rasterise_field(&field, check_px, monochromatic));
+            }
+            traced.insert(*k, field);
+        }
+        let mut pending: Vec<Interval> = initial
+            .windows(2)
+            .map(|pair| Interval {
+                lo: pair[0],
+                hi: pair[1],
+                parent_error: f64::INFINITY,
+            })
+            .collect();
+        let mut checked_half_l1 = 0.0f64;
+        let budget = sampling.max_samples.max(INITIAL_RADIAL_INTERVALS + 1);
+        while !pending.is_empty() {
+            // Largest errors first when the budget cannot cover every interval; intervals at the
+            // finest step, or beyond the budget, stay as they are with their parent's error.
+            pending.sort_by(|a, b| b.parent_error.total_cmp(&a.parent_error));
+            let mut room = budget.saturating_sub(traced.len());
+            let mut now = Vec::new();
+            for interval in pending {
+                if room > 0 && interval.hi - interval.lo >= 2 {
+                    room -= 1;
+                    now.push(interval);
+                } else if interval.parent_error.is_finite() {
+                    checked_half_l1 = checked_half_l1.max(interval.parent_error);
+                }
+            }
+            let middles: Vec<usize> = now.iter().map(|i| (i.lo + i.hi) / 2).collect();
+            let fields = trace_at(&middles)?;
+            pending = Vec::new();
+            for ((interval, k), field) in now.iter().zip(&middles).zip(fields) {
+                // Tolerance 0 halves every interval (uniform samples): nothing to check.
+                let error = if sampling.tolerance > 0.0 {
+                    let psf = tracer.rasterise_field(&field, check_px, monochromatic);
+                    let error = midpoint_half_l1(&checked[&interval.lo], &checked[&interval.hi], &psf);
+                    checked.insert(*k, psf);
+                    error
+                } else {
+                    f64::INFINITY
+                };
+                traced.insert(*k, field);
+                if error > sampling.tolerance {
+                    for (lo, hi) in [(interval.lo, *k), (*k, interval.hi)] {
+                        pending.push(Interval {
+                            lo,
+                            hi,
+                            parent_error: error,
+                        });
+                    }
+                } else {
+                    checked_half_l1 = checked_half_l1.max(error);
+                }
+            }
+        }
+        let radii_mm = traced.keys().map(|&k| radius(k)).collect();
+        let fields: Vec<TracedField> = traced.into_values().collect();
+        let set = tracer.rasterise_common_size(&fields, monochromatic, DarkFields::AllowedIfAnyLit)?;
         Ok(RadialPsfs {
             radii_mm,
-            psfs,
-            kernel_size,
-            requested_kernel_size,
+            psfs: set.psfs,
+            kernel_size: set.kernel_px,
+            requested_kernel_size: set.requested_kernel_px,
+            checked_half_l1: (sampling.tolerance > 0.0).then_some(checked_half_l1),
         })
     }
 
-    /// Rebuilds the map from PSFs traced by `trace` with the same `max_radius_mm` (the cache stores
-    /// only the PSFs); `None` if they do not form one (empty, or kernels of different sizes).
-    pub fn from_psfs(max_radius_mm: f64, psfs: Vec<FieldPsf>) -> Option<RadialPsfs> {
+    /// Rebuilds the map from PSFs traced by `trace` with the same `max_radius_mm` and `chief` (the cache
+    /// stores only the PSFs: each radius is the grid point its field angle lands on); `None` if they do
+    /// not form one (empty, kernels of different sizes, radii off the grid or not increasing from 0 to
+    /// the half-diagonal).
+    pub fn from_psfs(max_radius_mm: f64, chief: &ChiefRayMap, psfs: Vec<FieldPsf>) -> Option<RadialPsfs> {
         let kernel_size = psfs.first()?.kernels.first()?.size;
         if psfs.len() < 2
             || psfs
@@ -56,14 +171,51 @@ impl RadialPsfs {
         {
             return None;
         }
-        let last = (psfs.len() - 1) as f64;
+        let step_mm = max_radius_mm / RADIAL_GRID as f64;
+        let grid_points: Option<Vec<usize>> = psfs
+            .iter()
+            .map(|p| {
+                let position = chief.height_for_angle(p.field_deg) / step_mm;
+                let k = position.round();
+                // The angle came from the same piecewise-linear map: only rounding separates them.
+                ((position - k).abs() < 1e-3 && (0.0..=RADIAL_GRID as f64).contains(&k)).then_some(k as usize)
+            })
+            .collect();
+        let grid_points = grid_points?;
+        if grid_points.first() != Some(&0)
+            || grid_points.last() != Some(&RADIAL_GRID)
+            || grid_points.windows(2).any(|pair| pair[0] >= pair[1])
+        {
+            return None;
+        }
         Some(RadialPsfs {
-            radii_mm: (0..psfs.len()).map(|i| max_radius_mm * i as f64 / last).collect(),
+            radii_mm: grid_points
+                .iter()
+                .map(|&k| grid_radius(max_radius_mm, k))
+                .collect(),
             psfs,
             kernel_size,
             // The cap's request is not kept; `energy_cut` in each PSF still says what was cut.
             requested_kernel_size: kernel_size,
+            checked_half_l1: None,
         })
+    }
+
+    /// The two samples around `radius_mm` and the weight of the second (clamped to the sampled range).
+    fn bracket(&self, radius_mm: f64) -> (usize, usize, f64) {
+        let last = self.radii_mm.len() - 1;
+        let upper = self
+            .radii_mm
+            .partition_point(|&r| r <= radius_mm)
+            .clamp(1, last.max(1));
+        let lower = upper - 1;
+        let span = self.radii_mm[upper.min(last)] - self.radii_mm[lower];
+        let t = if span > 0.0 {
+            ((radius_mm - self.radii_mm[lower]) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (lower, upper.min(last), t)
     }
 
     pub fn channels(&self) -> usize {
@@ -72,14 +224,11 @@ impl RadialPsfs {
 
     /// The PSF of `channel` at sensor point (x, y) mm: radial interpolation, then rotation.
     pub fn kernel_at(&self, x_mm: f64, y_mm: f64, channel: usize) -> Kernel {
-        let radius = x_mm.hypot(y_mm);
-        let last = self.radii_mm.len() - 1;
-        let position = (radius / self.radii_mm[last] * last as f64).clamp(0.0, last as f64);
-        let i = (position.floor() as usize).min(last.saturating_sub(1));
-        let t = (position - i as f64) as f32;
+        let (i, j, t) = self.bracket(x_mm.hypot(y_mm));
+        let t = t as f32;
         let mut radial = Kernel::zeros(self.kernel_size, self.psfs[i].kernels[channel].pitch_um);
         radial.add_scaled(&self.psfs[i].kernels[channel], 1.0 - t);
-        radial.add_scaled(&self.psfs[(i + 1).min(last)].kernels[channel], t);
+        radial.add_scaled(&self.psfs[j].kernels[channel], t);
         // Azimuth measured from sensor +y towards +x.
         let azimuth = x_mm.atan2(y_mm);
         if azimuth.abs() < 1e-12 {
@@ -96,12 +245,33 @@ impl RadialPsfs {
 
     /// Transmission (vignetting) at a radius, interpolated.
     pub fn transmission_at(&self, radius_mm: f64) -> f64 {
-        let last = self.radii_mm.len() - 1;
-        let position = (radius_mm / self.radii_mm[last] * last as f64).clamp(0.0, last as f64);
-        let i = (position.floor() as usize).min(last.saturating_sub(1));
-        let t = position - i as f64;
-        self.psfs[i].transmission * (1.0 - t) + self.psfs[(i + 1).min(last)].transmission * t
+        let (i, j, t) = self.bracket(radius_mm);
+        self.psfs[i].transmission * (1.0 - t) + self.psfs[j].transmission * t
     }
+}
+
+/// Radius (mm) of point k of the radial grid.
+fn grid_radius(max_radius_mm: f64, k: usize) -> f64 {
+    max_radius_mm * k as f64 / RADIAL_GRID as f64
+}
+
+/// Half-L1 distance (largest channel) between the PSF traced at an interval's midpoint and the one
+/// linear interpolation gives there from the interval's ends (all rasterised at one size).
+fn midpoint_half_l1(lo: &FieldPsf, hi: &FieldPsf, middle: &FieldPsf) -> f64 {
+    middle
+        .kernels
+        .iter()
+        .zip(lo.kernels.iter().zip(&hi.kernels))
+        .map(|(m, (a, b))| {
+            let sum: f64 = m
+                .data
+                .iter()
+                .zip(a.data.iter().zip(&b.data))
+                .map(|(&m, (&a, &b))| (m as f64 - 0.5 * (a as f64 + b as f64)).abs())
+                .sum();
+            0.5 * sum
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Rotates a kernel by `angle` (rad) about its centre, taking sensor +y towards +x (clockwise in the

@@ -12,7 +12,7 @@ use crate::convolve::{
 };
 use crate::error::SimResult;
 use crate::geometry::SensorGrid;
-use crate::psf_map::RadialPsfs;
+use crate::psf_map::{RadialPsfs, RadialSampling, DEFAULT_RADIAL_SAMPLING};
 use crate::radial_table::RadialTable;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -29,8 +29,8 @@ pub struct SimulationSettings {
     pub psf: PsfSettings,
     /// Wavelengths from 400 to 700 nm.
     pub wavelengths: usize,
-    /// Radial PSF samples from the axis to the corner.
-    pub radial_samples: usize,
+    /// Where the radial PSF samples from the axis to the corner go (`psf_map::RadialSampling`).
+    pub radial: RadialSampling,
     /// Kernel-node intervals along the image's longer side. Field-relative, so the interpolation error
     /// stays the same at every resolution (the PSF changes over a fraction of the field, not over a
     /// number of pixels); the spacing never drops below `MIN_NODE_SPACING_PX`.
@@ -64,7 +64,7 @@ impl Default for SimulationSettings {
         SimulationSettings {
             psf: PsfSettings::new(1.0),
             wavelengths: 31,
-            radial_samples: 17,
+            radial: DEFAULT_RADIAL_SAMPLING,
             node_intervals: 20,
             method: Method::Auto,
             kernel_tail: KERNEL_TAIL_TOLERANCE,
@@ -146,7 +146,7 @@ impl LensSimulator {
         // The cache key covers everything the radial PSFs depend on, the tracing device included (a GPU f32
         // map is not served to a CPU run): the settings' backend is the one that traces.
         let cache_entry = settings.cache.as_ref().map(|cache| {
-            let inputs = (&psf_settings, tracer.weights(), corner, settings.radial_samples);
+            let inputs = (&psf_settings, tracer.weights(), corner, settings.radial);
             let key = PsfCache::key(&[
                 b"radial",
                 lens_sha256.as_bytes(),
@@ -157,13 +157,13 @@ impl LensSimulator {
         let cached = cache_entry
             .as_ref()
             .and_then(|(cache, key)| cache.load(key))
-            .and_then(|psfs| RadialPsfs::from_psfs(corner, psfs));
+            .and_then(|psfs| RadialPsfs::from_psfs(corner, &chief, psfs));
         let psfs_from_cache = cached.is_some();
         let mut cache_warning = None;
         let radial = match cached {
             Some(radial) => radial,
             None => {
-                let radial = RadialPsfs::trace(&tracer, &chief, corner, settings.radial_samples, false)?;
+                let radial = RadialPsfs::trace(&tracer, &chief, corner, settings.radial, false)?;
                 if let Some((cache, key)) = &cache_entry {
                     // A cache that cannot be written costs the next run time, not this run its result.
                     if let Err(error) = cache.store(key, &radial.psfs) {
@@ -559,7 +559,10 @@ mod tests {
     fn lookups_match_the_exact_per_pixel_evaluation_within_the_stated_bound() {
         let settings = SimulationSettings {
             wavelengths: 5,
-            radial_samples: 9,
+            radial: RadialSampling {
+                max_samples: 9,
+                ..SimulationSettings::default().radial
+            },
             ..SimulationSettings::default()
         };
         // The smallest frame has the largest curvature per pixel, i.e. the largest interpolation error.

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 use unicac_optics::examples;
 use unicac_psf::{CpuHitTracer, HitTracer, PsfResult, RayBackend};
-use unicac_sim::{LensSimulator, PsfCache, SimulationSettings};
+use unicac_sim::{LensSimulator, PsfCache, RadialSampling, SimulationSettings};
 use unicac_trace::{PupilSampling, Ray, RayStatus, TraceSystem};
 
 /// The CPU tracer under another device name, standing in for a GPU.
@@ -25,7 +25,10 @@ fn a_second_run_loads_the_map_and_another_device_traces_again() {
     let dir = std::env::temp_dir().join(format!("unicac-sim-cache-{}", std::process::id()));
     let mut settings = SimulationSettings {
         wavelengths: 5,
-        radial_samples: 4,
+        radial: RadialSampling {
+            max_samples: 5,
+            ..SimulationSettings::default().radial
+        },
         cache: Some(PsfCache::new(&dir)),
         ..Default::default()
     };

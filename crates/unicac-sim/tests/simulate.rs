@@ -4,13 +4,16 @@ use unicac_image::Planar;
 use unicac_optics::examples;
 use unicac_psf::Kernel;
 use unicac_sim::psf_map::rotate;
-use unicac_sim::{ChiefRayMap, LensSimulator, PixelWindow, SimulationSettings};
+use unicac_sim::{ChiefRayMap, LensSimulator, PixelWindow, RadialSampling, SimulationSettings};
 use unicac_trace::PupilSampling;
 
 fn quick_settings() -> SimulationSettings {
     let mut settings = SimulationSettings {
         wavelengths: 7,
-        radial_samples: 6,
+        radial: RadialSampling {
+            max_samples: 6,
+            ..SimulationSettings::default().radial
+        },
         node_intervals: 4,
         ..Default::default()
     };
@@ -168,6 +171,88 @@ fn radial_interpolation_error_at_the_default_sampling_is_within_its_stated_bound
         );
         assert!(worst < 0.08 && mean < 0.03, "{name}: worst {worst}, mean {mean}");
     }
+}
+
+/// The tracer and chief-ray map `LensSimulator` builds for `lens` at 640 x 480 with `settings`.
+fn tracer_for(
+    lens: &unicac_optics::Lens,
+    settings: &SimulationSettings,
+) -> (LensSimulator, unicac_psf::PsfTracer) {
+    let sim = LensSimulator::new(lens, 640, 480, None, settings.clone()).unwrap();
+    let mut psf_settings = settings.psf.clone();
+    psf_settings.pixel_um = sim.grid.pitch_um;
+    let weights = unicac_psf::SpectralWeights::new(
+        &settings.response,
+        &unicac_psf::visible_wavelengths_um(settings.wavelengths),
+    );
+    let tracer = unicac_psf::PsfTracer::new(lens, weights, psf_settings).unwrap();
+    (sim, tracer)
+}
+
+#[test]
+fn refinement_places_samples_where_the_psf_changes_fast_within_its_checked_bound() {
+    // A tolerance of 0.02 (half-L1 at each interval's midpoint) on the Cooke triplet, whose PSF changes
+    // fastest at the edge of the field: the refinement stops below the sample budget, reports a checked
+    // bound within the tolerance, samples the edge more densely than the axis, and the PSFs traced at
+    // the final intervals' midpoints are within the tolerance of the interpolated ones.
+    let tolerance = 0.02;
+    let settings = SimulationSettings {
+        radial: RadialSampling {
+            max_samples: 33,
+            tolerance,
+        },
+        ..SimulationSettings::default()
+    };
+    let lens = examples::lens("cooke_triplet").unwrap();
+    let (sim, tracer) = tracer_for(&lens, &settings);
+    let radii = &sim.radial.radii_mm;
+    assert!(radii.len() < 33 && radii.len() > 9, "{} samples", radii.len());
+    let checked = sim.radial.checked_half_l1.expect("a tolerance checks");
+    assert!(checked <= tolerance, "checked {checked}");
+    let widths: Vec<f64> = radii.windows(2).map(|pair| pair[1] - pair[0]).collect();
+    assert!(widths[widths.len() - 1] < widths[0] / 2.0, "widths {widths:?}");
+    let worst = radii
+        .windows(2)
+        .map(|pair| {
+            let middle = (pair[0] + pair[1]) / 2.0;
+            let angle = sim.chief.angle_for_height(middle);
+            let reference = tracer.reference_point_mm(angle).unwrap();
+            let hits = tracer.hits(angle, reference).unwrap();
+            let traced = tracer.kernels_from_hits(angle, reference, &hits, sim.radial.kernel_size, false);
+            (0..3)
+                .map(|c| half_l1(&sim.radial.kernel_at(0.0, middle, c), &traced.kernels[c]))
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max);
+    println!(
+        "{} samples, checked {checked:.4}, final midpoints worst {worst:.4}",
+        radii.len()
+    );
+    assert!(worst <= tolerance, "worst {worst}");
+}
+
+#[test]
+fn refined_radii_come_back_exactly_from_the_cache() {
+    // The cache keeps the PSFs only; each radius is rebuilt from its field angle on the radial grid.
+    let mut settings = quick_settings();
+    settings.radial = RadialSampling {
+        max_samples: 33,
+        tolerance: 0.02,
+    };
+    let lens = examples::lens("cooke_triplet").unwrap();
+    let (sim, _) = tracer_for(&lens, &settings);
+    let corner = *sim.radial.radii_mm.last().unwrap();
+    let rebuilt = unicac_sim::RadialPsfs::from_psfs(corner, &sim.chief, sim.radial.psfs.clone()).unwrap();
+    assert_eq!(rebuilt.radii_mm, sim.radial.radii_mm);
+    assert!(
+        sim.radial.radii_mm.len() > 5,
+        "refined: {:?}",
+        sim.radial.radii_mm
+    );
+    // PSFs that do not sit on the grid are no map: the cache entry is ignored, not misread.
+    let mut shifted = sim.radial.psfs.clone();
+    shifted[1].field_deg += 0.3;
+    assert!(unicac_sim::RadialPsfs::from_psfs(corner, &sim.chief, shifted).is_none());
 }
 
 #[test]
