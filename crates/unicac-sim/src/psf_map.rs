@@ -72,88 +72,33 @@ impl RadialPsfs {
         sampling: RadialSampling,
         monochromatic: bool,
     ) -> SimResult<RadialPsfs> {
-        let radius = |k: usize| grid_radius(max_radius_mm, k);
-        let trace_at = |ks: &[usize]| {
-            let angles: Vec<f64> = ks.iter().map(|&k| chief.angle_for_height(radius(k))).collect();
+        let trace_at = |points: &[usize]| {
+            let angles: Vec<f64> = points
+                .iter()
+                .map(|&k| chief.angle_for_height(grid_radius(max_radius_mm, k)))
+                .collect();
             tracer.trace_fields(&angles)
         };
-        let step = RADIAL_GRID / INITIAL_RADIAL_INTERVALS;
-        let initial: Vec<usize> = (0..=INITIAL_RADIAL_INTERVALS).map(|i| i * step).collect();
-        let first = trace_at(&initial)?;
-        // A lens that lights no field at all fails here with PsfError::AllFieldsVignetted (one error
-        // kind for it, whichever stage finds it); the checks rasterise at the first samples' size (the
-        // corner's spot is nearly always the largest) and the result at the size of all of them.
-        let check_px = tracer
-            .rasterise_common_size(&first, monochromatic, DarkFields::AllowedIfAnyLit)?
-            .kernel_px;
-        let mut checked: BTreeMap<usize, FieldPsf> = BTreeMap::new();
-        let mut traced: BTreeMap<usize, TracedField> = BTreeMap::new();
-        for (k, field) in initial.iter().zip(first) {
-            if sampling.tolerance > 0.0 {
-                checked.insert(*k, tracer.rasterise_field(&field, check_px, monochromatic));
-            }
-            traced.insert(*k, field);
-        }
-        let mut pending: Vec<Interval> = initial
-            .windows(2)
-            .map(|pair| Interval {
-                lo: pair[0],
-                hi: pair[1],
-                parent_error: f64::INFINITY,
-            })
-            .collect();
-        let mut checked_half_l1 = 0.0f64;
-        let budget = sampling.max_samples.max(INITIAL_RADIAL_INTERVALS + 1);
-        while !pending.is_empty() {
-            // Largest errors first when the budget cannot cover every interval; intervals at the
-            // finest step, or beyond the budget, stay as they are with their parent's error.
-            pending.sort_by(|a, b| b.parent_error.total_cmp(&a.parent_error));
-            let mut room = budget.saturating_sub(traced.len());
-            let mut now = Vec::new();
-            for interval in pending {
-                if room > 0 && interval.hi - interval.lo >= 2 {
-                    room -= 1;
-                    now.push(interval);
-                } else if interval.parent_error.is_finite() {
-                    checked_half_l1 = checked_half_l1.max(interval.parent_error);
-                }
-            }
-            let middles: Vec<usize> = now.iter().map(|i| (i.lo + i.hi) / 2).collect();
-            let fields = trace_at(&middles)?;
-            pending = Vec::new();
-            for ((interval, k), field) in now.iter().zip(&middles).zip(fields) {
-                // Tolerance 0 halves every interval (uniform samples): nothing to check.
-                let error = if sampling.tolerance > 0.0 {
-                    let psf = tracer.rasterise_field(&field, check_px, monochromatic);
-                    let error = midpoint_half_l1(&checked[&interval.lo], &checked[&interval.hi], &psf);
-                    checked.insert(*k, psf);
-                    error
-                } else {
-                    f64::INFINITY
-                };
-                traced.insert(*k, field);
-                if error > sampling.tolerance {
-                    for (lo, hi) in [(interval.lo, *k), (*k, interval.hi)] {
-                        pending.push(Interval {
-                            lo,
-                            hi,
-                            parent_error: error,
-                        });
-                    }
-                } else {
-                    checked_half_l1 = checked_half_l1.max(error);
-                }
-            }
-        }
-        let radii_mm = traced.keys().map(|&k| radius(k)).collect();
+        let (traced, checked_half_l1) = if sampling.tolerance > 0.0 {
+            let (traced, checked) = refine(tracer, &trace_at, sampling, monochromatic)?;
+            (traced, Some(checked))
+        } else {
+            // Uniform: every sample is known up front and traced in one parallel batch.
+            let points = halved_grid_points(sampling.max_samples);
+            let fields = trace_at(&points)?;
+            (points.into_iter().zip(fields).collect(), None)
+        };
+        let radii_mm = traced.keys().map(|&k| grid_radius(max_radius_mm, k)).collect();
         let fields: Vec<TracedField> = traced.into_values().collect();
+        // A lens that lights no field at all fails here with PsfError::AllFieldsVignetted (one error
+        // kind for it, whichever stage finds it).
         let set = tracer.rasterise_common_size(&fields, monochromatic, DarkFields::AllowedIfAnyLit)?;
         Ok(RadialPsfs {
             radii_mm,
             psfs: set.psfs,
             kernel_size: set.kernel_px,
             requested_kernel_size: set.requested_kernel_px,
-            checked_half_l1: (sampling.tolerance > 0.0).then_some(checked_half_l1),
+            checked_half_l1,
         })
     }
 
@@ -253,6 +198,96 @@ impl RadialPsfs {
 /// Radius (mm) of point k of the radial grid.
 fn grid_radius(max_radius_mm: f64, k: usize) -> f64 {
     max_radius_mm * k as f64 / RADIAL_GRID as f64
+}
+
+/// The first samples of every refinement: `INITIAL_RADIAL_INTERVALS` + 1 uniform grid points.
+fn initial_grid_points() -> Vec<usize> {
+    let step = RADIAL_GRID / INITIAL_RADIAL_INTERVALS;
+    (0..=INITIAL_RADIAL_INTERVALS).map(|i| i * step).collect()
+}
+
+/// Grid points of at most `budget` samples (at least the initial ones) placed by halving every interval,
+/// level by level and from the axis outwards, while the budget lasts: uniform when it is 2^n + 1.
+fn halved_grid_points(budget: usize) -> Vec<usize> {
+    let mut points = initial_grid_points();
+    let mut intervals: Vec<(usize, usize)> = points.windows(2).map(|pair| (pair[0], pair[1])).collect();
+    while !intervals.is_empty() {
+        let mut next = Vec::new();
+        for (lo, hi) in intervals {
+            if points.len() < budget && hi - lo >= 2 {
+                let middle = (lo + hi) / 2;
+                points.push(middle);
+                next.extend([(lo, middle), (middle, hi)]);
+            }
+        }
+        intervals = next;
+    }
+    points.sort_unstable();
+    points
+}
+
+/// The refinement of `RadialSampling` with a tolerance: the traced fields by grid point, and the
+/// checked bound (`RadialPsfs::checked_half_l1`).
+fn refine(
+    tracer: &PsfTracer,
+    trace_at: &dyn Fn(&[usize]) -> unicac_psf::PsfResult<Vec<TracedField>>,
+    sampling: RadialSampling,
+    monochromatic: bool,
+) -> SimResult<(BTreeMap<usize, TracedField>, f64)> {
+    let initial = initial_grid_points();
+    let first = trace_at(&initial)?;
+    // The checks compare kernels at the first samples' common size (the corner's spot is nearly
+    // always the largest); the result is rasterised again at the size of all samples.
+    let start = tracer.rasterise_common_size(&first, monochromatic, DarkFields::AllowedIfAnyLit)?;
+    let check_px = start.kernel_px;
+    let mut checked: BTreeMap<usize, FieldPsf> = initial.iter().copied().zip(start.psfs).collect();
+    let mut traced: BTreeMap<usize, TracedField> = initial.iter().copied().zip(first).collect();
+    let mut pending: Vec<Interval> = initial
+        .windows(2)
+        .map(|pair| Interval {
+            lo: pair[0],
+            hi: pair[1],
+            parent_error: f64::INFINITY,
+        })
+        .collect();
+    let mut checked_half_l1 = 0.0f64;
+    let budget = sampling.max_samples.max(initial.len());
+    while !pending.is_empty() {
+        // Largest errors first when the budget cannot cover every interval; intervals at the finest
+        // step, or beyond the budget, stay as they are with their parent's error.
+        pending.sort_by(|a, b| b.parent_error.total_cmp(&a.parent_error));
+        let mut room = budget.saturating_sub(traced.len());
+        let mut now = Vec::new();
+        for interval in pending {
+            if room > 0 && interval.hi - interval.lo >= 2 {
+                room -= 1;
+                now.push(interval);
+            } else if interval.parent_error.is_finite() {
+                checked_half_l1 = checked_half_l1.max(interval.parent_error);
+            }
+        }
+        let middles: Vec<usize> = now.iter().map(|i| (i.lo + i.hi) / 2).collect();
+        let fields = trace_at(&middles)?;
+        pending = Vec::new();
+        for ((interval, &k), field) in now.iter().zip(&middles).zip(fields) {
+            let psf = tracer.rasterise_field(&field, check_px, monochromatic);
+            let error = midpoint_half_l1(&checked[&interval.lo], &checked[&interval.hi], &psf);
+            checked.insert(k, psf);
+            traced.insert(k, field);
+            if error > sampling.tolerance {
+                for (lo, hi) in [(interval.lo, k), (k, interval.hi)] {
+                    pending.push(Interval {
+                        lo,
+                        hi,
+                        parent_error: error,
+                    });
+                }
+            } else {
+                checked_half_l1 = checked_half_l1.max(error);
+            }
+        }
+    }
+    Ok((traced, checked_half_l1))
 }
 
 /// Half-L1 distance (largest channel) between the PSF traced at an interval's midpoint and the one
@@ -446,5 +481,18 @@ mod tests {
         ] {
             assert_eq!(floor(x), x.floor(), "x = {x}");
         }
+    }
+
+    #[test]
+    fn a_power_of_two_budget_plus_one_halves_into_uniform_samples() {
+        let uniform = |n: usize| (0..n).map(|i| i * RADIAL_GRID / (n - 1)).collect::<Vec<_>>();
+        for n in [5, 9, 17, 33, 65] {
+            assert_eq!(halved_grid_points(n), uniform(n), "{n} samples");
+        }
+        // A budget between levels halves from the axis outwards; below the start it keeps the start;
+        // above the grid it stops at the finest step.
+        assert_eq!(halved_grid_points(6), vec![0, 8, 16, 32, 48, 64]);
+        assert_eq!(halved_grid_points(2), uniform(5));
+        assert_eq!(halved_grid_points(1000), uniform(RADIAL_GRID + 1));
     }
 }
