@@ -143,26 +143,8 @@ fn radial_interpolation_error_at_the_default_sampling_is_within_its_stated_bound
     let settings = SimulationSettings::default();
     for name in ["cooke_triplet", "phone_asphere"] {
         let lens = examples::lens(name).unwrap();
-        let sim = LensSimulator::new(&lens, 640, 480, None, settings.clone()).unwrap();
-        let mut psf_settings = settings.psf.clone();
-        psf_settings.pixel_um = sim.grid.pitch_um;
-        let weights = unicac_psf::SpectralWeights::new(
-            &settings.response,
-            &unicac_psf::visible_wavelengths_um(settings.wavelengths),
-        );
-        let tracer = unicac_psf::PsfTracer::new(&lens, weights, psf_settings).unwrap();
-        let radii = &sim.radial.radii_mm;
-        let errors: Vec<f64> = radii
-            .windows(2)
-            .map(|pair| {
-                let middle = (pair[0] + pair[1]) / 2.0;
-                let angle = sim.chief.angle_for_height(middle);
-                let reference = tracer.reference_point_mm(angle).unwrap();
-                let hits = tracer.hits(angle, reference).unwrap();
-                let traced = tracer.kernels_from_hits(angle, reference, &hits, sim.radial.kernel_size, false);
-                half_l1(&sim.radial.kernel_at(0.0, middle, 1), &traced.kernels[1])
-            })
-            .collect();
+        let (sim, tracer) = tracer_for(&lens, &settings);
+        let errors = midpoint_half_l1s(&sim, &tracer, 1..2);
         let worst = errors.iter().fold(0.0f64, |m, e| m.max(*e));
         let mean = errors.iter().sum::<f64>() / errors.len() as f64;
         println!(
@@ -189,6 +171,30 @@ fn tracer_for(
     (sim, tracer)
 }
 
+/// For every interval of the simulator's radial samples: the PSF interpolated at its midpoint against
+/// the PSF traced there, half-L1, the largest over `channels`.
+fn midpoint_half_l1s(
+    sim: &LensSimulator,
+    tracer: &unicac_psf::PsfTracer,
+    channels: std::ops::Range<usize>,
+) -> Vec<f64> {
+    sim.radial
+        .radii_mm
+        .windows(2)
+        .map(|pair| {
+            let middle = (pair[0] + pair[1]) / 2.0;
+            let angle = sim.chief.angle_for_height(middle);
+            let reference = tracer.reference_point_mm(angle).unwrap();
+            let hits = tracer.hits(angle, reference).unwrap();
+            let traced = tracer.kernels_from_hits(angle, reference, &hits, sim.radial.kernel_size, false);
+            channels
+                .clone()
+                .map(|c| half_l1(&sim.radial.kernel_at(0.0, middle, c), &traced.kernels[c]))
+                .fold(0.0, f64::max)
+        })
+        .collect()
+}
+
 #[test]
 fn refinement_places_samples_where_the_psf_changes_fast_within_its_checked_bound() {
     // A tolerance of 0.02 (half-L1 at each interval's midpoint) on the Cooke triplet, whose PSF changes
@@ -211,18 +217,8 @@ fn refinement_places_samples_where_the_psf_changes_fast_within_its_checked_bound
     assert!(checked <= tolerance, "checked {checked}");
     let widths: Vec<f64> = radii.windows(2).map(|pair| pair[1] - pair[0]).collect();
     assert!(widths[widths.len() - 1] < widths[0] / 2.0, "widths {widths:?}");
-    let worst = radii
-        .windows(2)
-        .map(|pair| {
-            let middle = (pair[0] + pair[1]) / 2.0;
-            let angle = sim.chief.angle_for_height(middle);
-            let reference = tracer.reference_point_mm(angle).unwrap();
-            let hits = tracer.hits(angle, reference).unwrap();
-            let traced = tracer.kernels_from_hits(angle, reference, &hits, sim.radial.kernel_size, false);
-            (0..3)
-                .map(|c| half_l1(&sim.radial.kernel_at(0.0, middle, c), &traced.kernels[c]))
-                .fold(0.0, f64::max)
-        })
+    let worst = midpoint_half_l1s(&sim, &tracer, 0..3)
+        .into_iter()
         .fold(0.0, f64::max);
     println!(
         "{} samples, checked {checked:.4}, final midpoints worst {worst:.4}",
