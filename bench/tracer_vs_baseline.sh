@@ -14,6 +14,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 rounds=${1:-8}
 shift || true
+case $rounds in
+  ''|*[!0-9]*|0) echo "ROUNDS must be a positive integer, got '$rounds'" >&2; exit 2 ;;
+esac
 lenses=("$@")
 [ ${#lenses[@]} -gt 0 ] || lenses=(cooke_triplet phone_asphere)
 base=${TMPDIR:-/tmp}/unicac-tracer-baseline
