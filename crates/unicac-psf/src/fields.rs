@@ -108,7 +108,7 @@ impl PsfTracer {
 
     /// Kernel size (odd, px, before the cap) holding the energy fraction of the largest traced spot,
     /// dark fields included (they ask for 1 px).
-    pub fn largest_kernel_px(&self, traced: &[TracedField]) -> usize {
+    fn largest_kernel_px(&self, traced: &[TracedField]) -> usize {
         traced
             .iter()
             .map(|field| self.kernel_size_for(&field.hits))

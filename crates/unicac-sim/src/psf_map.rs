@@ -146,21 +146,23 @@ impl RadialPsfs {
         })
     }
 
-    /// The two samples around `radius_mm` and the weight of the second (clamped to the sampled range).
+    /// The two samples around `radius_mm` and the weight of the second (clamped to the sampled range;
+    /// a single sample brackets itself).
     fn bracket(&self, radius_mm: f64) -> (usize, usize, f64) {
         let last = self.radii_mm.len() - 1;
         let upper = self
             .radii_mm
             .partition_point(|&r| r <= radius_mm)
-            .clamp(1, last.max(1));
-        let lower = upper - 1;
-        let span = self.radii_mm[upper.min(last)] - self.radii_mm[lower];
+            .clamp(1, last.max(1))
+            .min(last);
+        let lower = upper.saturating_sub(1);
+        let span = self.radii_mm[upper] - self.radii_mm[lower];
         let t = if span > 0.0 {
             ((radius_mm - self.radii_mm[lower]) / span).clamp(0.0, 1.0)
         } else {
             0.0
         };
-        (lower, upper.min(last), t)
+        (lower, upper, t)
     }
 
     pub fn channels(&self) -> usize {

@@ -486,7 +486,7 @@ fn conic_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
         let f_zero = v.eq(f, zero);
         // Every lane already on the surface's vertex (a plane after the transfer: the image plane, a
         // flat stop): t is 0 and the root is not needed, so its square root and division (the
-        // divider is this loop's bottleneck) are skipped; the selects below give the same values.
+        // slowest instructions here) are skipped; the selects below give the same values.
         let (t, denominator_fails) = if v.any(v.not(f_zero)) {
             let denominator = v.add(bb, v.copysign(v.sqrt(discriminant), bb));
             (
