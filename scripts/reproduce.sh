@@ -5,6 +5,7 @@
 #   3. train    the model zoo (unicac-train; PyTorch) and its ONNX export
 #   4. bench    identity, Wiener and every model through onnxruntime: per-level tables, ODE-vs-RMS R^2
 # Usage: scripts/reproduce.sh [--scale tiny|cpu|small|paper] [--out DIR] [--ray WORKERS] [--images DIR --test-images DIR]
+#        [--time-budget-s S]   (per model and session: training stops cleanly and exports what it reached)
 # Every stage resumes: run the same command again after an interruption (SIGKILL included) and finished
 # work is kept (design and dataset resume their folders, training resumes from its latest checkpoint,
 # exports and the report are redone only when missing). Each stage's wall time goes to OUT/timings.tsv.
@@ -16,7 +17,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-scale=tiny out= ray_workers= images= test_images=
+scale=tiny out= ray_workers= images= test_images= budget=
 while [ $# -gt 0 ]; do
   case "$1" in
     --scale) scale=${2:?--scale needs a value}; shift 2 ;;
@@ -24,6 +25,7 @@ while [ $# -gt 0 ]; do
     --ray) ray_workers=${2:?--ray needs a value}; shift 2 ;;
     --images) images=${2:?--images needs a value}; shift 2 ;;
     --test-images) test_images=${2:?--test-images needs a value}; shift 2 ;;
+    --time-budget-s) budget=${2:?--time-budget-s needs a value}; shift 2 ;;
     *) echo "reproduce.sh: unknown argument '$1' (see the usage at the top of scripts/reproduce.sh)" >&2; exit 2 ;;
   esac
 done
@@ -34,14 +36,21 @@ fi
 
 # Sizes per scale. design: the specification grid and designs kept per specification (each also made
 # aspheric); dataset: levels x test lenses per level, validation lenses, scenes, frame, training pairs;
-# train: iterations per model.
+# train: iterations, patch side and batch per model (the trainer refuses a patch under twice the
+# dataset's largest PSF kernel, or a network that sees less than it: tiny and cpu, smoke tests on small
+# crops, only warn).
+# The zoo (docs/models.md): each prior model next to its equal-size control; nafnet before nafnet-gan,
+# which fine-tunes it.
+zoo=(nafnet nafnet-fov nafnet-psf nafnet-psf-control nafnet-psf-moments nafnet-psf-blind nafnet-psf-blind-control
+  wiener-nafnet restormer nafnet-gan)
 case "$scale" in
   tiny)
     grid=(--grid-elements 1,2,3 --grid-half-fov-deg 20,30 --grid-f-numbers 4 --grid-stops middle)
     design_count=1 design_budget_s=120
     levels=2 per_level=1 val_lenses=1
     images=${images:-dead-leaves:6:320x240} test_images=${test_images:-dead-leaves:2:256x192} frame=256x192
-    pairs_per_lens=4 crop=128x96 iters=100
+    pairs_per_lens=4 crop=128x96 iters=100 patch=64 batch=4
+    allow=(--allow-small-patch --allow-small-receptive-field)
     models=(nafnet nafnet-fov nafnet-psf)
     ;;
   cpu)
@@ -49,24 +58,27 @@ case "$scale" in
     design_count=1 design_budget_s=600
     levels=3 per_level=2 val_lenses=2
     images=${images:-dead-leaves:24:256x192} test_images=${test_images:-dead-leaves:3:256x192} frame=256x192
-    pairs_per_lens=8 crop=64x64 iters=1000
-    models=(nafnet nafnet-fov nafnet-psf nafnet-psf-blind restormer nafnet-gan)
+    pairs_per_lens=8 crop=128x128 iters=1000 patch=128 batch=4
+    allow=(--allow-small-patch --allow-small-receptive-field)
+    models=("${zoo[@]}")
     ;;
   small)
     grid=(--grid-elements 1,2,3,4 --grid-half-fov-deg 20,30,40 --grid-f-numbers 2,3,4 --grid-stops front,middle,back)
     design_count=1 design_budget_s=2400
     levels=5 per_level=5 val_lenses=10
     images=${images:-dead-leaves:60:384x288} test_images=${test_images:-dead-leaves:3:384x288} frame=384x288
-    pairs_per_lens=8 crop=128x128 iters=1000
-    models=(nafnet nafnet-fov nafnet-psf nafnet-psf-blind restormer nafnet-gan)
+    pairs_per_lens=8 crop=256x256 iters=1000 patch=256 batch=4
+    allow=()
+    models=("${zoo[@]}")
     ;;
   paper)
     grid=()   # the whole grid: elements 1-6 x half field 20/30/40 x F/2,3,4 x stop front/middle/back
     design_count=5 design_budget_s=864000
     levels=5 per_level=24 val_lenses=75
     images=${images:-dead-leaves:3000:1024x768} test_images=${test_images:-dead-leaves:26:1024x768} frame=1024x768
-    pairs_per_lens=8 crop=256x256 iters=200000
-    models=(nafnet nafnet-fov nafnet-psf nafnet-psf-blind restormer nafnet-gan)
+    pairs_per_lens=8 crop=256x256 iters=200000 patch=256 batch=32   # NAFNet's official recipe
+    allow=()
+    models=("${zoo[@]}")
     ;;
   *) echo "reproduce.sh: --scale must be tiny, cpu, small or paper, not '$scale'" >&2; exit 2 ;;
 esac
@@ -111,10 +123,12 @@ for model in "${models[@]}"; do
   run=$out/runs/$model onnx=$out/models/$model.onnx
   bench_models+=(--model "$model=$onnx")
   [ -f "$onnx" ] && continue   # exported: its training finished
-  resume=()
+  resume=() extra=()
   [ -f "$run/checkpoints/latest.pt" ] && resume=(--resume)
+  [ -n "$budget" ] && extra+=(--time-budget-s "$budget")
+  [ "$model" = nafnet-gan ] && extra+=(--init-from "$out/runs/nafnet")
   stage "train:$model" "$py" -m unicac.train train --model "$model" --dataset "$out/dataset" --iters "$iters" \
-    --out "$run" "${resume[@]}"
+    --patch-px "$patch" --batch "$batch" "${allow[@]}" "${extra[@]}" --out "$run" "${resume[@]}"
   "$py" -m unicac.train export "$run" --out "$onnx"
 done
 

@@ -9,7 +9,9 @@ A thin layer over the native module ``unicac._native`` (Rust, PyO3). Conventions
 * a wrong dtype raises ``TypeError``, a wrong shape ``ValueError``, both naming the argument; a failed
   request raises a subclass of ``UnicacError`` (``LensError``, ``TraceError``, ...);
 * every call that traces or renders releases the GIL, so threads (and data-loader workers) run in
-  parallel.
+  parallel;
+* files are written by the output-file policy of the Rust commands (``unicac.outputs``): an output
+  is never an input, extensions name the format, writes are atomic.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ from ._native import (
     apply_white_balance_mosaic,
     builtin_lenses,
     chart,
+    check_outputs,
+    clean_stale_temporaries,
     demosaic,
     fov_map,
     invert_white_balance,
@@ -38,17 +42,23 @@ from ._native import (
     oiqe_of_psf,
     perturb_white_balance,
     psf,
+    psf_basis,
+    psf_code_map,
     psf_features,
+    psf_field_codes,
     psf_grid,
     quantise,
     read_image,
     read_out,
+    require_extension,
     simulate,
     spots,
     srgb_to_linear,
     subtract_black_level,
     trace,
     trace_detailed,
+    write_atomically,
+    wiener_restore,
     write_image,
 )
 from .errors import (
@@ -57,6 +67,7 @@ from .errors import (
     LensError,
     MetricsError,
     OdeError,
+    OutputError,
     PsfError,
     SimulationError,
     TraceError,
@@ -80,6 +91,7 @@ __all__ = [
     "LensError",
     "MetricsError",
     "OdeError",
+    "OutputError",
     "Psf",
     "PsfError",
     "SimulationError",
@@ -91,6 +103,8 @@ __all__ = [
     "apply_white_balance_mosaic",
     "builtin_lenses",
     "chart",
+    "check_outputs",
+    "clean_stale_temporaries",
     "demosaic",
     "fov_map",
     "invert_white_balance",
@@ -105,16 +119,22 @@ __all__ = [
     "oiqe_of_psf",
     "perturb_white_balance",
     "psf",
+    "psf_basis",
+    "psf_code_map",
     "psf_features",
+    "psf_field_codes",
     "psf_grid",
     "quantise",
     "read_image",
     "read_out",
+    "require_extension",
     "simulate",
     "spots",
     "srgb_to_linear",
     "subtract_black_level",
     "trace",
     "trace_detailed",
+    "write_atomically",
+    "wiener_restore",
     "write_image",
 ]

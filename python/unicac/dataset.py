@@ -3,9 +3,11 @@ and (degraded, sharp) training pairs generated on the fly (:class:`PairGenerator
 
 :class:`DatasetFolder` reads a folder written by ``unicac dataset build`` (layout in the repository's
 ``docs/dataset.md``): its manifests, and each pair's LQ/GT images as float32 H x W x 3 sRGB in [0, 1]
-with the model inputs of docs/models.md for any window of the pair: the FoV map (float32 [2, h, w])
-and the PSF-feature map (float32 [15, h, w]), both computed by the one Rust implementation
-(``unicac.fov_map``, ``unicac.psf_features``). :func:`folder_torch_dataset` wraps it for PyTorch.
+with the model inputs of docs/models.md for any window of the pair: the FoV map (float32 [2, h, w]),
+the PSF-feature map (float32 [15, h, w]), the PSF code (float32 [50, h, w], in the dataset's PSF basis)
+and the field-varying Wiener estimate (float32 h x w x 3), all computed by the one Rust implementation
+(``unicac.fov_map``, ``unicac.psf_features``, ``unicac.psf_code_map``, ``unicac.wiener_restore``).
+:func:`folder_torch_dataset` wraps it for PyTorch.
 
 :class:`PairGenerator` is the numpy core: every pair is a pure function of ``(seed, index)``, so a
 run is reproducible and data-loader workers can share the work without coordination
@@ -290,19 +292,54 @@ class DatasetFolderError(ValueError):
     the folder and what is missing)."""
 
 
-def _read_jsonl(path: Path) -> list[dict[str, Any]]:
+#: The fields of a `pairs.jsonl` row this reader uses, with their JSON types (docs/dataset.md).
+PAIR_FIELDS: dict[str, type] = {"pair_id": str, "split": str, "lens_id": str, "lq": str, "gt": str,
+                                "frame_px": list, "crop": list}
+LENS_FIELDS: dict[str, type] = {"lens_id": str, "split": str}
+
+
+def _read_jsonl(path: Path, fields: dict[str, type]) -> list[dict[str, Any]]:
+    """The rows of a manifest, each checked to be an object holding `fields` of their types (so a
+    damaged row is named here, not met later as a missing key)."""
     try:
         lines = path.read_text().splitlines()
     except OSError as error:
         raise DatasetFolderError(f"{path}: cannot read ({error.strerror})") from error
     rows = []
     for number, line in enumerate(lines, 1):
-        if line.strip():
-            try:
-                rows.append(json.loads(line))
-            except json.JSONDecodeError as error:
-                raise DatasetFolderError(f"{path}:{number}: not valid JSON ({error.msg})") from error
+        if not line.strip():
+            continue
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError as error:
+            raise DatasetFolderError(f"{path}:{number}: not valid JSON ({error.msg})") from error
+        if not isinstance(row, dict):
+            raise DatasetFolderError(f"{path}:{number}: expected a JSON object, got {type(row).__name__}")
+        for key, kind in fields.items():
+            if not isinstance(row.get(key), kind):
+                raise DatasetFolderError(f"{path}:{number}: field '{key}' is missing or not a {kind.__name__}")
+        for key, length in (("frame_px", 2), ("crop", 4)):
+            value = row.get(key)
+            if key in fields and not (len(value) == length and all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in value)):
+                raise DatasetFolderError(f"{path}:{number}: field '{key}' must be {length} non-negative integers, got {value!r}")
+        rows.append(row)
     return rows
+
+
+def _check_counts(path: Path, rows: list[dict[str, Any]], counts: Any, what: str) -> None:
+    """Every split's row count equals `dataset.json`'s (a truncated manifest is not a smaller dataset)."""
+    if not isinstance(counts, dict):
+        return
+    found: dict[str, int] = {}
+    for row in rows:
+        found[row["split"]] = found.get(row["split"], 0) + 1
+    for split in sorted(set(found) | set(counts)):
+        expected = counts.get(split, 0)
+        if found.get(split, 0) != expected:
+            raise DatasetFolderError(
+                f"{path}: {found.get(split, 0)} {split} {what}, but dataset.json counts {expected} "
+                "(the manifest is incomplete or belongs to another build)"
+            )
 
 
 def _image_float(path: Path) -> np.ndarray:
@@ -338,8 +375,10 @@ class DatasetFolder:
             raise DatasetFolderError(
                 f"{self.root}: not a unicac dataset (no dataset.json; build one with `unicac dataset build`)"
             ) from None
-        except (OSError, json.JSONDecodeError) as error:
-            raise DatasetFolderError(f"{manifest_path}: cannot read the dataset manifest ({error})") from error
+        except OSError as error:
+            raise DatasetFolderError(f"{manifest_path}: cannot read the dataset manifest ({error.strerror})") from error
+        except json.JSONDecodeError as error:
+            raise DatasetFolderError(f"{manifest_path}: not valid JSON ({error.msg})") from error
         if not isinstance(manifest, dict) or manifest.get("format") != DATASET_FORMAT:
             raise DatasetFolderError(f"{self.root}: not a unicac dataset (dataset.json has no format '{DATASET_FORMAT}')")
         version = manifest.get("format_version")
@@ -348,9 +387,55 @@ class DatasetFolder:
                 f"{manifest_path}: format_version {version!r} is newer than this reader ({DATASET_FORMAT_VERSION}); update unicac"
             )
         self.manifest: dict[str, Any] = manifest
-        self._pairs = _read_jsonl(self.root / "pairs.jsonl")
+        counts = manifest.get("counts") if isinstance(manifest.get("counts"), dict) else {}
+        pairs_path = self.root / "pairs.jsonl"
+        self._pairs = _read_jsonl(pairs_path, PAIR_FIELDS)
+        _check_counts(pairs_path, self._pairs, counts.get("pairs"), "pairs")
         lenses_path = self.root / "lenses.jsonl"
-        self._lenses = _read_jsonl(lenses_path) if lenses_path.exists() else []
+        self._lenses = _read_jsonl(lenses_path, LENS_FIELDS) if lenses_path.exists() else []
+        if lenses_path.exists():
+            _check_counts(lenses_path, self._lenses, counts.get("lenses"), "lenses")
+        self._field_codes: dict[str, tuple[Any, Any]] = {}
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_field_codes"] = {}  # recomputed lazily in each worker process
+        return state
+
+    @property
+    def psf_basis_dir(self) -> Path:
+        return self.root / "psf" / "basis"
+
+    def psf_basis(self) -> dict[str, Any]:
+        """The dataset's PSF basis (``psf/basis/basis.json``: components, explained shares, ``sha256``);
+        :class:`DatasetFolderError` saying how to make it when the folder has none."""
+        path = self.psf_basis_dir / "basis.json"
+        if not path.is_file():
+            raise DatasetFolderError(
+                f"{self.root}: no PSF basis ({path} is missing; models with the `psf_code` input need it): run the "
+                "same `unicac dataset build` command again (it resumes the finished dataset and fits the basis), or "
+                f"python -c 'import unicac; unicac.psf_basis(\"{self.root}\")'"
+            )
+        try:
+            meta = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as error:
+            raise DatasetFolderError(f"{path}: cannot read the PSF basis ({error})") from error
+        if not isinstance(meta, dict) or not isinstance(meta.get("sha256"), str):
+            raise DatasetFolderError(f"{path}: not a unicac PSF basis (no sha256)")
+        return meta
+
+    def largest_kernel_px(self, split: str) -> Optional[int]:
+        """The widest PSF kernel (``kernel_px`` of ``table.json``) among the lenses of ``split`` that have
+        a PSF table, or None when none has."""
+        sizes = []
+        for table in sorted({row["psf"] for row in self.pairs(split) if row.get("psf")}):
+            path = self.path(table) / "table.json"
+            if path.is_file():
+                try:
+                    sizes.append(int(json.loads(path.read_text())["kernel_px"]))
+                except (OSError, ValueError, KeyError, TypeError) as error:
+                    raise DatasetFolderError(f"{path}: cannot read kernel_px ({error})") from error
+        return max(sizes) if sizes else None
 
     def lenses(self) -> list[dict[str, Any]]:
         """Rows of ``lenses.jsonl`` (lens_id, split, level, ode, ...)."""
@@ -401,11 +486,16 @@ class DatasetFolder:
         window: Optional[tuple[int, int, int, int]] = None,
         fov: bool = False,
         psf: bool = False,
+        psf_code: bool = False,
+        wiener: bool = False,
+        wiener_nsr: float = 0.01,
     ) -> dict[str, Any]:
         """One pair: ``lq`` and ``gt`` (float32 h x w x 3, sRGB in [0, 1]) of ``window`` (x, y, w, h
-        in the pair's image; None = all of it), and if asked its ``fov`` [2, h, w] and ``psf``
-        [15, h, w] maps: the pair's frame position comes from its ``crop`` and ``frame_px`` entries,
-        so every frame size and crop is placed correctly (nothing assumes one frame size)."""
+        in the pair's image; None = all of it), and if asked its ``fov`` [2, h, w], ``psf`` [15, h, w]
+        and ``psf_code`` [50, h, w] maps and its ``wiener`` estimate (h x w x 3, computed on the window
+        grown by one kernel width where the image allows, then cut): the pair's frame position comes
+        from its ``crop`` and ``frame_px`` entries, so every frame size and crop is placed correctly
+        (nothing assumes one frame size)."""
         lq = _image_float(self.path(row["lq"]))
         gt = _image_float(self.path(row["gt"]))
         if lq.shape != gt.shape:
@@ -428,11 +518,37 @@ class DatasetFolder:
             )
         if fov:
             out["fov"] = _native.fov_map(frame_w, frame_h, cx + x, cy + y, w, h)
+        if (psf or psf_code or wiener) and not self.has_psf(row):
+            raise DatasetFolderError(f"{self.root}: pair {row['pair_id']}: lens {row.get('lens_id')} has no PSF table")
         if psf:
-            if not self.has_psf(row):
-                raise DatasetFolderError(f"{self.root}: pair {row['pair_id']}: lens {row.get('lens_id')} has no PSF table")
             out["psf"] = _native.psf_features(self.path(row["psf"]), frame_w, frame_h, cx + x, cy + y, w, h)
+        if psf_code:
+            radii, codes = self._codes(row)
+            out["psf_code"] = _native.psf_code_map(radii, codes, frame_w, frame_h, cx + x, cy + y, w, h)
+        if wiener:
+            out["wiener"] = self._wiener(row, lq, (x, y, w, h), (frame_w, frame_h), (cx, cy), wiener_nsr)
         return out
+
+    def _codes(self, row: dict[str, Any]) -> tuple[Any, Any]:
+        table = row["psf"]
+        if table not in self._field_codes:
+            self.psf_basis()  # a clear error when there is none
+            self._field_codes[table] = _native.psf_field_codes(self.path(table), self.psf_basis_dir)
+        return self._field_codes[table]
+
+    def _wiener(self, row: dict[str, Any], lq: np.ndarray, window: tuple[int, int, int, int],
+                frame: tuple[int, int], crop_origin: tuple[int, int], nsr: float) -> np.ndarray:
+        """The Wiener estimate of ``window``: computed on the window grown by one kernel width (the
+        context a whole-image estimate has there), then cut to the window."""
+        table = self.path(row["psf"])
+        margin = int(json.loads((table / "table.json").read_text())["kernel_px"])
+        x, y, w, h = window
+        height, width = lq.shape[:2]
+        x0, y0 = max(0, x - margin), max(0, y - margin)
+        x1, y1 = min(width, x + w + margin), min(height, y + h + margin)
+        grown = np.ascontiguousarray(lq[y0:y1, x0:x1])
+        estimate = _native.wiener_restore(grown, table, frame[0], frame[1], crop_origin[0] + x0, crop_origin[1] + y0, nsr)
+        return np.ascontiguousarray(estimate[y - y0 : y - y0 + h, x - x0 : x - x0 + w])
 
 
 def folder_torch_dataset(

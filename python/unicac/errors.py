@@ -15,6 +15,9 @@ SimulationError     an image simulation request is invalid (e.g. PSF larger than
 MetricsError        a metric cannot be computed from its inputs
 OdeError            the Optical Degradation Evaluator fails for a lens
 DatasetError        a dataset folder, manifest or PSF table cannot be read or written
+OutputError         an output path is refused by the output-file policy (``unicac.outputs``):
+                    it is an input, lies inside an input folder, is another output's path,
+                    or its extension does not name the format written
 ==================  =====================================================================
 
 Arguments of the wrong type, dtype or shape raise the built-in ``TypeError`` / ``ValueError``
@@ -28,6 +31,7 @@ from ._native import (
     LensError,
     MetricsError,
     OdeError,
+    OutputError,
     PsfError,
     SimulationError,
     TraceError,
@@ -40,6 +44,7 @@ __all__ = [
     "LensError",
     "MetricsError",
     "OdeError",
+    "OutputError",
     "PsfError",
     "SimulationError",
     "TraceError",

@@ -1,9 +1,11 @@
 //! The paper's key analysis: does a lens metric predict how well lenses can be corrected? Per lens, the
-//! mean O.P. of the restoration models is fitted by least squares against the lens's ODE and against its
-//! RMS spot radius; R^2 of each fit says how much of the spread in restorability each metric explains.
-//! Spearman's rank correlation says whether the metric orders the lenses right (what a benchmark's levels
-//! need), and percentile bootstrap intervals over lenses say how far either figure can be trusted on a
-//! small library (issue 19, claim 1).
+//! mean O.P. of the restoration models is fitted by least squares against the lens's ODE, its RMS spot
+//! radius and the logarithm of that radius (the fair baseline for a quantity spanning decades); R^2 of
+//! each fit says how much of the spread in restorability each metric explains, Pearson's r and the slope
+//! give its direction (an R^2 alone can present an inverse relation as support). Spearman's and Kendall's
+//! rank correlations say whether the metric orders the lenses right (what a benchmark's levels need), and
+//! percentile bootstrap intervals over lenses, paired where two metrics are compared on the same
+//! resamples, say how far each figure can be trusted (issue 33, claim 1).
 
 use serde::Serialize;
 
@@ -43,6 +45,40 @@ pub fn spearman(points: &[(f64, f64)]) -> Option<f64> {
     let ranked: Vec<(f64, f64)> = xs.into_iter().zip(ys).collect();
     let m = Moments::of(&ranked)?;
     Some(m.sxy / (m.sxx * m.syy).sqrt())
+}
+
+/// Pearson's correlation coefficient (signed). `None` with fewer than 3 finite points or when either
+/// variable is constant.
+pub fn pearson(points: &[(f64, f64)]) -> Option<f64> {
+    let points = finite_points(points)?;
+    let m = Moments::of(&points)?;
+    Some(m.sxy / (m.sxx * m.syy).sqrt())
+}
+
+/// Kendall's tau-b: (concordant - discordant) pairs over the geometric mean of the pairs not tied in x
+/// and not tied in y (ties in both count in neither). `None` with fewer than 3 finite points or when
+/// either variable is constant. O(n^2): a bench has at most thousands of lenses.
+pub fn kendall_tau_b(points: &[(f64, f64)]) -> Option<f64> {
+    let points = finite_points(points)?;
+    let (mut concordant, mut discordant, mut tied_x, mut tied_y) = (0i64, 0i64, 0i64, 0i64);
+    for (i, a) in points.iter().enumerate() {
+        for b in &points[i + 1..] {
+            let dx = (a.0 - b.0).partial_cmp(&0.0).expect("finite");
+            let dy = (a.1 - b.1).partial_cmp(&0.0).expect("finite");
+            use std::cmp::Ordering::Equal;
+            match (dx, dy) {
+                (Equal, Equal) => {}
+                (Equal, _) => tied_x += 1,
+                (_, Equal) => tied_y += 1,
+                _ if dx == dy => concordant += 1,
+                _ => discordant += 1,
+            }
+        }
+    }
+    let untied_x = (concordant + discordant + tied_y) as f64;
+    let untied_y = (concordant + discordant + tied_x) as f64;
+    (untied_x > 0.0 && untied_y > 0.0)
+        .then(|| (concordant - discordant) as f64 / (untied_x * untied_y).sqrt())
 }
 
 /// The points with both coordinates finite; `None` when fewer than 3 remain.
@@ -118,22 +154,43 @@ pub fn bootstrap_ci95(
     points: &[(f64, f64)],
     statistic: impl Fn(&[(f64, f64)]) -> Option<f64>,
 ) -> Option<[f64; 2]> {
+    let mut sample = Vec::with_capacity(points.len());
+    bootstrap_indices_ci95(points.len(), |drawn| {
+        sample.clear();
+        sample.extend(drawn.iter().map(|&i| points[i]));
+        statistic(&sample)
+    })
+}
+
+/// The percentile bootstrap over `n` items when the statistic needs more than one value per item (a
+/// paired comparison of two metrics on the same lenses): `statistic` receives the drawn indices. Same
+/// resamples, seed and rules as [`bootstrap_ci95`].
+pub fn bootstrap_indices_ci95(
+    n: usize,
+    mut statistic: impl FnMut(&[usize]) -> Option<f64>,
+) -> Option<[f64; 2]> {
     use rand::rngs::ChaCha8Rng;
     use rand::{RngExt, SeedableRng};
-    if points.len() < 3 {
+    if n < 3 {
         return None;
     }
     let mut rng = ChaCha8Rng::seed_from_u64(BOOTSTRAP_SEED);
-    let mut sample = vec![(0.0, 0.0); points.len()];
+    let mut drawn = vec![0; n];
     let mut values: Vec<f64> = (0..BOOTSTRAP_RESAMPLES)
         .filter_map(|_| {
-            for slot in sample.iter_mut() {
-                *slot = points[rng.random_range(0..points.len())];
+            for slot in drawn.iter_mut() {
+                *slot = rng.random_range(0..n);
             }
-            statistic(&sample).filter(|v| v.is_finite())
+            statistic(&drawn).filter(|v| v.is_finite())
         })
         .collect();
-    if values.len() * 2 < BOOTSTRAP_RESAMPLES {
+    percentile_interval(&mut values, BOOTSTRAP_RESAMPLES)
+}
+
+/// The 2.5% and 97.5% percentiles of `values` (sorted in place); `None` when fewer than half of the
+/// `attempted` resamples gave a value.
+pub fn percentile_interval(values: &mut [f64], attempted: usize) -> Option<[f64; 2]> {
+    if values.is_empty() || values.len() * 2 < attempted {
         return None;
     }
     values.sort_by(f64::total_cmp);
@@ -176,6 +233,47 @@ mod tests {
         // Seeded: the same interval every time.
         assert_eq!(bootstrap_ci95(&small, r2), Some([lo, hi]));
         assert!(bootstrap_ci95(&small[..2], r2).is_none());
+    }
+
+    #[test]
+    fn kendall_and_pearson_match_hand_counts() {
+        // x = (1..5), y = (2, 1, 4, 3, 5): 10 pairs, 2 discordant -> tau = (8 - 2) / 10 = 0.6.
+        let swapped = [(1.0, 2.0), (2.0, 1.0), (3.0, 4.0), (4.0, 3.0), (5.0, 5.0)];
+        assert!((kendall_tau_b(&swapped).unwrap() - 0.6).abs() < 1e-12);
+        // Ties: x = (1, 1, 2, 3), y = (1, 2, 2, 3): pairs (12) tied in x, (23) tied in y, 4 concordant,
+        // 0 discordant: tau_b = 4 / sqrt(5 * 5) = 0.8 (scipy.stats.kendalltau gives 0.8).
+        let tied = [(1.0, 1.0), (1.0, 2.0), (2.0, 2.0), (3.0, 3.0)];
+        assert!((kendall_tau_b(&tied).unwrap() - 0.8).abs() < 1e-12);
+        let reversed: Vec<(f64, f64)> = swapped.iter().map(|&(x, y)| (x, -y)).collect();
+        assert!((kendall_tau_b(&reversed).unwrap() + 0.6).abs() < 1e-12);
+        assert!(kendall_tau_b(&[(0.0, 1.0), (1.0, 1.0), (2.0, 1.0)]).is_none());
+        // Pearson is signed and its square is the line's R^2.
+        let points = [(0.0, 3.0), (1.0, 1.0), (2.0, 2.0), (3.0, 0.0)];
+        let r = pearson(&points).unwrap();
+        assert!(r < 0.0);
+        assert!((r * r - fit_line(&points).unwrap().r2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn paired_bootstrap_of_a_difference_excludes_zero_only_when_one_metric_is_better() {
+        // y follows a exactly and b loosely: R^2(a) - R^2(b) > 0 on every resample.
+        let n = 40;
+        let a: Vec<f64> = (0..n).map(|i| i as f64).collect();
+        let b: Vec<f64> = (0..n)
+            .map(|i| i as f64 + 10.0 * ((i * 7919) % 11) as f64 / 11.0)
+            .collect();
+        let y: Vec<f64> = a.iter().map(|v| 2.0 * v + 1.0).collect();
+        let r2_of = |x: &[f64], drawn: &[usize]| {
+            let p: Vec<(f64, f64)> = drawn.iter().map(|&i| (x[i], y[i])).collect();
+            fit_line(&p).map(|f| f.r2)
+        };
+        let [lo, hi] = bootstrap_indices_ci95(n, |d| Some(r2_of(&a, d)? - r2_of(&b, d)?)).unwrap();
+        assert!(lo > 0.0 && hi > lo, "{lo} {hi}");
+        // The same metric against itself: the difference is exactly 0.
+        assert_eq!(
+            bootstrap_indices_ci95(n, |d| Some(r2_of(&a, d)? - r2_of(&a, d)?)),
+            Some([0.0, 0.0])
+        );
     }
 
     #[test]

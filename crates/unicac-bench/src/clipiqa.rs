@@ -78,7 +78,7 @@ impl ClipIqa {
             });
         }
         let prompts: Vec<Vec<f32>> = data.chunks_exact(shape[1]).map(<[f32]>::to_vec).collect();
-        let bytes = std::fs::read(&path).map_err(|e| BenchError::io(&path, e))?;
+        let bytes = crate::contract::read_model_bytes(&path)?;
         let (input, output) = crate::fid::io_names(&path, &bytes)?;
         let session = runtime.session(&bytes, threads, &path.display().to_string())?;
         Ok(Some(ClipIqa {

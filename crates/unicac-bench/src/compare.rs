@@ -58,7 +58,12 @@ pub fn image_pairs(reference: &Path, distorted: &Path) -> Result<Vec<(String, Pa
         (false, false) => {
             for p in [reference, distorted] {
                 if !p.is_file() {
-                    return Err(BenchError::InvalidInput(format!("{}: no such file", p.display())));
+                    let what = if p.exists() {
+                        "not a regular file or folder"
+                    } else {
+                        "no such file"
+                    };
+                    return Err(BenchError::InvalidInput(format!("{}: {what}", p.display())));
                 }
             }
             let name = distorted

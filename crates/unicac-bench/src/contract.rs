@@ -1,9 +1,12 @@
 //! The restoration-model contract of docs/models.md, checked on the ONNX file itself before any work:
 //! the file must decode as an ONNX `ModelProto` with a graph; its graph inputs (initializers excluded,
-//! as older exporters list them) must be `lq` plus any of `fov`, `psf`, float32, rank 4, with 3, 2 and
-//! 15 channels where the channel dimension is fixed; exactly one output, `restored`, float32, rank 4,
-//! 3 channels; default-domain opset >= 17; metadata `unicac_contract`, when present, an integer not
-//! newer than [`CONTRACT_VERSION`], and `inputs`, when present, equal to the graph's inputs.
+//! as older exporters list them) must be `lq` plus any of `fov`, `psf` (contract 1), `psf_code`,
+//! `wiener` (contract 2), float32, rank 4, with 3, 2, 15, 50 and 3 channels where the channel dimension
+//! is fixed; exactly one output, `restored`, float32, rank 4, 3 channels; default-domain opset >= 17;
+//! metadata `unicac_contract`, when present, an integer not newer than [`CONTRACT_VERSION`] (and at
+//! least 2 for a model with a contract-2 input), and `inputs`, when present, equal to the graph's
+//! inputs. A `psf_code` model must record `psf_basis_sha256` (the code means nothing in another basis);
+//! `wiener_nsr`, when present, is a positive number.
 //!
 //! Models without the metadata keys are accepted (hand-made ONNX files follow the contract through
 //! their graph alone); the report records which keys were present.
@@ -18,7 +21,7 @@ use crate::error::{BenchError, Result};
 use crate::onnx::proto::{data_type, tensor_shape_proto, type_proto, ModelProto, ValueInfoProto};
 
 /// The contract version this reader knows (`unicac_contract` metadata).
-pub const CONTRACT_VERSION: u32 = 1;
+pub const CONTRACT_VERSION: u32 = 2;
 /// The lowest default-domain opset the contract allows.
 pub const MIN_OPSET: i64 = 17;
 
@@ -32,6 +35,10 @@ pub enum ModelInput {
     Fov,
     /// The PSF-feature map, N x 15 x H x W.
     Psf,
+    /// The dense PSF code (the dataset's PCA basis), N x 50 x H x W (contract 2).
+    PsfCode,
+    /// The field-varying Wiener estimate of `lq`, N x 3 x H x W (contract 2).
+    Wiener,
 }
 
 impl ModelInput {
@@ -40,6 +47,8 @@ impl ModelInput {
             ModelInput::Lq => "lq",
             ModelInput::Fov => "fov",
             ModelInput::Psf => "psf",
+            ModelInput::PsfCode => "psf_code",
+            ModelInput::Wiener => "wiener",
         }
     }
 
@@ -48,6 +57,16 @@ impl ModelInput {
             ModelInput::Lq => 3,
             ModelInput::Fov => 2,
             ModelInput::Psf => 15,
+            ModelInput::PsfCode => unicac_dataset::PSF_CODE_CHANNELS,
+            ModelInput::Wiener => 3,
+        }
+    }
+
+    /// The first contract version that defines the input.
+    pub fn since(self) -> u32 {
+        match self {
+            ModelInput::Lq | ModelInput::Fov | ModelInput::Psf => 1,
+            ModelInput::PsfCode | ModelInput::Wiener => 2,
         }
     }
 
@@ -56,6 +75,8 @@ impl ModelInput {
             "lq" => Some(ModelInput::Lq),
             "fov" => Some(ModelInput::Fov),
             "psf" => Some(ModelInput::Psf),
+            "psf_code" => Some(ModelInput::PsfCode),
+            "wiener" => Some(ModelInput::Wiener),
             _ => None,
         }
     }
@@ -71,6 +92,10 @@ pub struct ModelContract {
     pub opset: i64,
     /// `metadata_props` as stored.
     pub metadata: BTreeMap<String, String>,
+    /// The PSF basis a `psf_code` model was trained with (`psf_basis_sha256`).
+    pub psf_basis_sha256: Option<String>,
+    /// The noise-to-signal ratio of a `wiener` model's input (`wiener_nsr`; None: the bench default).
+    pub wiener_nsr: Option<f64>,
 }
 
 impl ModelContract {
@@ -79,12 +104,23 @@ impl ModelContract {
     }
 }
 
+/// Largest ONNX file read (2 GiB, protobuf's own limit on one message): a regular file, refused from
+/// its size before reading.
+pub const MAX_MODEL_FILE_BYTES: u64 = 2 << 30;
+
+/// The bytes of an ONNX file (a restoration model or a metric network), within [`MAX_MODEL_FILE_BYTES`].
+pub fn read_model_bytes(path: &Path) -> Result<Vec<u8>> {
+    unicac_io::read_capped(path, MAX_MODEL_FILE_BYTES, "MAX_MODEL_FILE_BYTES").map_err(|source| {
+        BenchError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
+}
+
 /// Reads and checks `path`; returns the contract and the decoded model.
 pub fn load_model(path: &Path) -> Result<(ModelContract, ModelProto, Vec<u8>)> {
-    let bytes = std::fs::read(path).map_err(|source| BenchError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = read_model_bytes(path)?;
     let model = decode(path, &bytes)?;
     let contract = check(path, &model)?;
     Ok((contract, model, bytes))
@@ -134,7 +170,7 @@ pub fn check(path: &Path, model: &ModelProto) -> Result<ModelContract> {
     {
         let input = ModelInput::from_name(&value.name).ok_or_else(|| {
             refuse(format!(
-                "input `{}` is not in the contract (allowed: lq, fov, psf)",
+                "input `{}` is not in the contract (allowed: lq, fov, psf, psf_code, wiener)",
                 value.name
             ))
         })?;
@@ -178,7 +214,36 @@ pub fn check(path: &Path, model: &ModelProto) -> Result<ModelContract> {
                 "metadata unicac_contract = {version} is newer than this reader's {CONTRACT_VERSION}; update unicac"
             )));
         }
+        if let Some(input) = inputs.iter().find(|i| i.since() > version) {
+            return Err(refuse(format!(
+                "input `{}` needs contract {}, but metadata unicac_contract = {version}",
+                input.name(),
+                input.since()
+            )));
+        }
     }
+    let psf_basis_sha256 = metadata.get("psf_basis_sha256").map(|s| s.trim().to_string());
+    if inputs.contains(&ModelInput::PsfCode)
+        && !psf_basis_sha256
+            .as_ref()
+            .is_some_and(|s| s.len() == 64 && s.chars().all(|c| c.is_ascii_hexdigit()))
+    {
+        return Err(refuse(
+            "input `psf_code` needs metadata psf_basis_sha256 (the SHA-256 of the PSF basis it was trained with)"
+                .into(),
+        ));
+    }
+    let wiener_nsr = match metadata.get("wiener_nsr") {
+        None => None,
+        Some(text) => match text.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Some(v),
+            _ => {
+                return Err(refuse(format!(
+                    "metadata wiener_nsr = `{text}` is not a positive number"
+                )))
+            }
+        },
+    };
     if let Some(declared) = metadata.get("inputs") {
         let mut declared: Vec<&str> = declared
             .split(',')
@@ -201,6 +266,8 @@ pub fn check(path: &Path, model: &ModelProto) -> Result<ModelContract> {
         inputs,
         opset,
         metadata,
+        psf_basis_sha256,
+        wiener_nsr,
     })
 }
 

@@ -111,7 +111,7 @@ impl FidNetwork {
         if !path.is_file() {
             return Ok(None);
         }
-        let bytes = std::fs::read(&path).map_err(|e| BenchError::io(&path, e))?;
+        let bytes = crate::contract::read_model_bytes(&path)?;
         let (input, output) = io_names(&path, &bytes)?;
         let session = runtime.session(&bytes, threads, &path.display().to_string())?;
         Ok(Some(FidNetwork {

@@ -5,13 +5,15 @@
 //! per benchmark level, per model and per lens (docs/bench.md).
 //!
 //! - [`contract`]: the model contract, checked on the ONNX graph before any work;
-//! - [`runtime`]: onnxruntime loaded from `ORT_DYLIB_PATH` (the PyPI wheel's library), sessions;
+//! - [`runtime`]: onnxruntime loaded from the PyPI wheel's library, sessions; [`ort_library`]: where
+//!   that library is (`ORT_DYLIB_PATH`, else a Python's `onnxruntime` package);
 //! - [`tiling`]: overlapping tiles with seamless blending;
 //! - [`wiener`]: the classical PSF-prior baseline (field-varying Wiener deconvolution);
 //! - [`lpips`], [`fid`], [`clipiqa`]: the learned metrics; PSNR/SSIM are `unicac_metrics::pyiqa`;
 //! - [`op`]: the paper's O.P. score; [`analysis`]: least-squares fits and R^2;
 //! - [`cost`]: parameters, FLOPs and latency from the graph;
-//! - [`report`]: aggregation into `results.json`, CSV, tables and pictures;
+//! - [`report`]: aggregation into `results.json`, CSV, tables and pictures; the report folder's policy;
+//! - [`memory`]: the peak memory of a run, estimated and checked before any work;
 //! - [`run`]: `unicac bench` from checks to report; [`compare`]: `unicac metrics`.
 //!
 //! ONNX files are read and written with the crate's own `prost` declarations of the ONNX messages
@@ -35,9 +37,11 @@ pub mod cost;
 pub mod error;
 pub mod fid;
 pub mod lpips;
+pub mod memory;
 pub mod npz;
 pub mod onnx;
 pub mod op;
+pub mod ort_library;
 pub mod report;
 pub mod run;
 pub mod runtime;

@@ -16,6 +16,7 @@ use crate::error::{BenchError, Result};
 use crate::fid::FidNetwork;
 use crate::lpips::Lpips;
 use crate::onnx::proto::ModelProto;
+use crate::ort_library::Search;
 use crate::report::write::{write_report, ModelInfo, Report};
 use crate::report::{summarise, LensInfo, PairScore, Scores, BENCHMARKS};
 use crate::runtime::{Runtime, Session, Tensor};
@@ -25,6 +26,8 @@ use crate::tiling::{run_tiled, Tiling};
 pub const METRICS: [&str; 6] = ["psnr", "ssim", "lpips", "oiqe", "fid", "clipiqa"];
 /// Largest `--threads`.
 pub const MAX_THREADS: usize = 256;
+/// Largest `--wiener-nsr`: far past any useful noise-to-signal ratio (the restoration tends to zero).
+pub const MAX_WIENER_NSR: f64 = 100.0;
 
 /// What `unicac bench` was asked to do.
 #[derive(Debug, Clone)]
@@ -46,6 +49,10 @@ pub struct BenchSettings {
     pub threads: usize,
     pub save_images: bool,
     pub wiener_nsr: f64,
+    /// Refuse a run whose estimated peak memory exceeds this (`None`: the memory available now).
+    pub memory_limit_bytes: Option<u64>,
+    /// Where onnxruntime is looked for.
+    pub onnxruntime: Search,
 }
 
 /// Progress reports: (done, total, what).
@@ -104,6 +111,16 @@ fn check_settings(s: &BenchSettings) -> Result<()> {
             return Err(invalid(format!("--method {m}: unknown (identity, wiener)")));
         }
     }
+    // NaN would restore every pair to NaN (each one a failure) and 0 divides by the PSF's zeros.
+    if !(s.wiener_nsr > 0.0 && s.wiener_nsr <= MAX_WIENER_NSR) {
+        return Err(invalid(format!(
+            "--wiener-nsr {:?}: must lie in (0, {MAX_WIENER_NSR}]",
+            s.wiener_nsr
+        )));
+    }
+    if s.memory_limit_bytes == Some(0) {
+        return Err(invalid("--max-memory-gb: must be positive".into()));
+    }
     let mut names: Vec<&str> = vec!["identity", "wiener"];
     for (name, _) in &s.models {
         let ok = !name.is_empty()
@@ -128,7 +145,8 @@ fn check_settings(s: &BenchSettings) -> Result<()> {
         plan.input(path);
     }
     plan.output("--out", &s.out);
-    plan.check().map_err(|e| invalid(e.to_string()))
+    plan.check().map_err(|e| invalid(e.to_string()))?;
+    crate::report::folder::check(&s.out)
 }
 
 fn asked(s: &BenchSettings, metric: &str) -> bool {
@@ -167,6 +185,16 @@ fn frame_crop(pair: &PairRow) -> FrameCrop {
     }
 }
 
+/// The maps an image offers its models besides `lq` (docs/models.md), each of the image's size.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct InputMaps<'a> {
+    pub fov: Option<&'a Planar>,
+    pub psf: Option<&'a Planar>,
+    pub psf_code: Option<&'a Planar>,
+    /// The Wiener estimate with the model's own noise-to-signal ratio.
+    pub wiener: Option<&'a Planar>,
+}
+
 /// Runs an ONNX restoration model on `lq` with the maps it declares, tiled as asked.
 pub fn run_onnx(
     session: &mut Session,
@@ -176,8 +204,29 @@ pub fn run_onnx(
     psf: Option<&Planar>,
     tiling: Tiling,
 ) -> Result<Planar> {
+    let maps = InputMaps {
+        fov,
+        psf,
+        ..InputMaps::default()
+    };
+    run_onnx_with(session, contract, lq, &maps, tiling)
+}
+
+/// [`run_onnx`] with every contract input available.
+pub fn run_onnx_with(
+    session: &mut Session,
+    contract: &ModelContract,
+    lq: &Planar,
+    maps: &InputMaps,
+    tiling: Tiling,
+) -> Result<Planar> {
     let mut inputs: Vec<(&'static str, &Planar)> = vec![("lq", lq)];
-    for (input, map) in [(ModelInput::Fov, fov), (ModelInput::Psf, psf)] {
+    for (input, map) in [
+        (ModelInput::Fov, maps.fov),
+        (ModelInput::Psf, maps.psf),
+        (ModelInput::PsfCode, maps.psf_code),
+        (ModelInput::Wiener, maps.wiener),
+    ] {
         if contract.wants(input) {
             let map =
                 map.ok_or_else(|| invalid(format!("model input `{}` is not available", input.name())))?;
@@ -234,9 +283,9 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
     }
     let needs_runtime = !loaded.is_empty() || asked(s, "lpips") || asked(s, "fid") || asked(s, "clipiqa");
     let runtime = if needs_runtime {
-        Some(Runtime::load()?)
+        Some(Runtime::load_with(&s.onnxruntime)?)
     } else {
-        match Runtime::load() {
+        match Runtime::load_with(&s.onnxruntime) {
             Ok(r) => Some(r),
             Err(e) => {
                 notices.push(format!("LPIPS, FID and ClipIQA unavailable: {e}"));
@@ -296,7 +345,7 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
             let available = match input {
                 ModelInput::Lq => true,
                 ModelInput::Fov => has_fov,
-                ModelInput::Psf => has_psf,
+                ModelInput::Psf | ModelInput::PsfCode | ModelInput::Wiener => has_psf,
             };
             if !available {
                 return Err(invalid(format!(
@@ -308,6 +357,28 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
             }
         }
     }
+    // A `psf_code` model reads codes in the basis it was trained with: the dataset's must be that one.
+    let needs_basis = loaded.iter().any(|(_, c, ..)| c.wants(ModelInput::PsfCode));
+    let basis = if needs_basis {
+        let basis = unicac_dataset::psf_basis::read_dataset_basis(&s.dataset).map_err(dataset_error)?;
+        for (name, contract, ..) in &loaded {
+            match &contract.psf_basis_sha256 {
+                Some(sha) if contract.wants(ModelInput::PsfCode) && *sha != basis.meta.sha256 => {
+                    return Err(invalid(format!(
+                        "model {name} ({}) was trained with PSF basis {sha}, but the dataset {} has basis {}; \
+                         a psf_code model only runs on a dataset with its basis",
+                        contract.path.display(),
+                        s.dataset.display(),
+                        basis.meta.sha256
+                    )))
+                }
+                _ => {}
+            }
+        }
+        Some(basis)
+    } else {
+        None
+    };
     if s.methods.iter().any(|m| m == "wiener") && !has_psf {
         return Err(invalid(format!(
             "--method wiener needs the dataset's PSF tables; {} has none",
@@ -406,6 +477,93 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
     available.insert("oiqe".into(), !edges.is_empty());
     available.insert("fid".into(), fid.is_some());
     available.insert("clipiqa".into(), clip.is_some());
+    check_memory(s, &pairs, lpips.is_some())?;
+    // Every check passed: the report folder is made (or a previous report cleared) before the work.
+    let created = crate::report::folder::claim(&s.out)?;
+    let result = benchmark(
+        s,
+        progress,
+        Checked {
+            notices,
+            loaded,
+            runtime,
+            dataset,
+            pairs,
+            lenses,
+            has_psf,
+            available,
+            lpips,
+            fid,
+            clip,
+            edges,
+            basis,
+        },
+    );
+    if result.is_err() && created {
+        let _ = std::fs::remove_dir_all(&s.out);
+    }
+    result
+}
+
+/// The largest pair's peak-memory estimate against the limit (given, else the memory available now).
+fn check_memory(s: &BenchSettings, pairs: &[PairRow], lpips: bool) -> Result<()> {
+    let Some(largest) = pairs.iter().max_by_key(|p| p.crop[2] as u64 * p.crop[3] as u64) else {
+        return Ok(());
+    };
+    let plan = crate::memory::MemoryPlan {
+        pair_px: largest.crop[2] as u64 * largest.crop[3] as u64,
+        lpips,
+        models: !s.models.is_empty(),
+        tiled: s.tiling.tile_px.is_some(),
+    };
+    let (limit, source) = match s.memory_limit_bytes {
+        Some(limit) => (limit, "--max-memory-gb allows"),
+        None => match crate::memory::available_bytes() {
+            Some(available) => (
+                available,
+                "available on this machine now (--max-memory-gb sets another limit)",
+            ),
+            None => return Ok(()),
+        },
+    };
+    plan.check(limit, source, [largest.crop[2], largest.crop[3]])
+}
+
+/// What the checks of `run_bench` hand to the work.
+struct Checked {
+    notices: Vec<String>,
+    loaded: Vec<(String, ModelContract, ModelProto, Vec<u8>)>,
+    runtime: Option<&'static Runtime>,
+    dataset: Dataset,
+    pairs: Vec<PairRow>,
+    lenses: BTreeMap<String, LensInfo>,
+    has_psf: bool,
+    available: BTreeMap<String, bool>,
+    lpips: Option<Lpips>,
+    fid: Option<FidNetwork>,
+    clip: Option<ClipIqa>,
+    edges: Vec<unicac_dataset::EdgeRow>,
+    /// The dataset's PSF basis, read when a model takes `psf_code`.
+    basis: Option<unicac_dataset::psf_basis::PsfBasis>,
+}
+
+/// Every pair through every method, then the report.
+fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<(Report, Vec<PathBuf>)> {
+    let Checked {
+        mut notices,
+        loaded,
+        runtime,
+        dataset,
+        pairs,
+        lenses,
+        has_psf,
+        available,
+        mut lpips,
+        mut fid,
+        mut clip,
+        edges,
+        basis,
+    } = checked;
     // Methods.
     let mut entries = vec![Entry {
         info: ModelInfo {
@@ -472,12 +630,34 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
         tables.insert(lens_id.to_string(), table.clone());
         Ok(table)
     };
-    let needs_psf_map = entries
+    let wants = |input: ModelInput| {
+        entries
+            .iter()
+            .any(|e| matches!(&e.method, Method::Onnx { contract, .. } if contract.wants(input)))
+    };
+    let needs_psf_map = wants(ModelInput::Psf);
+    let needs_fov_map = wants(ModelInput::Fov);
+    let needs_code_map = wants(ModelInput::PsfCode);
+    // The noise-to-signal ratios of the Wiener estimates the models take as input (one per distinct
+    // ratio and image).
+    let mut wiener_nsrs: Vec<f64> = entries
         .iter()
-        .any(|e| matches!(&e.method, Method::Onnx { contract, .. } if contract.wants(ModelInput::Psf)));
-    let needs_fov_map = entries
-        .iter()
-        .any(|e| matches!(&e.method, Method::Onnx { contract, .. } if contract.wants(ModelInput::Fov)));
+        .filter_map(|e| match &e.method {
+            Method::Onnx { contract, .. } if contract.wants(ModelInput::Wiener) => {
+                Some(contract.wiener_nsr.unwrap_or(crate::wiener::DEFAULT_NSR))
+            }
+            _ => None,
+        })
+        .collect();
+    wiener_nsrs.sort_by(f64::total_cmp);
+    wiener_nsrs.dedup();
+    let mut codes: BTreeMap<String, unicac_dataset::FieldCodes> = BTreeMap::new();
+    let mut codes_for = |table: &PsfTable, lens_id: &str| -> unicac_dataset::FieldCodes {
+        codes
+            .entry(lens_id.to_string())
+            .or_insert_with(|| basis.as_ref().expect("basis read").field_codes(table))
+            .clone()
+    };
     let total = pairs.len() + edges.len();
     for (index, pair) in pairs.iter().enumerate() {
         progress(index, total, &pair.pair_id);
@@ -498,7 +678,12 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
                 pair.pair_id, pair.crop, lq.width, lq.height
             )));
         }
-        let table = if has_psf && (needs_psf_map || s.methods.iter().any(|m| m == "wiener")) {
+        let table = if has_psf
+            && (needs_psf_map
+                || needs_code_map
+                || !wiener_nsrs.is_empty()
+                || s.methods.iter().any(|m| m == "wiener"))
+        {
             Some(table_for(&pair.psf, &pair.lens_id)?)
         } else {
             None
@@ -514,6 +699,22 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
             )),
             _ => None,
         };
+        let psf_code = match (&table, needs_code_map) {
+            (Some(t), true) => Some(to_planar(
+                unicac_dataset::psf_code_map(&codes_for(t, &pair.lens_id), crop).map_err(dataset_error)?,
+            )),
+            _ => None,
+        };
+        let wiener_inputs = wiener_nsrs
+            .iter()
+            .map(|&nsr| {
+                let t = table.as_ref().expect("PSF table loaded");
+                Ok((
+                    nsr.to_bits(),
+                    crate::wiener::wiener_restore(&lq, t, &|r, c| crop.normalised(r, c), nsr)?,
+                ))
+            })
+            .collect::<Result<BTreeMap<u64, Planar>>>()?;
         let gt_features = match fid.as_mut() {
             Some(net) => Some(net.features(&gt)?),
             None => None,
@@ -532,7 +733,13 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
                     *nsr,
                 ),
                 Method::Onnx { contract, session } => {
-                    run_onnx(session, contract, &lq, fov.as_ref(), psf.as_ref(), s.tiling)
+                    let maps = InputMaps {
+                        fov: fov.as_ref(),
+                        psf: psf.as_ref(),
+                        psf_code: psf_code.as_ref(),
+                        wiener: wiener_input(contract, &wiener_inputs),
+                    };
+                    run_onnx_with(session, contract, &lq, &maps, s.tiling)
                 }
             };
             let restored = match restored {
@@ -620,12 +827,47 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
             }
             p
         });
-        let psf = if needs_psf_map {
+        let edge_table = if needs_psf_map || needs_code_map || !wiener_nsrs.is_empty() {
             let lens_pair = pairs
                 .iter()
                 .find(|p| p.lens_id == edge.lens_id)
                 .expect("lens has pairs");
-            let table = table_for(&lens_pair.psf, &edge.lens_id)?;
+            Some(table_for(&lens_pair.psf, &edge.lens_id)?)
+        } else {
+            None
+        };
+        let psf_code = match (&edge_table, needs_code_map) {
+            (Some(table), true) => {
+                let codes = codes_for(table, &edge.lens_id);
+                let mut p = Planar::new(lq.width, lq.height, unicac_dataset::PSF_CODE_CHANNELS);
+                for row in 0..lq.height {
+                    for column in 0..lq.width {
+                        let (x, y) = position(row, column);
+                        for (c, v) in codes.at(x, y).iter().enumerate() {
+                            p.set(c, column, row, *v);
+                        }
+                    }
+                }
+                Some(p)
+            }
+            _ => None,
+        };
+        let wiener_inputs = wiener_nsrs
+            .iter()
+            .map(|&nsr| {
+                let table = edge_table.as_ref().expect("PSF table loaded");
+                let at = |r: usize, c: usize| {
+                    let (x, y) = position(r, c);
+                    [x, y]
+                };
+                Ok((
+                    nsr.to_bits(),
+                    crate::wiener::wiener_restore(&lq, table, &at, nsr)?,
+                ))
+            })
+            .collect::<Result<BTreeMap<u64, Planar>>>()?;
+        let psf = if needs_psf_map {
+            let table = edge_table.clone().expect("PSF table loaded");
             let features = table.features();
             let mut p = Planar::new(lq.width, lq.height, unicac_dataset::PSF_FEATURES);
             for row in 0..lq.height {
@@ -660,7 +902,13 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
                     )
                 }
                 Method::Onnx { contract, session } => {
-                    run_onnx(session, contract, &lq, fov.as_ref(), psf.as_ref(), s.tiling)
+                    let maps = InputMaps {
+                        fov: fov.as_ref(),
+                        psf: psf.as_ref(),
+                        psf_code: psf_code.as_ref(),
+                        wiener: wiener_input(contract, &wiener_inputs),
+                    };
+                    run_onnx_with(session, contract, &lq, &maps, s.tiling)
                 }
             };
             let restored = match restored {
@@ -711,7 +959,12 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
             ));
         }
     }
-    let results = summarise(&scores, &names, &lenses, &s.benchmarks);
+    let learned: Vec<String> = entries
+        .iter()
+        .filter(|e| e.info.kind == "onnx")
+        .map(|e| e.info.name.clone())
+        .collect();
+    let results = summarise(&scores, &names, &learned, &lenses, &s.benchmarks);
     let report = Report {
         unicac_version: env!("CARGO_PKG_VERSION"),
         dataset: s.dataset.clone(),
@@ -719,11 +972,18 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
         benchmarks: s.benchmarks.clone(),
         metrics: available,
         notices,
+        onnxruntime: runtime.map(|r| r.located().clone()),
         models: entries.into_iter().map(|e| e.info).collect(),
         results,
     };
     let written = write_report(&s.out, &report, &scores.pairs)?;
     Ok((report, written))
+}
+
+/// The Wiener estimate computed with `contract`'s noise-to-signal ratio, if it takes one.
+fn wiener_input<'a>(contract: &ModelContract, estimates: &'a BTreeMap<u64, Planar>) -> Option<&'a Planar> {
+    let nsr = contract.wiener_nsr.unwrap_or(crate::wiener::DEFAULT_NSR);
+    estimates.get(&nsr.to_bits())
 }
 
 /// The half-diagonal (px) of the frames the pairs were rendered at.

@@ -1,72 +1,76 @@
 //! onnxruntime through the `ort` crate, loaded at run time from the shared library of the `onnxruntime`
 //! PyPI wheel (`ort`'s `load-dynamic` feature; the `api-31` feature needs onnxruntime >= 1.31).
 //!
-//! [`Runtime::load`] finds the library through `ORT_DYLIB_PATH` and refuses clearly, saying how to get it,
-//! when the variable is unset or names no file. onnxruntime has one environment per process, so the
-//! loaded runtime is kept once for the process (`OnceLock`); sessions are values owned by their users.
+//! [`Runtime::load`] takes the library [`crate::ort_library::locate`] finds (`ORT_DYLIB_PATH`, else a
+//! Python's onnxruntime package) and refuses clearly, saying how to get a good one, when there is none
+//! or it is of an older API. onnxruntime has one environment per process, so the loaded runtime is kept
+//! once for the process (`OnceLock`): the first search decides; sessions are values owned by their users.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::OnceLock;
 
 use crate::error::{BenchError, Result};
+use crate::ort_library::{locate, Located, Search, HINT};
 
 /// The onnxruntime version the bench is built and tested against.
 pub const ORT_VERSION: &str = "1.31.1";
 
-/// How to get the library, for error messages and docs.
-pub const ORT_HINT: &str = "install the onnxruntime 1.31.1 wheel (python3 -m pip install onnxruntime==1.31.1) and \
-     export ORT_DYLIB_PATH=<site-packages>/onnxruntime/capi/libonnxruntime.so.1.31.1 \
-     (python3 -c 'import onnxruntime, os; print(os.path.join(os.path.dirname(onnxruntime.__file__), \"capi\"))' prints the folder)";
-
 /// The loaded onnxruntime.
 #[derive(Debug)]
 pub struct Runtime {
-    library: PathBuf,
+    located: Located,
     environment: ort::environment::Environment,
 }
 
 static RUNTIME: OnceLock<std::result::Result<Runtime, String>> = OnceLock::new();
 
 impl Runtime {
-    /// Loads onnxruntime from `ORT_DYLIB_PATH` (once per process).
+    /// Loads onnxruntime found by [`Search::from_environment`] without a host interpreter.
     pub fn load() -> Result<&'static Runtime> {
+        Runtime::load_with(&Search::from_environment(None))
+    }
+
+    /// Loads onnxruntime from where `search` finds it (once per process: later calls get the first
+    /// result whatever their search).
+    pub fn load_with(search: &Search) -> Result<&'static Runtime> {
         RUNTIME
-            .get_or_init(|| Runtime::init().map_err(|e| e.to_string()))
+            .get_or_init(|| Runtime::init(search).map_err(|e| e.to_string()))
             .as_ref()
             .map_err(|message| BenchError::RuntimeMissing(message.clone()))
     }
 
-    fn init() -> Result<Runtime> {
-        let library = match std::env::var_os("ORT_DYLIB_PATH").filter(|v| !v.is_empty()) {
-            Some(path) => PathBuf::from(path),
-            None => {
-                return Err(BenchError::RuntimeMissing(format!(
-                    "onnxruntime not found: ORT_DYLIB_PATH is not set; {ORT_HINT}"
-                )))
-            }
-        };
-        if !library.is_file() {
-            return Err(BenchError::RuntimeMissing(format!(
-                "onnxruntime not found: ORT_DYLIB_PATH={} is not a file; {ORT_HINT}",
-                library.display()
-            )));
-        }
-        let environment = ort::init_from(&library)
-            .map_err(|e| {
-                BenchError::RuntimeMissing(format!(
-                    "{}: cannot load onnxruntime ({e}); {ORT_HINT}",
-                    library.display()
-                ))
-            })?
+    fn init(search: &Search) -> Result<Runtime> {
+        let located = locate(search)?;
+        let library = &located.library;
+        let builder = ort::init_from(library).map_err(|e| {
+            let why = match e {
+                ort::LoadDynamicError::BadVersion { version_str, .. } => format!(
+                    "it is onnxruntime {version_str}, older than 1.{} (the API this build of unicac uses)",
+                    ort::MINOR_VERSION
+                ),
+                other => format!("cannot load it ({other})"),
+            };
+            BenchError::RuntimeMissing(format!(
+                "{} (found by {}): {why}; {HINT}",
+                library.display(),
+                located.found_by
+            ))
+        })?;
+        let environment = builder
             .with_name("unicac")
             .build()
             .map_err(|e| BenchError::ort("creating the environment", e))?;
-        Ok(Runtime { library, environment })
+        Ok(Runtime { located, environment })
     }
 
     /// The shared library in use.
     pub fn library(&self) -> &Path {
-        &self.library
+        &self.located.library
+    }
+
+    /// The shared library in use and how it was found.
+    pub fn located(&self) -> &Located {
+        &self.located
     }
 
     /// A session for the ONNX model in `bytes`, running with `threads` intra-op threads.

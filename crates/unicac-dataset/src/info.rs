@@ -26,6 +26,9 @@ pub struct DatasetInfo {
     pub dir: String,
     pub unicac_version: String,
     pub frame_px: [usize; 2],
+    /// The sensor every lens was graded on (`unicac ode --frame` with these settings prints the ODE
+    /// `lenses.jsonl` records).
+    pub grading: unicac_ode::FrameSensor,
     pub lenses: BTreeMap<String, usize>,
     pub pairs: BTreeMap<String, usize>,
     pub edges: usize,
@@ -110,6 +113,10 @@ pub fn info(dir: &Path) -> Result<DatasetInfo> {
         dir: dir.display().to_string(),
         unicac_version: dataset.manifest.unicac_version.clone(),
         frame_px: dataset.manifest.frame_px,
+        grading: unicac_ode::FrameSensor {
+            frame_px: dataset.manifest.frame_px,
+            pixel_um: dataset.manifest.settings["pixel_um"].as_f64(),
+        },
         lenses: lens_counts,
         pairs: pair_counts,
         edges: edges.len(),
@@ -170,7 +177,13 @@ pub fn plot(dir: &Path, out: &Path) -> Result<()> {
                     .collect(),
             })
             .collect();
-    let title = format!("Test lenses of {} by ODE level", dir.display());
+    // The folder's own name: a machine's path says nothing to a reader of the picture.
+    let name = dir
+        .canonicalize()
+        .ok()
+        .and_then(|d| d.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .unwrap_or_else(|| "the dataset".into());
+    let title = format!("Test lenses of {name} by ODE level");
     unicac_plot::level_histograms(&title, &names, &panels, out)
         .map_err(|e| DatasetError::Invalid(format!("{}: {e}", out.display())))
 }

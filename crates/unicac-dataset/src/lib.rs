@@ -7,6 +7,8 @@
 //!   readers that check the format version and writers;
 //! - `psf_table`: per-lens radial PSF tables (`psf/LENS_ID/kernels.npy` + `table.json`) and the
 //!   PSF-feature map of docs/models.md;
+//! - `psf_basis`: the dataset's PCA basis of its PSF kernels (`psf/basis/`) and the `psf_code` map of
+//!   docs/models.md;
 //! - `fov`: the field-of-view map of docs/models.md;
 //! - `npy`: float32 NPY files through the `npyz` crate (no ndarray needed; numpy reads them with
 //!   `allow_pickle=False`).
@@ -18,12 +20,14 @@ pub mod info;
 
 pub mod manifest;
 pub mod npy;
+pub mod psf_basis;
 pub mod psf_table;
 pub mod seeds;
 
 pub use error::{DatasetError, Result};
 pub use fov::fov_map;
 pub use manifest::{DatasetManifest, EdgeRow, LensRow, PairRow, FORMAT_NAME, FORMAT_VERSION};
+pub use psf_basis::{psf_code_map, FieldCodes, PsfBasis, PSF_CODE_CHANNELS};
 pub use psf_table::{psf_feature_map, PsfTable, PsfTableMeta, PSF_FEATURES};
 
 /// A float32 map of `channels` planes of `height` x `width` pixels, channel-major ([C, H, W]).

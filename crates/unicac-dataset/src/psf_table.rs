@@ -113,8 +113,8 @@ impl PsfTable {
         crate::manifest::write_json(&dir.join(TABLE_JSON), &self.meta)
     }
 
-    /// Reads a table folder, checking the NPY shape against `table.json`.
-    pub fn read(dir: &Path) -> Result<PsfTable> {
+    /// Reads `table.json` of a table folder (the metadata without the kernels).
+    pub fn read_meta(dir: &Path) -> Result<PsfTableMeta> {
         let json_path = dir.join(TABLE_JSON);
         let text = std::fs::read(&json_path).map_err(|e| DatasetError::io(&json_path, e))?;
         let meta: PsfTableMeta =
@@ -132,6 +132,12 @@ impl PsfTable {
                 supported: crate::FORMAT_VERSION,
             });
         }
+        Ok(meta)
+    }
+
+    /// Reads a table folder, checking the NPY shape against `table.json`.
+    pub fn read(dir: &Path) -> Result<PsfTable> {
+        let meta = PsfTable::read_meta(dir)?;
         let npy_path = dir.join(KERNELS_NPY);
         let (shape, kernels) = crate::npy::read_f32(&npy_path)?;
         let k = meta.kernel_px;
@@ -206,18 +212,7 @@ pub fn raw_moments(kernel: &[f32], k: usize) -> [f64; 5] {
 // `channel` indexes the two field tables and the output at once.
 #[allow(clippy::needless_range_loop)]
 fn features_from(moments: &[[[f64; 5]; 3]], radii: &[f64], x: f64, y: f64) -> [f32; PSF_FEATURES] {
-    let radius = x.hypot(y);
-    let last = radii.len() - 1;
-    // Linear interpolation in radius between the bracketing fields, clamped outside them.
-    let (i, t) = if radius <= radii[0] || last == 0 {
-        (0, 0.0)
-    } else if radius >= radii[last] {
-        (last - 1, 1.0)
-    } else {
-        let i = radii.partition_point(|&r| r <= radius) - 1;
-        (i, (radius - radii[i]) / (radii[i + 1] - radii[i]))
-    };
-    let j = (i + 1).min(last);
+    let (i, j, t) = bracket(radii, x.hypot(y));
     let phi = y.atan2(x);
     let (s, c) = phi.sin_cos();
     let mut out = [0.0f32; PSF_FEATURES];
@@ -239,6 +234,21 @@ fn features_from(moments: &[[[f64; 5]; 3]], radii: &[f64], x: f64, y: f64) -> [f
         out[base + 4] = signed_sqrt(ryy) as f32;
     }
     out
+}
+
+/// The stored fields `i`, `j` that bracket `radius` and the weight `t` of `j`: the kernel there is
+/// `(1 - t) k_i + t k_j` (linear in radius, clamped outside the stored radii; `radii` ascending, non-empty).
+pub fn bracket(radii: &[f64], radius: f64) -> (usize, usize, f64) {
+    let last = radii.len() - 1;
+    let (i, t) = if radius <= radii[0] || last == 0 {
+        (0, 0.0)
+    } else if radius >= radii[last] {
+        (last - 1, 1.0)
+    } else {
+        let i = radii.partition_point(|&r| r <= radius) - 1;
+        (i, (radius - radii[i]) / (radii[i + 1] - radii[i]))
+    };
+    (i, (i + 1).min(last), t)
 }
 
 fn signed_sqrt(v: f64) -> f64 {

@@ -251,6 +251,7 @@ fn an_interrupted_build_resumes_to_the_same_bytes() {
     std::fs::remove_file(dir.join("edges.jsonl")).unwrap();
     std::fs::remove_dir_all(dir.join("edges/lq")).unwrap();
     std::fs::remove_file(dir.join("dataset.json")).unwrap();
+    std::fs::remove_dir_all(dir.join(unicac_dataset::psf_basis::BASIS_RELATIVE)).unwrap();
     std::fs::write(dir.join("test/lq/.half.png.tmp-999"), b"partial").unwrap();
     let report = build_with(2, &settings(), &dir, Shard::ALL).unwrap();
     assert!(report.complete);
@@ -263,6 +264,41 @@ fn an_interrupted_build_resumes_to_the_same_bytes() {
     assert_eq!(report.odes_from_cache, 6);
     assert_same_files(reference(), &dir);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_completed_dataset_has_a_psf_basis_fitted_on_its_training_lenses() {
+    let dir = reference();
+    let basis = unicac_dataset::psf_basis::read_dataset_basis(dir).unwrap();
+    let lenses = Dataset::open(dir).unwrap().lenses().unwrap();
+    let train: Vec<_> = lenses.iter().filter(|l| l.split == "train").collect();
+    let largest = lenses
+        .iter()
+        .filter(|l| !l.psf.is_empty())
+        .map(|l| {
+            unicac_dataset::PsfTable::read_meta(&dir.join(&l.psf))
+                .unwrap()
+                .kernel_px
+        })
+        .max()
+        .unwrap();
+    assert_eq!(basis.meta.kernel_px, largest);
+    assert_eq!(basis.meta.fit_lenses, train.len());
+    // The tiny frames' training lens may form the same kernel at every field: no variance, so no
+    // component is needed (the code is all zeros). Otherwise the stated share, or all 16 components.
+    for c in 0..3 {
+        let (m, explained) = (basis.meta.components[c], basis.meta.explained[c]);
+        assert!(m <= 16 && (0.0..=1.0).contains(&explained), "{:?}", basis.meta);
+        assert!(explained >= 0.95 || m == 16, "{:?}", basis.meta);
+    }
+    assert_eq!(basis.meta.fit_kernels, 17 * train.len());
+    assert!(basis.meta.explained_held_out.is_some());
+    // Every lens in use gets a finite code.
+    for lens in lenses.iter().filter(|l| !l.psf.is_empty()) {
+        let table = unicac_dataset::PsfTable::read(&dir.join(&lens.psf)).unwrap();
+        let codes = basis.field_codes(&table);
+        assert!(codes.codes().iter().flatten().all(|v| v.is_finite()));
+    }
 }
 
 #[test]

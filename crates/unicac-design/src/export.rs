@@ -45,7 +45,7 @@ pub fn to_lens_spec(
             },
             semi_diameter_mm: semi_diameters_mm.get(i).copied().filter(|v| *v > 0.0),
             stop: s.is_stop,
-            label: String::new(),
+            ..SurfaceSpec::default()
         })
         .collect();
     surfaces.push(SurfaceSpec {

@@ -7,7 +7,7 @@
 //! stream. At the budget, work stops between steps and everything accepted so far is on disk.
 
 use crate::asphere::asphericize;
-use crate::error::Result;
+use crate::error::{DesignError, Result};
 use crate::export::to_lens_spec;
 use crate::glass_snap::snap;
 use crate::global::{search, GlobalProgress, GlobalSettings};
@@ -51,7 +51,48 @@ pub struct RunSettings {
     pub global: GlobalSettings,
 }
 
+/// Most lenses kept per spec (`count`): every kept design is compared with each new one.
+pub const MAX_COUNT: usize = 1000;
+/// Longest time budget (s): one year. Beyond it a deadline is not representable on every platform
+/// (`Instant` plus a huge `Duration` overflows), and no run is meant to last longer.
+pub const MAX_TIME_BUDGET_S: f64 = 365.0 * 86_400.0;
+/// Largest `max_rms_um` (um): 10 mm, larger than any image it could bound.
+pub const MAX_RMS_LIMIT_UM: f64 = 10_000.0;
+
 impl RunSettings {
+    /// Checks every setting a caller gives; errors name the field.
+    pub fn validate(&self) -> Result<()> {
+        if !(1..=MAX_COUNT).contains(&self.count) {
+            return Err(DesignError::spec(
+                "count",
+                format!("{} must lie in [1, {MAX_COUNT}]", self.count),
+            ));
+        }
+        if let Some(t) = self.time_budget_s {
+            if !(t > 0.0 && t <= MAX_TIME_BUDGET_S) {
+                return Err(DesignError::spec(
+                    "time_budget_s",
+                    format!("{t:?} must lie in (0, {MAX_TIME_BUDGET_S}] s (one year, MAX_TIME_BUDGET_S)"),
+                ));
+            }
+        }
+        if let Some(m) = self.max_rms_um {
+            if !(m > 0.0 && m <= MAX_RMS_LIMIT_UM) {
+                return Err(DesignError::spec(
+                    "max_rms_um",
+                    format!("{m:?} must lie in (0, {MAX_RMS_LIMIT_UM}] um"),
+                ));
+            }
+        }
+        if !(self.global_share > 0.0 && self.global_share < 1.0) {
+            return Err(DesignError::spec(
+                "global_share",
+                format!("{} must lie in (0, 1)", self.global_share),
+            ));
+        }
+        Ok(())
+    }
+
     pub fn new(count: usize, seed: u64) -> Self {
         RunSettings {
             count,
@@ -269,6 +310,7 @@ pub fn run_spec(
     events: &(dyn Fn(Event) + Sync),
 ) -> Result<SpecSummary> {
     spec.validate()?;
+    settings.validate()?;
     let start = Instant::now();
     let slug = spec.slug();
     let accepted_now = |library: &Library| library.rows_for(&slug).filter(|r| !r.aspheric).count();
@@ -550,10 +592,12 @@ pub fn run_specs(
     library: &mut Library,
     events: &(dyn Fn(Event) + Sync),
 ) -> Result<Vec<SpecSummary>> {
+    settings.validate()?;
+    for spec in specs {
+        spec.validate()?;
+    }
     let start = Instant::now();
-    let end = settings
-        .time_budget_s
-        .map(|s| start + Duration::from_secs_f64(s.max(0.0)));
+    let end = settings.time_budget_s.map(|s| start + Duration::from_secs_f64(s));
     let mut summaries = Vec::new();
     for (index, spec) in specs.iter().enumerate() {
         if end.is_some_and(|e| Instant::now() >= e) {

@@ -37,6 +37,12 @@ impl std::str::FromStr for StopPosition {
     }
 }
 
+/// Shortest focal length designed for (mm): below phone-camera modules (about 4 mm), where lengths
+/// are still far above the tracer's tolerances.
+pub const MIN_FOCAL_LENGTH_MM: f64 = 1.0;
+/// Longest focal length designed for (mm): beyond long telephoto lenses.
+pub const MAX_FOCAL_LENGTH_MM: f64 = 10_000.0;
+
 /// Limits on the design. Every one is checked on every accepted lens and reported by name.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Constraints {
@@ -70,6 +76,51 @@ pub struct Constraints {
 }
 
 impl Constraints {
+    /// Every limit is a finite number >= 0 (NaN would accept every design or none); an edge thickness
+    /// is at most the longest track allowed, which no lens could hold.
+    pub fn validate(&self, focal_length_mm: f64) -> Result<()> {
+        let named = [
+            ("glass_center_mm", self.glass_center_mm[0]),
+            ("glass_center_mm", self.glass_center_mm[1]),
+            ("air_center_mm", self.air_center_mm[0]),
+            ("air_center_mm", self.air_center_mm[1]),
+            ("glass_edge_min_mm", self.glass_edge_min_mm),
+            ("air_edge_min_mm", self.air_edge_min_mm),
+            ("back_focal_min_mm", self.back_focal_min_mm),
+            ("total_track_max_mm", self.total_track_max_mm),
+            ("focal_tolerance", self.focal_tolerance),
+            ("distortion_max_percent", self.distortion_max_percent),
+            ("relative_illumination_min", self.relative_illumination_min),
+            ("curvature_max_times_f", self.curvature_max_times_f),
+            ("surface_slope_max_deg", self.surface_slope_max_deg),
+            ("asphere_departure_max_mm", self.asphere_departure_max_mm),
+            ("glass_distance_max", self.glass_distance_max),
+        ];
+        for (field, value) in named {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(DesignError::spec(
+                    format!("constraints.{field}"),
+                    format!("{value:?} must be a finite number >= 0"),
+                ));
+            }
+        }
+        for (field, value) in [
+            ("glass_edge_min_mm", self.glass_edge_min_mm),
+            ("air_edge_min_mm", self.air_edge_min_mm),
+        ] {
+            if value > self.total_track_max_mm {
+                return Err(DesignError::spec(
+                    format!("constraints.{field}"),
+                    format!(
+                        "{value:?} mm must be at most the longest track allowed, {} mm (focal length {focal_length_mm} mm)",
+                        self.total_track_max_mm
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Defaults for focal length `f_mm`.
     pub fn for_focal_length(f_mm: f64, elements: usize) -> Constraints {
         let s = f_mm / 50.0;
@@ -157,9 +208,16 @@ impl DesignSpec {
         if !(self.f_number >= 0.9 && self.f_number <= 32.0) {
             return Err(DesignError::spec("f_number", "must lie in [0.9, 32]"));
         }
-        if !(self.focal_length_mm > 0.0 && self.focal_length_mm.is_finite()) {
-            return Err(DesignError::spec("focal_length_mm", "must be positive"));
+        if !(MIN_FOCAL_LENGTH_MM..=MAX_FOCAL_LENGTH_MM).contains(&self.focal_length_mm) {
+            return Err(DesignError::spec(
+                "focal_length_mm",
+                format!(
+                    "{:?} must lie in [{MIN_FOCAL_LENGTH_MM}, {MAX_FOCAL_LENGTH_MM}] mm",
+                    self.focal_length_mm
+                ),
+            ));
         }
+        self.constraints.validate(self.focal_length_mm)?;
         let w = &self.wavelengths_um;
         if w.is_empty()
             || w.len() != self.wavelength_weights.len()

@@ -127,6 +127,18 @@ fn finite_real<R: Real>(v: f64) -> R {
     R::from_f64(v.clamp(-max, max))
 }
 
+/// The GPU kernels trace centred surfaces only: a decentred or tilted one is refused (the CPU tracers
+/// take it).
+pub fn check_supported(system: &TraceSystem) -> crate::GpuResult<()> {
+    match system.surfaces.iter().position(|s| s.frame.is_some()) {
+        None => Ok(()),
+        Some(i) => Err(crate::GpuError::Unsupported(format!(
+            "surface {} is decentred or tilted; the GPU path traces rotationally symmetric lenses only (use the CPU path)",
+            i + 1
+        ))),
+    }
+}
+
 /// The surfaces of a trace system, local to each vertex. Everything that is a combination of inputs
 /// (gaps, index ratios) is formed in f64 on the host and rounded once.
 pub fn surfaces<R: Real>(system: &TraceSystem) -> Vec<Surface<R>> {

@@ -91,6 +91,7 @@ impl GpuTracer {
         let mut cleared = false;
         let mut previous = StatusCounts::default();
         for pass in passes {
+            layout::check_supported(pass.system)?;
             let surfaces = layout::surfaces::<R>(pass.system);
             if !cleared {
                 self.begin(&mut buffers, &surfaces, words)?;

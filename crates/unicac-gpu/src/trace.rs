@@ -158,6 +158,7 @@ impl GpuTracer {
     }
 
     fn run<R: Real>(&self, system: &TraceSystem, source: &RaySource, read_rays: bool) -> GpuResult<Traced> {
+        layout::check_supported(system)?;
         let surfaces = layout::surfaces::<R>(system);
         let slots = source.slots()? as usize;
         let mut buffers = self.buffers.lock().unwrap_or_else(|e| e.into_inner());

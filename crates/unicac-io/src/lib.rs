@@ -10,15 +10,19 @@
 //! - [`write_atomically`] / [`write_with`] / [`write_via_path`]: a file appears complete or not at all
 //!   (a dot-named temporary sibling, synced, then renamed over the target);
 //! - [`clean_stale_temporaries`] / [`clean_stale_temporaries_under`]: temporaries left by killed runs
-//!   are removed on the next run; a live writer's (a concurrent shard's) are kept.
+//!   are removed on the next run; a live writer's (a concurrent shard's) are kept;
+//! - [`read_capped`]: an input read whole is a regular file within a stated size (never a device, a
+//!   FIFO or a folder, which could block or never end).
 //!
 //! std only, so that every crate (optics, image, plot, sim, dataset, bench) can depend on it.
 
 mod atomic;
 mod plan;
+mod read;
 
 pub use atomic::{
     clean_stale_temporaries, clean_stale_temporaries_under, is_temporary_name, temporary_sibling,
     write_atomically, write_via_path, write_with,
 };
 pub use plan::{extension_of, require_extension, OutputError, OutputPlan};
+pub use read::read_capped;

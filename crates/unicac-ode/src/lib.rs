@@ -10,8 +10,10 @@
 //! checkerboard around each field (the PSF is constant across a patch), not a full frame.
 
 pub mod evaluate;
+pub mod frame;
 
 pub use evaluate::{
     edge_patches, evaluate, lens_mtf, score_fields, EdgePatch, EvaluationSetup, FieldChannelScore,
     FieldKernels, LensMtf, LensOde, OdeError, OdeReport, OdeSettings,
 };
+pub use frame::FrameSensor;

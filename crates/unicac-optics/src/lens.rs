@@ -2,13 +2,14 @@
 
 use crate::error::{OpticsError, Result};
 use crate::material::{find_glass, Medium, LINE_D_UM};
+use crate::placement::{Placement, MAX_TILT_DEG};
 use crate::profile::{Profile, MAX_ASPHERE_TERMS};
 use crate::spec::{
     ApertureSpec, FieldSpec, LensSpec, MaterialSpec, SensorSpec, SurfaceType, WavelengthSpec, FORMAT_VERSION,
 };
 
 /// One surface of the model, with its vertex placed in global coordinates.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct Surface {
     pub profile: Profile,
     /// Global z of the vertex (surface 1 at 0).
@@ -18,6 +19,27 @@ pub struct Surface {
     pub semi_diameter_mm: Option<f64>,
     pub medium_after: Medium,
     pub label: String,
+    /// Decentre and tilt of this surface (`crate::placement`); centred by default.
+    pub placement: Placement,
+}
+
+/// The derived form, with `placement` only when the surface is not centred: the lens fingerprint
+/// (`unicac_psf::lens_fingerprint`, a hash of `{lens:?}`) of a centred lens stays what it was before
+/// lenses had placements, and so do PSF cache keys and the provenance written with PSFs.
+impl std::fmt::Debug for Surface {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut s = f.debug_struct("Surface");
+        s.field("profile", &self.profile)
+            .field("z_mm", &self.z_mm)
+            .field("thickness_mm", &self.thickness_mm)
+            .field("semi_diameter_mm", &self.semi_diameter_mm)
+            .field("medium_after", &self.medium_after)
+            .field("label", &self.label);
+        if !self.placement.is_centred() {
+            s.field("placement", &self.placement);
+        }
+        s.finish()
+    }
 }
 
 /// A validated lens. Index 0 of `surfaces` is surface 1; the last entry is the image surface.
@@ -164,6 +186,21 @@ impl Lens {
         self.surfaces[self.image_index()].z_mm
     }
 
+    /// True when every surface is centred on the axis and untilted: the model is then rotationally
+    /// symmetric about z (fields need only one azimuth, the meridional plane is a plane of symmetry).
+    pub fn is_rotationally_symmetric(&self) -> bool {
+        self.surfaces.iter().all(|s| s.placement.is_centred())
+    }
+
+    /// The same lens with every surface centred (what the paraxial quantities describe).
+    pub fn nominal(&self) -> Lens {
+        let mut lens = self.clone();
+        lens.surfaces
+            .iter_mut()
+            .for_each(|s| s.placement = Placement::default());
+        lens
+    }
+
     /// The semi-diameters the file gave (None where the file left them to be computed).
     pub fn given_semi_diameters(&self) -> Vec<Option<f64>> {
         self.surfaces.iter().map(|s| s.semi_diameter_mm).collect()
@@ -186,6 +223,10 @@ fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
             ("curvature_per_mm", curvature),
             ("conic", s.conic),
             ("thickness_mm", s.thickness_mm),
+            ("decentre_x_mm", s.decentre_x_mm),
+            ("decentre_y_mm", s.decentre_y_mm),
+            ("tilt_x_deg", s.tilt_x_deg),
+            ("tilt_y_deg", s.tilt_y_deg),
         ] {
             if !value.is_finite() {
                 return Err(OpticsError::invalid(field(name), "must be a finite number"));
@@ -215,6 +256,14 @@ fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
                 Profile::even_asphere(curvature, s.conic, &s.aspheric_coefficients)
             }
         };
+        for (name, tilt) in [("tilt_x_deg", s.tilt_x_deg), ("tilt_y_deg", s.tilt_y_deg)] {
+            if !(tilt.abs() <= MAX_TILT_DEG) {
+                return Err(OpticsError::invalid(
+                    field(name),
+                    format!("{tilt} deg: tilts must lie within +-{MAX_TILT_DEG} deg"),
+                ));
+            }
+        }
         if let Some(sd) = s.semi_diameter_mm {
             if !(sd.is_finite() && sd > 0.0) {
                 return Err(OpticsError::invalid(
@@ -244,6 +293,7 @@ fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
             semi_diameter_mm: s.semi_diameter_mm,
             medium_after,
             label: s.label.clone(),
+            placement: s.placement(),
         });
         z_mm += s.thickness_mm;
     }

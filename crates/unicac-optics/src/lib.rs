@@ -20,6 +20,7 @@ pub mod io;
 pub mod lens;
 pub mod material;
 pub mod paraxial;
+pub mod placement;
 pub mod profile;
 pub mod spec;
 
@@ -28,5 +29,6 @@ pub use format::{load_lens, read_spec, write_spec};
 pub use lens::{Lens, Surface};
 pub use material::Medium;
 pub use paraxial::FirstOrder;
+pub use placement::Placement;
 pub use profile::Profile;
 pub use spec::LensSpec;

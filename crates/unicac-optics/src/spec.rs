@@ -1,6 +1,7 @@
 //! `LensSpec`: what a lens file says, field for field (docs/lens-format.md). Nothing derived lives
 //! here; `Lens::from_spec` validates a spec into the model that analyses use.
 
+use crate::placement::Placement;
 use serde::{Deserialize, Serialize};
 
 pub const FORMAT_VERSION: u32 = 1;
@@ -107,6 +108,15 @@ pub struct SurfaceSpec {
     pub stop: bool,
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub label: String,
+    /// Decentre and tilt of this surface alone (docs/lens-format.md "Decentres and tilts"); absent: 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub decentre_x_mm: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub decentre_y_mm: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub tilt_x_deg: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub tilt_y_deg: f64,
 }
 
 fn is_zero(x: &f64) -> bool {
@@ -121,6 +131,24 @@ impl SurfaceSpec {
             (None, Some(r)) if r != 0.0 && r.is_finite() => 1.0 / r,
             _ => 0.0,
         }
+    }
+
+    /// The surface's decentre and tilt as written (validated by `Lens::from_spec`).
+    pub fn placement(&self) -> Placement {
+        Placement {
+            decentre_x_mm: self.decentre_x_mm,
+            decentre_y_mm: self.decentre_y_mm,
+            tilt_x_deg: self.tilt_x_deg,
+            tilt_y_deg: self.tilt_y_deg,
+        }
+    }
+
+    /// Sets the four placement fields from `placement`.
+    pub fn set_placement(&mut self, placement: Placement) {
+        self.decentre_x_mm = placement.decentre_x_mm;
+        self.decentre_y_mm = placement.decentre_y_mm;
+        self.tilt_x_deg = placement.tilt_x_deg;
+        self.tilt_y_deg = placement.tilt_y_deg;
     }
 }
 

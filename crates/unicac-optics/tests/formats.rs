@@ -250,3 +250,120 @@ fn truncated_or_inconsistent_zemax_files_are_errors() {
     // The intact sample still loads.
     check_sample(&parse(ZEMAX_SAMPLE).unwrap().spec);
 }
+
+/// The lens files of the repository (`lenses/*.json`: the bundled lenses and the others beside them).
+fn repository_lenses() -> Vec<(String, String)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../lenses");
+    let mut files: Vec<(String, String)> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, std::fs::read_to_string(&p).unwrap())
+        })
+        .collect();
+    files.sort();
+    assert!(files.len() >= 7, "{files:?}");
+    files
+}
+
+/// Issue 28, case 9: a `.zmx` cut at any surface boundary, at any line or inside a line must not load
+/// as another lens. Each repository lens is converted to `.zmx` (what `unicac lens convert` writes) and
+/// every prefix of the file is read. The only prefixes that load are those cut after the image
+/// surface's DISZ 0 line, losing the image surface's DIAM (and CONI): a file without them is a valid
+/// lens (the image surface needs no semi-diameter), so such a cut cannot be told apart from a file
+/// written that way; the lens it gives has the same surfaces, first-order data and everything else.
+#[test]
+fn a_zmx_cut_anywhere_is_refused_or_differs_only_in_the_image_surface_aperture() {
+    for (name, json_text) in repository_lenses() {
+        let spec = json::parse(json_text.as_bytes(), Path::new(&name)).unwrap();
+        let text = zmx::to_string(&spec);
+        let full = zmx::parse(text.as_bytes(), Path::new("full.zmx")).unwrap().spec;
+        let image_line = text.rfind("\nSURF ").unwrap() + 1;
+        let image_disz_end =
+            image_line + text[image_line..].find("  DISZ 0.0\n").unwrap() + "  DISZ 0.0\n".len();
+        let surface_boundaries: Vec<usize> = text.match_indices("\nSURF ").map(|(i, _)| i + 1).collect();
+        assert_eq!(surface_boundaries.len(), spec.surfaces.len() + 1, "{name}");
+        let mut loaded = 0;
+        for cut in (0..text.len()).filter(|&c| text.is_char_boundary(c)) {
+            let prefix = &text[..cut];
+            match zmx::parse(prefix.as_bytes(), Path::new("cut.zmx")) {
+                Err(error) => {
+                    let message = error.to_string();
+                    assert!(message.starts_with("cut.zmx:"), "{name} cut at {cut}: {message}");
+                    if surface_boundaries.contains(&cut) && cut > surface_boundaries[2] {
+                        assert!(message.contains("truncated"), "{name} cut at {cut}: {message}");
+                    }
+                }
+                Ok(back) => {
+                    loaded += 1;
+                    assert!(
+                        cut >= image_disz_end,
+                        "{name}: cut at byte {cut} (before the image surface's DISZ ends at {image_disz_end}) loads:\n{prefix}"
+                    );
+                    let mut expected = full.clone();
+                    let mut got = back.spec.clone();
+                    for s in [&mut expected, &mut got] {
+                        let image = s.surfaces.last_mut().unwrap();
+                        image.semi_diameter_mm = None;
+                        image.conic = 0.0;
+                    }
+                    assert_eq!(got, expected, "{name} cut at {cut}");
+                }
+            }
+        }
+        assert!(
+            loaded >= 1,
+            "{name}: the whole file is the last prefix that loads"
+        );
+    }
+}
+
+/// The same for the JSON files themselves: any prefix short of the closing brace is a syntax error.
+#[test]
+fn a_lens_json_cut_anywhere_is_refused() {
+    for (name, text) in repository_lenses() {
+        let end = text.trim_end().len();
+        for cut in (0..end).filter(|&c| text.is_char_boundary(c)) {
+            assert!(
+                json::parse(&text.as_bytes()[..cut], Path::new("cut.json")).is_err(),
+                "{name} cut at {cut} loads"
+            );
+        }
+    }
+}
+
+/// The cases the issue names: glass on the image surface, an image surface that is not at DISZ 0 (the
+/// surfaces after it are missing), a file that ends inside a record.
+#[test]
+fn a_zmx_whose_image_surface_cannot_be_one_is_refused() {
+    let parse = |text: &str| {
+        zmx::parse(text.as_bytes(), Path::new("cut.zmx"))
+            .unwrap_err()
+            .to_string()
+    };
+    let glass = ZEMAX_SAMPLE.replace("  CURV 0\n  DISZ 0\n", "  CURV 0\n  DISZ 0\n  GLAS N-BK7\n");
+    let message = parse(&glass);
+    assert!(
+        message.contains("SURF 4") && message.contains("GLAS N-BK7") && message.contains("truncated"),
+        "{message}"
+    );
+    let gap = ZEMAX_SAMPLE.replace("  CURV 0\n  DISZ 0\n", "  CURV 0\n  DISZ 3\n");
+    let message = parse(&gap);
+    assert!(
+        message.contains("SURF 4") && message.contains("DISZ 3") && message.contains("truncated"),
+        "{message}"
+    );
+    let cut = &ZEMAX_SAMPLE[..ZEMAX_SAMPLE.len() - 2];
+    let message = parse(cut);
+    assert!(
+        message.contains("`DISZ`") && message.contains("line break"),
+        "{message}"
+    );
+    // A last line without a line break that is not cut (a hand-edited file) is refused the same way:
+    // nothing tells the two apart. Blank trailing lines and a final line break are fine.
+    let message = parse(ZEMAX_SAMPLE.trim_end());
+    assert!(message.contains("`DISZ 0`"), "{message}");
+    zmx::parse(format!("{ZEMAX_SAMPLE}\n  \n").as_bytes(), Path::new("ok.zmx")).unwrap();
+}

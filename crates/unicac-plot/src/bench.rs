@@ -8,7 +8,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
-const LINE_SIZE: (u32, u32) = (900, 560);
+const LINE_SIZE: (u32, u32) = (1040, 560);
 const SCATTER_PANEL: (u32, u32) = (620, 520);
 
 /// One model's values across levels; `None` where a level has no value.
@@ -80,6 +80,14 @@ impl Picture for LinePlot<'_> {
         DB::ErrorType: 'static,
     {
         let area = style::figure(&root, self.title)?;
+        let labels: Vec<&str> = self.series.iter().map(|s| s.label.as_str()).collect();
+        let looks = style::looks(&labels);
+        // The legend gets its own strip: inside the chart it would cover the best ranks' markers.
+        let (width, _) = area.dim_in_pixel();
+        let legend_px = style::legend_width(&labels).min(width / 3);
+        let (area, legend_area) = area.split_horizontally(width - legend_px);
+        let entries: Vec<(&str, style::Look)> = labels.iter().copied().zip(looks.iter().copied()).collect();
+        style::legend_beside(&legend_area, &entries)?;
         let mut chart = style::panel(
             &area,
             Axes {
@@ -91,8 +99,7 @@ impl Picture for LinePlot<'_> {
                 equal_aspect: false,
             },
         )?;
-        let labels: Vec<&str> = self.series.iter().map(|s| s.label.as_str()).collect();
-        for (s, look) in self.series.iter().zip(style::looks(&labels)) {
+        for (s, &look) in self.series.iter().zip(&looks) {
             let points: Vec<(f64, f64)> = s
                 .values
                 .iter()
@@ -102,7 +109,6 @@ impl Picture for LinePlot<'_> {
             style::series(&mut chart, points.clone(), look, &s.label)?;
             chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, look.colour.filled())))?;
         }
-        style::legend_at(&mut chart, SeriesLabelPosition::UpperRight)?;
         Ok(())
     }
 }

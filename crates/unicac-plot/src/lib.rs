@@ -12,6 +12,8 @@
 //! - [`ray_fan_plot`]: per field, the tangential (ey against py) and sagittal (ex against px) transverse
 //!   aberration fans about the chief ray, wavelengths overlaid, in µm on a common vertical scale.
 //! - [`mtf_curves`]: MTF curves against cycles/pixel with Nyquist (dashed) and MTF50 (dotted) marked.
+//! - [`line_panels`]: line charts in up to twelve panels (three per row), series in ramp colours, reference
+//!   curves (a diffraction limit) black; the lens analyses of `unicac analysis`.
 //! - [`ode_bars`]: one row per lens, bars of Optical Degradation Evaluator (ODE) score and RMS spot radius side by side.
 //! - [`psf_panels`]: PSF kernels as images (each normalised to its peak, viridis colour map, scale bar in
 //!   µm) above a chart of their central rows.
@@ -32,6 +34,7 @@ mod bench;
 mod fan;
 mod histogram;
 mod layout;
+mod lines;
 mod mtf;
 mod ode;
 mod psf;
@@ -44,6 +47,7 @@ pub use bench::{level_lines, scatter_fits, LevelSeries, ScatterPanel};
 pub use fan::ray_fan_plot;
 pub use histogram::{level_histograms, LevelHistogram};
 pub use layout::{layout, layout_bundles, RayBundle, MAX_LAYOUT_RAYS};
+pub use lines::{line_panels, Line, LineColour, LinePanel, MAX_PANELS};
 pub use mtf::{mtf_curves, Curve};
 pub use ode::ode_bars;
 pub use psf::{psf_panels, PsfPanel};

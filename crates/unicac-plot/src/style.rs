@@ -399,6 +399,41 @@ where
     Ok(())
 }
 
+/// A legend in its own area beside a chart (never over its markers): a short line, a marker and the
+/// label per series, top down. Returns the width it needs for `labels`.
+pub(crate) fn legend_width(labels: &[&str]) -> u32 {
+    labels.iter().map(|l| text_width(l, 13.0)).max().unwrap_or(0) + 60
+}
+
+/// Draws the legend of [`legend_width`] into `area` (the strip to the right of a chart).
+pub(crate) fn legend_beside<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[(&str, Look)],
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    const ROW: i32 = 22;
+    const TOP: i32 = 40;
+    for (i, (label, look)) in entries.iter().enumerate() {
+        let y = TOP + ROW * i as i32;
+        let colour = look.colour;
+        if look.dashed {
+            area.draw(&PathElement::new(vec![(8, y), (16, y)], colour.stroke_width(2)))?;
+            area.draw(&PathElement::new(vec![(24, y), (32, y)], colour.stroke_width(2)))?;
+        } else {
+            area.draw(&PathElement::new(vec![(8, y), (32, y)], colour.stroke_width(2)))?;
+        }
+        area.draw(&Circle::new((20, y), 4, colour.filled()))?;
+        area.draw_text(
+            label,
+            &font(13.0).pos(Pos::new(HPos::Left, VPos::Center)),
+            (40, y),
+        )?;
+    }
+    Ok(())
+}
+
 /// Perceptual colour map (viridis, interpolated between nine of its colours): dark purple at 0 through
 /// blue and green to yellow at 1; `t` is clamped to 0..1 (non-finite counts as 0).
 pub(crate) fn colour_map(t: f64) -> RGBColor {

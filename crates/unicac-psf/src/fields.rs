@@ -13,7 +13,7 @@ use crate::wave::{WavePsfSettings, WavePsfTracer};
 use rayon::prelude::*;
 use serde::Serialize;
 use unicac_optics::Lens;
-use unicac_trace::{check_fields_deg, check_positive, check_wavelengths_um, InvalidParameter};
+use unicac_trace::{check_fields_deg, check_wavelengths_um, InvalidParameter};
 
 /// Pixel pitch (um) when neither the request nor the lens's sensor gives one.
 pub const DEFAULT_PIXEL_UM: f64 = 2.0;
@@ -232,7 +232,7 @@ impl FieldPsfRequest {
 
     /// The sensor pitch (um); None: the lens's sensor, else `DEFAULT_PIXEL_UM`.
     pub fn with_pixel_um(self, pixel_um: Option<f64>) -> PsfResult<FieldPsfRequest> {
-        pixel_um.map(|p| check_positive("pixel_um", p)).transpose()?;
+        pixel_um.map(crate::geometric::check_pixel_um).transpose()?;
         Ok(FieldPsfRequest { pixel_um, ..self })
     }
 
@@ -271,8 +271,7 @@ impl FieldPsfRequest {
 
     /// The pitch this request traces `lens` at.
     pub fn pixel_um_for(&self, lens: &Lens) -> PsfResult<f64> {
-        Ok(check_positive(
-            "pixel_um",
+        Ok(crate::geometric::check_pixel_um(
             self.pixel_um
                 .or(lens.sensor.map(|s| s.pixel_pitch_um))
                 .unwrap_or(DEFAULT_PIXEL_UM),

@@ -17,13 +17,29 @@ use crate::spectrum::{combine_channels, SpectralWeights};
 use serde::{Deserialize, Serialize};
 use unicac_optics::Lens;
 use unicac_trace::{
-    check_at_least, check_odd, check_positive, Aimer, Aiming, Clipping, PupilSampling, StatusCounts,
-    TraceSystem,
+    check_at_least, check_odd, Aimer, Aiming, Clipping, PupilSampling, StatusCounts, TraceSystem,
 };
 
 /// Largest kernel a caller may ask for (`PsfSettings::with_kernel_cap`): 4095^2 f32 samples are 64 MiB
 /// per channel.
 pub const KERNEL_PX_LIMIT: usize = 4095;
+
+/// Smallest pixel pitch (um): a thousandth of a micrometre, far below any wavelength (finer sampling
+/// than this resolves nothing and sizes kernels beyond any count).
+pub const MIN_PIXEL_UM: f64 = 1e-3;
+/// Largest pixel pitch (um): 10 cm, beyond any sensor's pixel (a tiny image over a large field).
+pub const MAX_PIXEL_UM: f64 = 1e5;
+
+/// A pixel pitch, checked: finite and within [`MIN_PIXEL_UM`, `MAX_PIXEL_UM`].
+pub fn check_pixel_um(pixel_um: f64) -> Result<f64, unicac_trace::InvalidParameter> {
+    if !(MIN_PIXEL_UM..=MAX_PIXEL_UM).contains(&pixel_um) {
+        return Err(unicac_trace::InvalidParameter::new(
+            "pixel_um",
+            format!("{pixel_um:?}: the pixel pitch must lie in [{MIN_PIXEL_UM}, {MAX_PIXEL_UM}] um"),
+        ));
+    }
+    Ok(pixel_um)
+}
 
 /// A requested kernel cap, checked: odd and 1..=`KERNEL_PX_LIMIT` pixels.
 pub fn check_kernel_cap(max_kernel_px: usize) -> Result<usize, String> {
@@ -127,10 +143,15 @@ impl ChiefReference {
 
     /// The chief ray's image-surface intercept, if it arrives.
     pub fn point_mm(&self, field_deg: f64) -> PsfResult<[f64; 2]> {
-        let mut ray = self.aimer.ray(field_deg, 0.0, 0.0)?;
+        self.point_mm_at([0.0, field_deg])
+    }
+
+    /// `point_mm` of a 2D field (x, y angles, `Aimer::ray_at`).
+    pub fn point_mm_at(&self, field_deg: [f64; 2]) -> PsfResult<[f64; 2]> {
+        let mut ray = self.aimer.ray_at(field_deg, 0.0, 0.0)?;
         if !self.system.trace(&mut ray).is_ok() {
             return Err(PsfError::FieldVignetted {
-                field_deg,
+                field_deg: field_deg[1],
                 rays_traced: 1,
             });
         }
@@ -149,7 +170,7 @@ pub struct PsfTracer {
 
 impl PsfTracer {
     pub fn new(lens: &Lens, weights: SpectralWeights, settings: PsfSettings) -> PsfResult<PsfTracer> {
-        check_positive("pixel_um", settings.pixel_um)?;
+        check_pixel_um(settings.pixel_um)?;
         check_at_least("oversample", settings.oversample, 1)?;
         check_odd("max_kernel_px", settings.max_kernel_px)?;
         let systems = weights
@@ -192,13 +213,18 @@ impl PsfTracer {
 
     /// Hits of every wavelength for one field, relative to `reference_mm`.
     pub fn hits(&self, field_deg: f64, reference_mm: [f64; 2]) -> PsfResult<Vec<FieldHits>> {
+        self.hits_at([0.0, field_deg], reference_mm)
+    }
+
+    /// `hits` of a 2D field (x, y angles, `Aimer::ray_at`).
+    pub fn hits_at(&self, field_deg: [f64; 2], reference_mm: [f64; 2]) -> PsfResult<Vec<FieldHits>> {
         self.systems
             .iter()
             .map(|(system, aimer)| {
                 let mut rays: Vec<_> = self
                     .pupil
                     .iter()
-                    .filter_map(|[px, py]| aimer.ray(field_deg, *px, *py).ok())
+                    .filter_map(|[px, py]| aimer.ray_at(field_deg, *px, *py).ok())
                     .collect();
                 let statuses = self.settings.backend.trace(system, &mut rays)?;
                 let mut counts = StatusCounts::from_statuses(&statuses);
@@ -252,9 +278,16 @@ impl PsfTracer {
 
     /// R, G, B kernels of `size` pixels (or a single kernel when `monochromatic`).
     pub fn field_psf(&self, field_deg: f64, size: usize, monochromatic: bool) -> PsfResult<FieldPsf> {
-        let reference_mm = self.reference_point_mm(field_deg)?;
-        let hits = self.hits(field_deg, reference_mm)?;
-        Ok(self.kernels_from_hits(field_deg, reference_mm, &hits, size, monochromatic))
+        self.field_psf_at([0.0, field_deg], size, monochromatic)
+    }
+
+    /// `field_psf` of a 2D field (x, y angles): what a lens that is not rotationally symmetric needs,
+    /// where the PSF at one azimuth does not give the others by rotation. The result's `field_deg` is
+    /// the y angle.
+    pub fn field_psf_at(&self, field_deg: [f64; 2], size: usize, monochromatic: bool) -> PsfResult<FieldPsf> {
+        let reference_mm = self.reference.point_mm_at(field_deg)?;
+        let hits = self.hits_at(field_deg, reference_mm)?;
+        Ok(self.kernels_from_hits(field_deg[1], reference_mm, &hits, size, monochromatic))
     }
 
     pub fn kernels_from_hits(

@@ -252,7 +252,11 @@ pub fn size_for_fraction(offsets_um: &[[f64; 2]], weights: &[f32], pitch_um: f64
             break;
         }
     }
-    2 * (radius_px.ceil() as usize + 1) + 1
+    // Saturating: a pitch tiny against the spot gives a radius past any kernel, which the caller caps.
+    (radius_px.ceil() as usize)
+        .saturating_add(1)
+        .saturating_mul(2)
+        .saturating_add(1)
 }
 
 #[cfg(test)]

@@ -22,7 +22,8 @@ pub use fields::{
     PsfReport, TracedField, DEFAULT_PIXEL_UM, DEFAULT_WAVELENGTHS, MIN_WAVE_KERNEL_PX,
 };
 pub use geometric::{
-    check_kernel_cap, ChiefReference, FieldHits, FieldPsf, PsfSettings, PsfTracer, KERNEL_PX_LIMIT,
+    check_kernel_cap, check_pixel_um, ChiefReference, FieldHits, FieldPsf, PsfSettings, PsfTracer,
+    KERNEL_PX_LIMIT, MAX_PIXEL_UM, MIN_PIXEL_UM,
 };
 pub use hit_tracer::{CpuHitTracer, HitTracer, RayBackend};
 pub use kernel::Kernel;

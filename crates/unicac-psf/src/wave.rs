@@ -75,9 +75,7 @@ use rustfft::FftPlanner;
 use serde::Serialize;
 use std::f64::consts::PI;
 use unicac_optics::{Lens, Profile};
-use unicac_trace::{
-    check_at_least, check_positive, Aimer, Aiming, Clipping, Ray, RayStatus, StatusCounts, TraceSystem,
-};
+use unicac_trace::{check_at_least, Aimer, Aiming, Clipping, Ray, RayStatus, StatusCounts, TraceSystem};
 
 /// Default pupil samples per axis (reasons in the module docs, item 6).
 pub const DEFAULT_PUPIL_GRID: usize = 128;
@@ -264,7 +262,7 @@ pub struct WavePsfTracer {
 
 impl WavePsfTracer {
     pub fn new(lens: &Lens, weights: SpectralWeights, settings: WavePsfSettings) -> PsfResult<WavePsfTracer> {
-        check_positive("pixel_um", settings.pixel_um)?;
+        crate::geometric::check_pixel_um(settings.pixel_um)?;
         check_at_least("oversample", settings.oversample, 1)?;
         check_at_least("pupil_grid", settings.pupil_grid, 4)?;
         let first = lens.first_order()?;

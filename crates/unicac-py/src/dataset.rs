@@ -1,11 +1,13 @@
 //! The dataset maps models receive (docs/models.md), from the one Rust implementation
-//! (`unicac_dataset`): the field-of-view map and the PSF-feature map of a lens's PSF table.
+//! (`unicac_dataset`, `unicac_bench::wiener`): the field-of-view map, the PSF-feature map and the
+//! `psf_code` map of a lens's PSF table, the dataset's PSF basis, and the field-varying Wiener estimate.
 
-use crate::arrays::f32_array;
+use crate::arrays::{any_f32, f32_array, f64_array, planar_f32, planar_out};
 use crate::errors::OrRaise;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
+use unicac_dataset::psf_basis::{FieldCodes, PsfBasis, CODE_COMPONENTS};
 use unicac_dataset::{FrameCrop, PsfTable};
 
 /// The crop (x0, y0, w, h) of a frame; `w`/`h` None run to the frame's edge.
@@ -73,8 +75,116 @@ pub fn psf_features<'py>(
     f32_array(py, map.data, &[map.channels, map.height, map.width])
 }
 
+/// The PSF basis of a built dataset (`DIR/psf/basis`, docs/models.md): its `basis.json` as a dict,
+/// after fitting and writing it when the folder has none (on the training lenses' tables named in
+/// `lenses.jsonl`; what `unicac dataset build` does when it completes a dataset).
+#[pyfunction]
+pub fn psf_basis<'py>(py: Python<'py>, dataset_dir: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    let meta = crate::pool::detach(py, || -> PyResult<_> {
+        let dir = dataset_dir.join(unicac_dataset::psf_basis::BASIS_RELATIVE);
+        if dir.join(unicac_dataset::psf_basis::BASIS_JSON).is_file() {
+            return Ok(PsfBasis::read(&dir).or_raise()?.meta);
+        }
+        let path = dataset_dir.join(unicac_dataset::manifest::LENSES_JSONL);
+        let lenses: Vec<unicac_dataset::LensRow> = unicac_dataset::manifest::read_jsonl(&path).or_raise()?;
+        let basis = unicac_dataset::build::fit_psf_basis(&dataset_dir, &lenses).or_raise()?;
+        basis.write(&dir).or_raise()?;
+        Ok(basis.meta)
+    })?;
+    crate::json::serialize(py, &meta)
+}
+
+/// The codes of a PSF table's stored fields in a basis (`DIR/psf/basis`): `(radii, codes)`, float64
+/// [F] normalised field radii and float32 [F, 48] whitened coefficients (R, G, B x 16).
+#[pyfunction]
+pub fn psf_field_codes<'py>(
+    py: Python<'py>,
+    table_dir: PathBuf,
+    basis_dir: PathBuf,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let codes = crate::pool::detach(py, || -> PyResult<FieldCodes> {
+        let basis = PsfBasis::read(&basis_dir).or_raise()?;
+        let table = PsfTable::read(&table_dir).or_raise()?;
+        Ok(basis.field_codes(&table))
+    })?;
+    let fields = codes.radii().len();
+    let flat: Vec<f32> = codes.codes().iter().flatten().copied().collect();
+    Ok((
+        f64_array(py, codes.radii().to_vec(), &[fields])?,
+        f32_array(py, flat, &[fields, 3 * CODE_COMPONENTS])?,
+    ))
+}
+
+/// The `psf_code` map of the crop (x0, y0, w, h) of a frame_w x frame_h frame from a table's field
+/// codes (`psf_field_codes`): float32 [50, h, w], the coefficients interpolated at each pixel's field
+/// radius, then cos and sin of its azimuth (docs/models.md).
+#[pyfunction]
+#[pyo3(signature = (radii, codes, frame_w, frame_h, x0=0, y0=0, w=None, h=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn psf_code_map<'py>(
+    py: Python<'py>,
+    radii: Vec<f64>,
+    codes: &Bound<'py, PyAny>,
+    frame_w: usize,
+    frame_h: usize,
+    x0: usize,
+    y0: usize,
+    w: Option<usize>,
+    h: Option<usize>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let crop = crop(frame_w, frame_h, x0, y0, w, h)?;
+    let (values, shape) = any_f32(codes, "codes")?;
+    if shape != [radii.len(), 3 * CODE_COMPONENTS] {
+        return Err(PyValueError::new_err(format!(
+            "codes: expected float32 [{}, {}] (one row per radius), got {shape:?}",
+            radii.len(),
+            3 * CODE_COMPONENTS
+        )));
+    }
+    let rows = values
+        .chunks_exact(3 * CODE_COMPONENTS)
+        .map(|c| c.try_into().expect("chunk length"))
+        .collect();
+    let codes = FieldCodes::new(radii, rows).or_raise()?;
+    let map = crate::pool::detach(py, || unicac_dataset::psf_code_map(&codes, crop).or_raise())?;
+    f32_array(py, map.data, &[map.channels, map.height, map.width])
+}
+
+/// The field-varying Wiener estimate of `lq` (float32 H x W x 3, sRGB-encoded in [0, 1]), the crop at
+/// (x0, y0) of a frame_w x frame_h frame, with a dataset's PSF table: what `unicac bench --method wiener`
+/// computes (float32 H x W x 3, sRGB in [0, 1]). `nsr` defaults to the bench's (0.01).
+#[pyfunction]
+#[pyo3(signature = (lq, table_dir, frame_w, frame_h, x0=0, y0=0, nsr=0.01))]
+#[allow(clippy::too_many_arguments)]
+pub fn wiener_restore<'py>(
+    py: Python<'py>,
+    lq: &Bound<'py, PyAny>,
+    table_dir: PathBuf,
+    frame_w: usize,
+    frame_h: usize,
+    x0: usize,
+    y0: usize,
+    nsr: f64,
+) -> PyResult<Bound<'py, PyAny>> {
+    let image = planar_f32(lq, "lq", 3, &[3])?;
+    if image.data.iter().any(|v| !v.is_finite()) {
+        return Err(PyValueError::new_err("lq: NaN or infinite sample"));
+    }
+    let crop = crop(frame_w, frame_h, x0, y0, Some(image.width), Some(image.height))?;
+    let restored = crate::pool::detach(py, || -> PyResult<_> {
+        let table = PsfTable::read(&table_dir).or_raise()?;
+        unicac_bench::wiener::wiener_restore(&image, &table, &|r, c| crop.normalised(r, c), nsr)
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    })?;
+    planar_out(py, &restored, false)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fov_map, m)?)?;
     m.add_function(wrap_pyfunction!(psf_features, m)?)?;
+    m.add_function(wrap_pyfunction!(psf_basis, m)?)?;
+    m.add_function(wrap_pyfunction!(psf_field_codes, m)?)?;
+    m.add_function(wrap_pyfunction!(psf_code_map, m)?)?;
+    m.add_function(wrap_pyfunction!(wiener_restore, m)?)?;
     Ok(())
 }

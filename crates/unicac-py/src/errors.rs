@@ -2,7 +2,8 @@
 //!
 //! Every failure of a whole request raises a subclass of `unicac.UnicacError` named after the stage
 //! that failed: `LensError` (reading or analysing a lens), `TraceError` (ray aiming, trace requests),
-//! `PsfError`, `ImageError` (files, ISP steps), `SimulationError`, `MetricsError`, `OdeError` and `DatasetError`.
+//! `PsfError`, `ImageError` (files, ISP steps), `SimulationError`, `MetricsError`, `OdeError` and `DatasetError`; an output path the
+//! output-file policy refuses raises `OutputError`.
 //! A nested error keeps the most specific stage: a lens problem found while simulating is a
 //! `LensError`, also when the ODE found it. A trace or PSF parameter out of range raises `ValueError`
 //! naming it (a simulation's stays a `SimulationError`, naming it too). Wrong argument types, dtypes or shapes are caught before Rust sees them and raise
@@ -66,6 +67,12 @@ create_exception!(
     OdeError,
     UnicacError,
     "The Optical Degradation Evaluator failed for a lens."
+);
+create_exception!(
+    unicac,
+    OutputError,
+    UnicacError,
+    "An output path was refused: it is an input, lies inside an input folder, is another output's path, or its extension does not name the format written."
 );
 
 /// A library parameter error as a `ValueError` naming the Python keyword (`fields_deg` for the
@@ -172,6 +179,12 @@ impl ToPyErr for unicac_dataset::DatasetError {
     }
 }
 
+impl ToPyErr for unicac_io::OutputError {
+    fn to_py_err(self) -> PyErr {
+        OutputError::new_err(self.to_string())
+    }
+}
+
 /// Registers the exception classes on the module.
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -184,5 +197,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("MetricsError", py.get_type::<MetricsError>())?;
     m.add("OdeError", py.get_type::<OdeError>())?;
     m.add("DatasetError", py.get_type::<DatasetError>())?;
+    m.add("OutputError", py.get_type::<OutputError>())?;
     Ok(())
 }

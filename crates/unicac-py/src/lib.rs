@@ -7,12 +7,15 @@
 //! - `arrays`: numpy in and out, with dtype/shape checks that name the argument;
 //! - `json`: the CLI's JSON structs as Python dicts;
 //! - `device`: the `device=` keyword (the ray backend of PSF tracing);
-//! - `lens`, `trace`, `psf`, `simulate`, `isp`, `ode`, `dataset`: the API, one module per stage.
+//! - `lens`, `trace`, `psf`, `simulate`, `isp`, `ode`, `dataset`: the API, one module per stage;
+//! - `outputs`: the output-file policy of `unicac_io` (checks, atomic writes) for the Python tools.
+//! - `cli`: `main(argv)`, the `unicac` command itself (crates/unicac-cli as a library).
 //!
 //! Every call that traces or renders releases the GIL before the parallel (rayon) work, on a thread
 //! pool of its own process (`pool`), so forked workers (PyTorch data loaders) work too.
 
 mod arrays;
+mod cli;
 mod dataset;
 mod device;
 mod errors;
@@ -21,6 +24,7 @@ mod isp;
 mod json;
 mod lens;
 mod ode;
+mod outputs;
 mod pool;
 mod psf;
 mod simulate;
@@ -42,5 +46,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     isp::register(m)?;
     ode::register(m)?;
     dataset::register(m)?;
+    outputs::register(m)?;
+    cli::register(m)?;
     Ok(())
 }

@@ -8,21 +8,43 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use unicac_ode::evaluate::edge_mtfs;
-use unicac_ode::{evaluate, LensOde, OdeSettings};
+use unicac_ode::{evaluate, FrameSensor, LensOde, OdeSettings};
 use unicac_psf::Kernel;
 
 /// ODE, OIQ, uniformity, OIQE, PSNR, SSIM and RMS spot radius of a lens with the default settings
 /// (docs/ode.md): a dict with the keys of one entry of `unicac ode LENS --json` (`lens` is the
 /// lens's source; `times` are wall-clock seconds and vary run to run). `device`: "cpu", "gpu" or
-/// "auto", who traces the PSF rays (as `unicac ode --device`). GIL released.
+/// "auto", who traces the PSF rays (as `unicac ode --device`). `frame_px=(W, H)` and `pixel_um`:
+/// graded on that frame instead of the lens file's sensor (as `unicac ode --frame WxH --pixel-um X`
+/// and `unicac dataset build`). GIL released.
 #[pyfunction]
-#[pyo3(signature = (lens, device="cpu"))]
-pub fn ode<'py>(py: Python<'py>, lens: &PyLens, device: &str) -> PyResult<Bound<'py, PyDict>> {
+#[pyo3(signature = (lens, device="cpu", frame_px=None, pixel_um=None))]
+pub fn ode<'py>(
+    py: Python<'py>,
+    lens: &PyLens,
+    device: &str,
+    frame_px: Option<(usize, usize)>,
+    pixel_um: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let frame = match (frame_px, pixel_um) {
+        (Some((w, h)), _) => Some(FrameSensor {
+            frame_px: [w, h],
+            pixel_um,
+        }),
+        (None, Some(_)) => return Err(PyValueError::new_err("pixel_um: needs frame_px")),
+        (None, None) => None,
+    };
+    if let Some(frame) = &frame {
+        frame.check().map_err(errors::parameter_error)?;
+    }
     let settings = OdeSettings {
         backend: crate::device::backend(device)?,
-        ..OdeSettings::default()
+        ..frame.map_or_else(OdeSettings::default, |f| f.ode_settings())
     };
-    let report = crate::pool::detach(py, || evaluate(&lens.lens, &settings).or_raise());
+    let graded = frame.map(|f| f.apply(&lens.lens));
+    let report = crate::pool::detach(py, || {
+        evaluate(graded.as_ref().unwrap_or(&lens.lens), &settings).or_raise()
+    });
     crate::device::warn_notes(py, &settings.backend)?;
     json::serialize_dict(
         py,

@@ -29,9 +29,10 @@ pub struct PySimulator {
 
 /// The sensor/ISP chain of `unicac simulate` with its switches and `--sensor-bits`.
 fn pipeline(isp: bool, noise: bool, sensor_bits: u8) -> PyResult<Pipeline> {
-    if !(1..=16).contains(&sensor_bits) {
+    let min = unicac_image::isp::MIN_DEFAULT_SENSOR_BITS;
+    if !(min..=16).contains(&sensor_bits) {
         return Err(PyValueError::new_err(format!(
-            "sensor_bits: {sensor_bits}, expected 1..=16"
+            "sensor_bits: {sensor_bits}, expected {min}..=16 (the black level, 64 DN, needs {min} bits)"
         )));
     }
     Ok(Pipeline {
@@ -136,7 +137,7 @@ impl PySimulator {
     /// The whole chain on one image, as `unicac simulate` (seed `seed`): inverse white balance, optics,
     /// sensor noise and ISP (`isp=False`: no Bayer mosaic, no ISP randomisation; `noise=False`: no shot
     /// or read noise; both off: no read-out, the optics at full precision). `sensor_bits`: read-out bit
-    /// depth (1-16, default 10 as `--sensor-bits`). Returns the degraded image in the input's
+    /// depth (7-16, default 10 as `--sensor-bits`). Returns the degraded image in the input's
     /// representation. GIL released.
     #[pyo3(signature = (image, seed=0, isp=true, noise=true, sensor_bits=10))]
     fn simulate<'py>(

@@ -25,6 +25,15 @@ pub struct ChiefRayMap {
 
 impl ChiefRayMap {
     pub fn new(lens: &Lens) -> SimResult<ChiefRayMap> {
+        // The map, and the radial PSF maps and ODE fields built on it, assume one field azimuth stands
+        // for all: refused rather than answered wrongly for an as-built lens.
+        if let Some(i) = lens.surfaces.iter().position(|s| !s.placement.is_centred()) {
+            return Err(SimError::Unsupported(format!(
+                "surface {} is decentred or tilted: image simulation, PSF maps and the ODE sample one field \
+                 radius and rotate it, which needs a rotationally symmetric lens",
+                i + 1
+            )));
+        }
         let first = lens.first_order()?;
         let max_field = first.max_field_deg();
         if max_field <= 0.0 {

@@ -123,18 +123,11 @@ impl LensSimulator {
         }
         let chief = ChiefRayMap::new(lens)?;
         let grid = match pixel_um {
-            Some(p) if p.is_finite() && p > 0.0 => SensorGrid {
+            Some(p) => SensorGrid {
                 width_px: width,
                 height_px: height,
-                pitch_um: p,
+                pitch_um: unicac_psf::check_pixel_um(p)?,
             },
-            Some(p) => {
-                return Err(InvalidParameter::new(
-                    "pixel_um",
-                    format!("{p}: the pixel pitch must be positive"),
-                )
-                .into())
-            }
             None => SensorGrid::filling_field(width, height, &chief),
         };
         let mut psf_settings = settings.psf.clone();

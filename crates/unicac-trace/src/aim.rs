@@ -70,9 +70,11 @@ impl AutoAiming {
         let field = probe.first_order.max_field_deg();
         let r_stop = probe.first_order.stop_radius_mm;
         let miss = probe
-            .stop_intercept(field, [0.0, 0.0])
+            .stop_intercept([0.0, field], [0.0, 0.0])
             .map(|hit| hit[0].hypot(hit[1]) / r_stop.abs().max(f64::MIN_POSITIVE));
-        let real = miss.is_none_or(|m| !(m <= AUTO_REAL_AIMING_STOP_MISS));
+        // The paraxial pupil is the nominal system's: a decentred or tilted lens is always aimed for real.
+        let real =
+            !lens.is_rotationally_symmetric() || miss.is_none_or(|m| !(m <= AUTO_REAL_AIMING_STOP_MISS));
         Ok(AutoAiming {
             aiming: if real { Aiming::Real } else { Aiming::Paraxial },
             checked_field_deg: field,
@@ -121,8 +123,16 @@ impl Aimer {
         })
     }
 
-    /// The ray of field angle `field_deg` through normalised pupil point (px, py).
+    /// The ray of field angle `field_deg` (y-z plane) through normalised pupil point (px, py).
     pub fn ray(&self, field_deg: f64, px: f64, py: f64) -> TraceResult<Ray> {
+        self.ray_at([0.0, field_deg], px, py)
+    }
+
+    /// The ray of the 2D field `field_deg` = (x, y) object-space angles through normalised pupil
+    /// point (px, py): direction (tan x, tan y, 1) normalised (optiland's and Zemax's angle fields; for
+    /// x = 0 the direction (0, sin y, cos y) of `ray`). For lenses that are not rotationally symmetric,
+    /// where one azimuth does not stand for the others.
+    pub fn ray_at(&self, field_deg: [f64; 2], px: f64, py: f64) -> TraceResult<Ray> {
         let ray = match self.aiming {
             Aiming::Paraxial => self.paraxial_ray(field_deg, px, py),
             // `new` resolves Auto; an Aimer built otherwise aims for real.
@@ -132,43 +142,64 @@ impl Aimer {
         // behind it) overflow the start point or the direction: such a ray is refused here rather than
         // handed on holding NaN or infinity.
         if !ray.is_finite() {
-            return Err(TraceError::AimFailed {
+            return Err(aim_failed(
                 field_deg,
                 px,
                 py,
-                reason: "the aimed ray is not finite (the lens's dimensions overflow f64)".into(),
-            });
+                "the aimed ray is not finite (the lens's dimensions overflow f64)".into(),
+            ));
         }
         Ok(ray)
     }
 
-    /// The ray of field F through the point (sx, sy) of the paraxial entrance-pupil plane.
-    fn ray_through_pupil_plane(&self, field_deg: f64, sx: f64, sy: f64) -> Ray {
+    /// The ray of field (x, y) through the point (sx, sy) of the paraxial entrance-pupil plane.
+    fn ray_through_pupil_plane(&self, field_deg: [f64; 2], sx: f64, sy: f64) -> Ray {
         let z_ep = self.first_order.entrance_pupil_z_mm;
-        let (sin_f, cos_f) = field_deg.to_radians().sin_cos();
+        let [x_deg, y_deg] = field_deg;
+        // Slopes dx/dz, dy/dz and the direction; an x of 0 keeps the y-z plane's own expressions.
+        let (slopes, direction) = if x_deg == 0.0 {
+            let (sin_f, cos_f) = y_deg.to_radians().sin_cos();
+            ([0.0, sin_f / cos_f], [0.0, sin_f, cos_f])
+        } else {
+            let (tan_x, tan_y) = (x_deg.to_radians().tan(), y_deg.to_radians().tan());
+            ([tan_x, tan_y], [tan_x, tan_y, 1.0])
+        };
         match self.object_distance_mm {
-            None => Ray::new([sx, sy, z_ep], [0.0, sin_f, cos_f]),
+            None => Ray::new([sx, sy, z_ep], direction),
             Some(distance) => {
-                let object_y = -(sin_f / cos_f) * (z_ep + distance);
-                let start = [0.0, object_y, -distance];
+                let object_x = if x_deg == 0.0 {
+                    0.0
+                } else {
+                    -slopes[0] * (z_ep + distance)
+                };
+                let object_y = -slopes[1] * (z_ep + distance);
+                let start = [object_x, object_y, -distance];
                 Ray::new(start, [sx - start[0], sy - start[1], z_ep - start[2]])
             }
         }
     }
 
-    fn paraxial_ray(&self, field_deg: f64, px: f64, py: f64) -> Ray {
+    fn paraxial_ray(&self, field_deg: [f64; 2], px: f64, py: f64) -> Ray {
         let radius = self.first_order.epd_mm / 2.0;
         self.ray_through_pupil_plane(field_deg, px * radius, py * radius)
     }
 
-    /// Where the ray through pupil-plane point s meets the stop surface (None if it fails on the way).
-    fn stop_intercept(&self, field_deg: f64, s: [f64; 2]) -> Option<[f64; 2]> {
+    /// Where the ray through pupil-plane point s meets the stop surface, in the stop's own frame (None
+    /// if it fails on the way).
+    fn stop_intercept(&self, field_deg: [f64; 2], s: [f64; 2]) -> Option<[f64; 2]> {
         let mut ray = self.ray_through_pupil_plane(field_deg, s[0], s[1]);
         let status = self.unclipped.trace_through(&mut ray, self.stop_index, false);
-        status.is_ok().then_some([ray.position_mm[0], ray.position_mm[1]])
+        if !status.is_ok() {
+            return None;
+        }
+        if self.unclipped.surfaces[self.stop_index].frame.is_none() {
+            return Some([ray.position_mm[0], ray.position_mm[1]]);
+        }
+        let local = self.unclipped.to_surface_frame(self.stop_index, ray.position_mm);
+        Some([local[0], local[1]])
     }
 
-    fn real_ray(&self, field_deg: f64, px: f64, py: f64) -> TraceResult<Ray> {
+    fn real_ray(&self, field_deg: [f64; 2], px: f64, py: f64) -> TraceResult<Ray> {
         let radius = self.first_order.epd_mm / 2.0;
         let guess = [px * radius, py * radius];
         let solution = self
@@ -177,7 +208,7 @@ impl Aimer {
                 // Continuation: walk the field up from the axis, each solve starting at the previous one.
                 let mut s = guess;
                 for step in 1..=CONTINUATION_STEPS {
-                    let field = field_deg * step as f64 / CONTINUATION_STEPS as f64;
+                    let field = field_deg.map(|f| f * step as f64 / CONTINUATION_STEPS as f64);
                     s = self
                         .solve_stop_point(field, px, py, s)
                         .map_err(|_| first_failure.clone())?;
@@ -186,19 +217,14 @@ impl Aimer {
             });
         match solution {
             Ok(s) => Ok(self.ray_through_pupil_plane(field_deg, s[0], s[1])),
-            Err(reason) => Err(TraceError::AimFailed {
-                field_deg,
-                px,
-                py,
-                reason,
-            }),
+            Err(reason) => Err(aim_failed(field_deg, px, py, reason)),
         }
     }
 
     /// Newton's method for the pupil-plane point whose ray crosses the stop at (px, py) * R_stop.
     fn solve_stop_point(
         &self,
-        field_deg: f64,
+        field_deg: [f64; 2],
         px: f64,
         py: f64,
         start: [f64; 2],
@@ -254,5 +280,20 @@ impl Aimer {
         } else {
             Err(format!("no convergence (residual {:.3e} mm)", r[0].hypot(r[1])))
         }
+    }
+}
+
+/// `TraceError::AimFailed` for a 2D field: `field_deg` carries the y angle, the reason names an x angle.
+fn aim_failed(field_deg: [f64; 2], px: f64, py: f64, reason: String) -> TraceError {
+    let reason = if field_deg[0] == 0.0 {
+        reason
+    } else {
+        format!("(x field {} deg) {reason}", field_deg[0])
+    };
+    TraceError::AimFailed {
+        field_deg: field_deg[1],
+        px,
+        py,
+        reason,
     }
 }

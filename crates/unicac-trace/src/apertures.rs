@@ -1,6 +1,7 @@
 //! Clear semi-diameters computed from the traced beams, for surfaces whose file gives none
 //! (Zemax's "automatic" semi-diameters): the largest ray height over every field (both signs),
-//! every wavelength and a ring of rays round the pupil edge plus the chief ray.
+//! every wavelength and a ring of rays round the pupil edge plus the chief ray. Heights are measured
+//! from each surface's own axis (a decentred surface's aperture is centred on its vertex).
 
 use crate::aim::{Aimer, Aiming};
 use crate::error::TraceResult;
@@ -29,7 +30,15 @@ pub fn clear_semi_diameters(lens: &Lens, aiming: Aiming) -> TraceResult<Vec<f64>
                     };
                     let (points, _) = system.trace_path(ray);
                     for (surface, point) in points.iter().skip(1).enumerate() {
-                        envelope[surface] = envelope[surface].max(point[0].hypot(point[1]));
+                        // Heights from the surface's own axis (the global axis when centred).
+                        let height = match system.surfaces[surface].frame {
+                            None => point[0].hypot(point[1]),
+                            Some(_) => {
+                                let local = system.to_surface_frame(surface, *point);
+                                local[0].hypot(local[1])
+                            }
+                        };
+                        envelope[surface] = envelope[surface].max(height);
                     }
                 }
             }

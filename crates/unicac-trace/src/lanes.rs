@@ -31,7 +31,9 @@
 //! this file.
 
 use crate::ray::{Ray, RayStatus};
-use crate::system::{TraceSurface, GRAZING_N, LANE_BLOCK, MAX_NEWTON_ITERATIONS, NEWTON_STEP_TOLERANCE};
+use crate::system::{
+    Frame, TraceSurface, GRAZING_N, LANE_BLOCK, MAX_NEWTON_ITERATIONS, NEWTON_STEP_TOLERANCE,
+};
 use pulp::{Simd, WithSimd};
 use unicac_optics::profile::MAX_ASPHERE_TERMS;
 
@@ -111,6 +113,8 @@ pub(crate) struct LaneSurface {
     mu: f64,
     mu2: f64,
     one_minus_mu2: f64,
+    /// A decentred or tilted surface's frame (the other constants are then in that frame, z_mm = 0).
+    frame: Option<Frame>,
 }
 
 impl LaneSurface {
@@ -142,6 +146,15 @@ impl LaneSurface {
             mu,
             mu2: mu * mu,
             one_minus_mu2: 1.0 - mu * mu,
+            frame: None,
+        }
+    }
+
+    /// A decentred or tilted surface: `local` is the surface in its own frame (`TraceSurface::local`).
+    pub(crate) fn placed(local: &TraceSurface, frame: Frame, n_before: f64, refract: bool) -> LaneSurface {
+        LaneSurface {
+            frame: Some(frame),
+            ..LaneSurface::new(local, n_before, refract)
         }
     }
 }
@@ -194,6 +207,12 @@ struct Block {
     t: [f64; LANE_BLOCK],
     /// Newton: !0 while a lane still iterates.
     pending: [u64; LANE_BLOCK],
+    /// Placed surfaces only: the global state before the surface, and !0 where the ray arrived on it.
+    saved: Points,
+    saved_l: [f64; LANE_BLOCK],
+    saved_m: [f64; LANE_BLOCK],
+    saved_n: [f64; LANE_BLOCK],
+    arrived: [u64; LANE_BLOCK],
 }
 
 impl Points {
@@ -217,6 +236,11 @@ impl Block {
             code: [PADDING; LANE_BLOCK],
             t: [0.0; LANE_BLOCK],
             pending: [0; LANE_BLOCK],
+            saved: Points::zero(),
+            saved_l: [0.0; LANE_BLOCK],
+            saved_m: [0.0; LANE_BLOCK],
+            saved_n: [0.0; LANE_BLOCK],
+            arrived: [0; LANE_BLOCK],
         })
     }
 
@@ -267,11 +291,29 @@ pub(crate) fn trace_lanes(
     rays: &mut [Ray],
     statuses: &mut [RayStatus],
 ) {
-    let op = TraceBlocks {
-        surfaces,
-        rays,
-        statuses,
-    };
+    if surfaces.iter().any(|s| s.frame.is_some()) {
+        dispatch(
+            level,
+            TraceBlocks::<true> {
+                surfaces,
+                rays,
+                statuses,
+            },
+        );
+    } else {
+        dispatch(
+            level,
+            TraceBlocks::<false> {
+                surfaces,
+                rays,
+                statuses,
+            },
+        );
+    }
+}
+
+/// Runs `op` at `level` (clamped to what the CPU supports).
+fn dispatch<const PLACED: bool>(level: SimdLevel, op: TraceBlocks<'_, PLACED>) {
     match level.min(SimdLevel::detected()) {
         #[cfg(target_arch = "x86_64")]
         SimdLevel::Avx512 => match pulp::x86::V4::try_new() {
@@ -287,13 +329,15 @@ pub(crate) fn trace_lanes(
     }
 }
 
-struct TraceBlocks<'a> {
+/// `PLACED`: some surface is decentred or tilted (the general path); `false` compiles the rotationally
+/// symmetric loop without any frame code.
+struct TraceBlocks<'a, const PLACED: bool> {
     surfaces: &'a [LaneSurface],
     rays: &'a mut [Ray],
     statuses: &'a mut [RayStatus],
 }
 
-impl WithSimd for TraceBlocks<'_> {
+impl<const PLACED: bool> WithSimd for TraceBlocks<'_, PLACED> {
     type Output = ();
 
     #[inline(always)]
@@ -307,12 +351,19 @@ impl WithSimd for TraceBlocks<'_> {
             block.load(rays);
             for (index, surface) in self.surfaces.iter().enumerate() {
                 let index = index as u64;
+                let frame = if PLACED { surface.frame } else { None };
+                if let Some(frame) = &frame {
+                    localize_phase(simd, frame, &mut block);
+                }
                 conic_phase(simd, surface, index, &mut block);
                 if surface.terms > 0 {
                     newton_phase(simd, surface, index, &mut block);
                 }
-                finish_phase(simd, surface, index, &mut block);
+                finish_phase::<S, PLACED>(simd, surface, index, &mut block);
                 block.global ^= 1;
+                if let Some(frame) = &frame {
+                    globalize_phase(simd, frame, &mut block);
+                }
             }
             block.store(rays, statuses);
         }
@@ -591,8 +642,9 @@ fn newton_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
 
 /// `finish` of `system.rs`: aperture test, the new global position, the surface normal and vector
 /// Snell refraction (`refract_direction`), with TIR as a status.
+/// `RECORD`: also store which lanes arrived (for `globalize_phase`).
 #[inline(always)]
-fn finish_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
+fn finish_phase<S: Simd, const RECORD: bool>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
     let v = Lanes(simd);
     // The start points are replaced by the new global positions (see `Block`).
     let (global, start) = split_points(&mut b.points, b.global);
@@ -607,6 +659,7 @@ fn finish_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
     let (ns, _) = S::as_mut_simd_f64s(&mut b.n);
     let (codes, _) = S::as_mut_simd_u64s(&mut b.code);
     let (ts, _) = S::as_simd_f64s(&b.t);
+    let (arriveds, _) = S::as_mut_simd_u64s(&mut b.arrived);
     let zero = v.splat(0.0);
     let one = v.splat(1.0);
     for j in 0..codes.len() {
@@ -625,6 +678,9 @@ fn finish_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
         sxs[j] = v.select(arrived, hx, xs[j]);
         sys[j] = v.select(arrived, hy, ys[j]);
         szs[j] = v.select(arrived, v.add(hz, v.splat(s.z_mm)), zs[j]);
+        if RECORD {
+            arriveds[j] = simd.select_u64s(arrived, simd.splat_u64s(!0), simd.splat_u64s(0));
+        }
         if s.refract {
             let (nx, ny, nz) = if s.terms > 0 {
                 let slope = v.sag_and_slope(s, rho, false).1;
@@ -678,5 +734,83 @@ fn finish_phase<S: Simd>(simd: S, s: &LaneSurface, index: u64, b: &mut Block) {
             code = v.fail(v.and(refracted, v.not(valid_direction)), MISSED, index, code);
         }
         codes[j] = code;
+    }
+}
+
+/// `Frame::point_to_local` / `vector_to_local` of every lane, in place on the global positions and the
+/// directions, after saving them (a lane that does not arrive gets them back in `globalize_phase`).
+#[inline(always)]
+fn localize_phase<S: Simd>(simd: S, frame: &Frame, b: &mut Block) {
+    let v = Lanes(simd);
+    let global = &mut b.points[b.global];
+    b.saved.x = global.x;
+    b.saved.y = global.y;
+    b.saved.z = global.z;
+    b.saved_l = b.l;
+    b.saved_m = b.m;
+    b.saved_n = b.n;
+    let (xs, _) = S::as_mut_simd_f64s(&mut global.x);
+    let (ys, _) = S::as_mut_simd_f64s(&mut global.y);
+    let (zs, _) = S::as_mut_simd_f64s(&mut global.z);
+    let (ls, _) = S::as_mut_simd_f64s(&mut b.l);
+    let (ms, _) = S::as_mut_simd_f64s(&mut b.m);
+    let (ns, _) = S::as_mut_simd_f64s(&mut b.n);
+    let r = frame.rotation.map(|row| row.map(|e| v.splat(e)));
+    let o = frame.origin.map(|e| v.splat(e));
+    // R^T w, with the scalar code's order: (r0k w0 + r1k w1) + r2k w2.
+    let to_local = |w: [S::f64s; 3], k: usize| {
+        v.add(
+            v.add(v.mul(r[0][k], w[0]), v.mul(r[1][k], w[1])),
+            v.mul(r[2][k], w[2]),
+        )
+    };
+    for j in 0..xs.len() {
+        let d = [v.sub(xs[j], o[0]), v.sub(ys[j], o[1]), v.sub(zs[j], o[2])];
+        let dir = [ls[j], ms[j], ns[j]];
+        [xs[j], ys[j], zs[j]] = [0, 1, 2].map(|k| to_local(d, k));
+        [ls[j], ms[j], ns[j]] = [0, 1, 2].map(|k| to_local(dir, k));
+    }
+}
+
+/// After `finish_phase` (and the swap of the point sets): lanes that arrived go back to global
+/// coordinates (`Frame::point_to_global` / `vector_to_global`), the others get their saved state.
+#[inline(always)]
+fn globalize_phase<S: Simd>(simd: S, frame: &Frame, b: &mut Block) {
+    let v = Lanes(simd);
+    let global = &mut b.points[b.global];
+    let (xs, _) = S::as_mut_simd_f64s(&mut global.x);
+    let (ys, _) = S::as_mut_simd_f64s(&mut global.y);
+    let (zs, _) = S::as_mut_simd_f64s(&mut global.z);
+    let (ls, _) = S::as_mut_simd_f64s(&mut b.l);
+    let (ms, _) = S::as_mut_simd_f64s(&mut b.m);
+    let (ns, _) = S::as_mut_simd_f64s(&mut b.n);
+    let (sxs, _) = S::as_simd_f64s(&b.saved.x);
+    let (sys, _) = S::as_simd_f64s(&b.saved.y);
+    let (szs, _) = S::as_simd_f64s(&b.saved.z);
+    let (sls, _) = S::as_simd_f64s(&b.saved_l);
+    let (sms, _) = S::as_simd_f64s(&b.saved_m);
+    let (sns, _) = S::as_simd_f64s(&b.saved_n);
+    let (arriveds, _) = S::as_simd_u64s(&b.arrived);
+    let r = frame.rotation.map(|row| row.map(|e| v.splat(e)));
+    let o = frame.origin.map(|e| v.splat(e));
+    // R w, with the scalar code's order: (rk0 w0 + rk1 w1) + rk2 w2.
+    let to_global = |w: [S::f64s; 3], k: usize| {
+        v.add(
+            v.add(v.mul(r[k][0], w[0]), v.mul(r[k][1], w[1])),
+            v.mul(r[k][2], w[2]),
+        )
+    };
+    for j in 0..xs.len() {
+        let arrived = simd.equal_u64s(arriveds[j], simd.splat_u64s(!0));
+        let p = [xs[j], ys[j], zs[j]];
+        let dir = [ls[j], ms[j], ns[j]];
+        let moved = [0, 1, 2].map(|k| v.add(o[k], to_global(p, k)));
+        let turned = [0, 1, 2].map(|k| to_global(dir, k));
+        xs[j] = v.select(arrived, moved[0], sxs[j]);
+        ys[j] = v.select(arrived, moved[1], sys[j]);
+        zs[j] = v.select(arrived, moved[2], szs[j]);
+        ls[j] = v.select(arrived, turned[0], sls[j]);
+        ms[j] = v.select(arrived, turned[1], sms[j]);
+        ns[j] = v.select(arrived, turned[2], sns[j]);
     }
 }

@@ -11,6 +11,10 @@ use unicac_optics::{FirstOrder, Lens};
 #[derive(Debug, Clone, Serialize)]
 pub struct LensSummary {
     pub name: String,
+    /// Written only when false (a decentred or tilted surface): the first-order data are then the
+    /// nominal, centred system's (docs/conventions.md).
+    #[serde(skip_serializing_if = "is_true")]
+    pub rotationally_symmetric: bool,
     pub surfaces: usize,
     pub stop_surface_number: usize,
     #[serde(flatten)]
@@ -26,6 +30,7 @@ impl LensSummary {
         let first_order = lens.first_order()?;
         Ok(LensSummary {
             name: lens.name.clone(),
+            rotationally_symmetric: lens.is_rotationally_symmetric(),
             surfaces: lens.surfaces.len(),
             stop_surface_number: lens.stop_index + 1,
             working_f_number: spot::real_working_f_number(lens)?,
@@ -34,4 +39,8 @@ impl LensSummary {
             first_order,
         })
     }
+}
+
+fn is_true(value: &bool) -> bool {
+    *value
 }

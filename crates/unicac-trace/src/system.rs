@@ -47,7 +47,11 @@ pub enum Clipping {
 /// One surface with everything the inner loop needs, precomputed.
 #[derive(Debug, Clone, Copy)]
 pub struct TraceSurface {
+    /// Global z of the nominal vertex.
     pub z_mm: f64,
+    /// The frame of a decentred or tilted surface; `None` when it is centred (the rotationally symmetric
+    /// path, which never transforms).
+    pub frame: Option<Frame>,
     pub profile: Profile,
     /// r^2 limit of the conic base (infinite if unbounded).
     pub conic_rho_limit: f64,
@@ -75,6 +79,10 @@ impl TraceSystem {
             .enumerate()
             .map(|(i, s)| TraceSurface {
                 z_mm: s.z_mm,
+                frame: (!s.placement.is_centred()).then(|| Frame {
+                    origin: [s.placement.decentre_x_mm, s.placement.decentre_y_mm, s.z_mm],
+                    rotation: s.placement.rotation(),
+                }),
                 profile: s.profile,
                 conic_rho_limit: s.profile.conic_rho_limit(),
                 // The image surface is the detector: its semi-diameter describes it, it never vignettes.
@@ -94,6 +102,20 @@ impl TraceSystem {
 
     pub fn image_index(&self) -> usize {
         self.surfaces.len() - 1
+    }
+
+    /// True when no surface is decentred or tilted.
+    pub fn is_rotationally_symmetric(&self) -> bool {
+        self.surfaces.iter().all(|s| s.frame.is_none())
+    }
+
+    /// A global point in the frame of surface `index` (its vertex at the origin, its axis along z).
+    pub fn to_surface_frame(&self, index: usize, point: [f64; 3]) -> [f64; 3] {
+        let surface = &self.surfaces[index];
+        match &surface.frame {
+            None => [point[0], point[1], point[2] - surface.z_mm],
+            Some(frame) => frame.point_to_local(point),
+        }
     }
 
     /// Traces `ray` in place through surfaces 0..=last. Surfaces before `last` refract; `last` itself
@@ -120,7 +142,11 @@ impl TraceSystem {
         let mut n_before = self.object_index;
         for (i, surface) in self.surfaces[..=last].iter().enumerate() {
             let before = *ray;
-            let status = step(surface, i as u32, ray, n_before, i < last || refract_last);
+            let refract = i < last || refract_last;
+            let status = match &surface.frame {
+                None => step(surface, i as u32, ray, n_before, refract),
+                Some(frame) => placed_step(surface, frame, i as u32, ray, n_before, refract),
+            };
             if !status.is_ok() {
                 return status;
             }
@@ -148,7 +174,10 @@ impl TraceSystem {
             .iter()
             .enumerate()
             .map(|(i, surface)| {
-                let lane = LaneSurface::new(surface, n_before, i < last);
+                let lane = match &surface.frame {
+                    None => LaneSurface::new(surface, n_before, i < last),
+                    Some(frame) => LaneSurface::placed(&surface.local(), *frame, n_before, i < last),
+                };
                 n_before = surface.index_after;
                 lane
             })
@@ -241,6 +270,64 @@ impl TraceSystem {
     }
 }
 
+/// Where a decentred or tilted surface sits: its vertex and the rotation taking local vectors to global
+/// ones (columns: the local axes). Both tracers transform with these same operations in the same order,
+/// so they agree bit for bit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    pub origin: [f64; 3],
+    pub rotation: [[f64; 3]; 3],
+}
+
+impl Frame {
+    /// R^T (p - origin).
+    #[inline]
+    pub fn point_to_local(&self, p: [f64; 3]) -> [f64; 3] {
+        let d = [
+            p[0] - self.origin[0],
+            p[1] - self.origin[1],
+            p[2] - self.origin[2],
+        ];
+        self.vector_to_local(d)
+    }
+
+    /// R^T v.
+    #[inline]
+    pub fn vector_to_local(&self, v: [f64; 3]) -> [f64; 3] {
+        let r = &self.rotation;
+        [0, 1, 2].map(|k| r[0][k] * v[0] + r[1][k] * v[1] + r[2][k] * v[2])
+    }
+
+    /// origin + R p.
+    #[inline]
+    pub fn point_to_global(&self, p: [f64; 3]) -> [f64; 3] {
+        let v = self.vector_to_global(p);
+        [
+            self.origin[0] + v[0],
+            self.origin[1] + v[1],
+            self.origin[2] + v[2],
+        ]
+    }
+
+    /// R v.
+    #[inline]
+    pub fn vector_to_global(&self, v: [f64; 3]) -> [f64; 3] {
+        let r = &self.rotation;
+        [0, 1, 2].map(|k| r[k][0] * v[0] + r[k][1] * v[1] + r[k][2] * v[2])
+    }
+}
+
+impl TraceSurface {
+    /// This surface in its own frame: vertex at the origin, no frame (what the placed steps trace).
+    pub(crate) fn local(&self) -> TraceSurface {
+        TraceSurface {
+            z_mm: 0.0,
+            frame: None,
+            ..*self
+        }
+    }
+}
+
 /// A ray in a surface's local frame (vertex at the origin): where it starts, its direction, and the
 /// intersection parameter found so far.
 #[derive(Debug, Clone, Copy, Default)]
@@ -266,13 +353,55 @@ enum NewtonStep {
     Failed(RayStatus),
 }
 
-/// Intersects, clips and (optionally) refracts at one surface.
-#[inline]
-fn step(surface: &TraceSurface, index: u32, ray: &mut Ray, n_before: f64, refract: bool) -> RayStatus {
-    let mut hit = match conic_hit(surface, index, ray) {
+/// `step` at a decentred or tilted surface: the ray is taken into the surface's frame, stepped there,
+/// and taken back if it arrived (a ray stopped before the surface keeps its global state untouched).
+fn placed_step(
+    surface: &TraceSurface,
+    frame: &Frame,
+    index: u32,
+    ray: &mut Ray,
+    n_before: f64,
+    refract: bool,
+) -> RayStatus {
+    let local_surface = surface.local();
+    let mut local = Ray {
+        position_mm: frame.point_to_local(ray.position_mm),
+        direction: frame.vector_to_local(ray.direction),
+    };
+    let hit = match intersect(&local_surface, index, &local) {
         Ok(hit) => hit,
         Err(status) => return status,
     };
+    let status = finish(&local_surface, index, &mut local, &hit, n_before, refract);
+    if arrives(&local_surface, &hit) {
+        ray.position_mm = frame.point_to_global(local.position_mm);
+        ray.direction = frame.vector_to_global(local.direction);
+    }
+    status
+}
+
+/// Whether `finish` moves the ray to `hit` (inside the clear aperture, finite): the tests of `finish`,
+/// in the same form.
+#[inline]
+fn arrives(surface: &TraceSurface, hit: &LocalHit) -> bool {
+    let point = hit.point();
+    let rho = point[0] * point[0] + point[1] * point[1];
+    rho <= surface.clip_rho && point[0].is_finite() && point[1].is_finite() && point[2].is_finite()
+}
+
+/// Intersects, clips and (optionally) refracts at one surface.
+#[inline]
+fn step(surface: &TraceSurface, index: u32, ray: &mut Ray, n_before: f64, refract: bool) -> RayStatus {
+    match intersect(surface, index, ray) {
+        Ok(hit) => finish(surface, index, ray, &hit, n_before, refract),
+        Err(status) => status,
+    }
+}
+
+/// The intersection of `ray` with the surface (steps 1-3 of the module docs), in the surface's frame.
+#[inline]
+fn intersect(surface: &TraceSurface, index: u32, ray: &Ray) -> Result<LocalHit, RayStatus> {
+    let mut hit = conic_hit(surface, index, ray)?;
     if surface.profile.has_polynomial() {
         let mut converged = false;
         for _ in 0..MAX_NEWTON_ITERATIONS {
@@ -282,14 +411,14 @@ fn step(surface: &TraceSurface, index: u32, ray: &mut Ray, n_before: f64, refrac
                     break;
                 }
                 NewtonStep::Continue => {}
-                NewtonStep::Failed(status) => return status,
+                NewtonStep::Failed(status) => return Err(status),
             }
         }
         if !converged {
-            return RayStatus::NoConvergence { surface: index };
+            return Err(RayStatus::NoConvergence { surface: index });
         }
     }
-    finish(surface, index, ray, &hit, n_before, refract)
+    Ok(hit)
 }
 
 /// Transfer to the tangent plane and the closed-form conic intersection (steps 1 and 2 of the module

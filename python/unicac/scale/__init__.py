@@ -5,7 +5,7 @@ The single-machine `unicac` CLI stays the reference: every Ray task runs the CLI
 parts into exactly the files the single-machine command writes. Nothing here schedules: Ray places and
 retries the tasks; this package only splits, runs and merges.
 
-Modules: `files` (atomic writes), `tasks` (running the CLI inside a Ray task, the fault-injection hook),
+Modules: `tasks` (running the CLI inside a Ray task, the fault-injection hook),
 `session` (starting or joining Ray, a bounded window of tasks with progress), `design`, `ode`, `dataset`
 (one per stage) and `cli` (the `unicac-ray` command).
 """

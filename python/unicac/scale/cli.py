@@ -42,19 +42,20 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return 0 if argv else 2
     stage, rest = argv[0], argv[1:]
     options, stage_args = _driver_options(rest)
+    from unicac import UnicacError
 
-    # Imported here so that `unicac-ray --help` works without Ray.
-    try:
-        from . import session as session_module
-    except ImportError as error:
-        print(f'unicac-ray: Ray is not installed ({error}); pip install "unicac[ray]"', file=sys.stderr)
-        return 2
     from .tasks import FAULT_ENV, CliError, find_cli
 
     try:
         binary = find_cli(options.unicac_bin)
         stage_module = importlib.import_module(f"{__package__}.{stage}")
-        plan = stage_module.prepare(binary, stage_args)  # argument errors before Ray starts
+        plan = stage_module.prepare(binary, stage_args)  # argument and output errors before Ray starts
+        # Imported here so that `unicac-ray --help` and the argument checks work without Ray.
+        try:
+            from . import session as session_module
+        except ImportError as error:
+            print(f'unicac-ray: Ray is not installed ({error}); pip install "unicac[ray]"', file=sys.stderr)
+            return 1
         fault_dir = os.environ.get(FAULT_ENV)
         # Ray prints its own notices (a worker that died, ...) on stdout: while it runs, stdout is stderr,
         # and the stage writes its results to the real stdout.
@@ -62,8 +63,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         with contextlib.redirect_stdout(sys.stderr):
             with session_module.Session(options.address, options.workers, options.cpus_per_task) as session:
                 return stage_module.run(session, plan, fault_dir, results)
-    except (CliError, ValueError) as error:
+    except (CliError, UnicacError, ValueError) as error:
         print(f"unicac-ray {stage}: {error}", file=sys.stderr)
+        return 1
+    except OSError as error:
+        where = f"{error.filename}: {error.strerror}" if error.filename is not None and error.strerror else str(error)
+        print(f"unicac-ray {stage}: {where}", file=sys.stderr)
         return 1
     except Exception as error:  # a task's CLI error arrives wrapped by Ray
         cause = getattr(error, "cause", None)

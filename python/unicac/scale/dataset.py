@@ -30,16 +30,18 @@ class Plan:
     def __init__(self, binary: str, argv: Sequence[str]):
         argv = list(argv)
         if not argv or argv[0] != "build":
-            raise SystemExit("unicac-ray dataset: only `dataset build` runs on Ray (info and plot are instant)")
+            argparse.ArgumentParser(prog="unicac-ray dataset").error(
+                "only `dataset build` runs on Ray (info and plot are instant)"
+            )
         parser = argparse.ArgumentParser(prog="unicac-ray dataset build", allow_abbrev=False, add_help=False)
         parser.add_argument("--shard")
         parser.add_argument("--threads")
         parser.add_argument("--shards", type=int, help=f"shards (1 to {MAX_SHARDS}; default 4 per worker)")
         known, self.rest = parser.parse_known_args(argv[1:])
         if known.shard or known.threads:
-            raise SystemExit("unicac-ray dataset build: --shard and --threads are set by the driver (--shards, --cpus-per-task)")
+            parser.error("--shard and --threads are set by the driver (--shards, --cpus-per-task)")
         if known.shards is not None and not 1 <= known.shards <= MAX_SHARDS:
-            raise SystemExit(f"unicac-ray dataset build: --shards {known.shards}: must be 1 to {MAX_SHARDS}")
+            parser.error(f"--shards {known.shards}: must be 1 to {MAX_SHARDS}")
         self.binary = binary
         self.shards: Optional[int] = known.shards
 

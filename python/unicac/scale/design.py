@@ -24,7 +24,8 @@ import tempfile
 from pathlib import Path
 from typing import Optional, Sequence, TextIO
 
-from .files import copy_atomically, write_text_atomically
+from unicac.outputs import copy_file, write_text
+
 from .tasks import fail_once, run_cli
 
 PARTS = Path(".unicac-ray") / "design"
@@ -76,7 +77,7 @@ def design_task(binary: str, args: list[str], part: str, threads: int, fault_dir
     if not is_done(Path(part), args):
         run_cli(binary, ["design", *args], threads)
         fail_once(fault_dir, "design-" + Path(part).name)
-        write_text_atomically(Path(part) / DONE, json.dumps(args) + "\n")
+        write_text(Path(part) / DONE, json.dumps(args) + "\n")
     return part
 
 
@@ -101,15 +102,18 @@ class Manifest:
             raise ValueError(
                 f"{directory}: manifest.csv has {len(self.csv_lines)} rows, manifest.jsonl {len(self.json_lines)}"
             )
-        self.rows = [json.loads(l) for l in self.json_lines]
+        try:
+            self.rows = [json.loads(l) for l in self.json_lines]
+        except json.JSONDecodeError as error:
+            raise ValueError(f"{jsonl}: a row is not valid JSON ({error.msg})") from error
 
     def indices_for(self, slug: str) -> list[int]:
         return [i for i, row in enumerate(self.rows) if row["spec"] == slug]
 
     def write(self, json_lines: list[str], csv_lines: list[str], header: str) -> None:
         # The CSV first: a reader of manifest.jsonl (the CLI's resume) then never lists a row missing in the CSV.
-        write_text_atomically(self.directory / "manifest.csv", "".join(f"{l}\n" for l in [header, *csv_lines]))
-        write_text_atomically(self.directory / "manifest.jsonl", "".join(f"{l}\n" for l in json_lines))
+        write_text(self.directory / "manifest.csv", "".join(f"{l}\n" for l in [header, *csv_lines]))
+        write_text(self.directory / "manifest.jsonl", "".join(f"{l}\n" for l in json_lines))
 
 
 def seed_part(out: Path, library: Manifest, slug: str, part: Path) -> None:
@@ -152,7 +156,7 @@ def merge(out: Path, specs: list[dict]) -> Manifest:
         for sub in ("lenses", "state"):
             for file in sorted((part.directory / sub).glob("*")):
                 if not file.name.startswith("."):
-                    copy_atomically(file, out / sub / file.name)
+                    copy_file(file, out / sub / file.name)
         header = header or part.header
         for i, row in enumerate(part.rows):
             if row["id"] not in known:

@@ -18,7 +18,8 @@ import tempfile
 from pathlib import Path
 from typing import Optional, Sequence, TextIO
 
-from .files import write_text_atomically
+from unicac.outputs import OutputPlan, require_extension, write_text
+
 from .tasks import fail_once, run_cli
 
 MAX_BATCH = 100_000
@@ -47,6 +48,21 @@ def parse(argv: Sequence[str]) -> argparse.Namespace:
     if args.batch_size is not None and not 1 <= args.batch_size <= MAX_BATCH:
         parser.error(f"--batch-size {args.batch_size}: must be 1 to {MAX_BATCH}")
     return args
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """--csv and --work-dir against the lens files, before Ray starts (the tasks' own `unicac ode` runs
+    write temporary files and never see the user's --csv)."""
+    plan = OutputPlan()
+    for lens in args.lenses:
+        if not lens.startswith("builtin:"):
+            plan.input(lens)
+    if args.csv is not None:
+        require_extension("--csv", args.csv, ["csv"])
+        plan.output("--csv", args.csv)
+    if args.work_dir is not None:
+        plan.output("--work-dir", args.work_dir)
+    plan.check()
 
 
 def batches(lenses: list[str], size: int) -> list[list[str]]:
@@ -88,7 +104,9 @@ def batch_key(lenses: list[str], options: list[str], json_out: bool) -> str:
 
 
 def prepare(binary: str, argv: Sequence[str]) -> tuple[str, argparse.Namespace]:
-    return binary, parse(argv)
+    args = parse(argv)
+    check_outputs(args)
+    return binary, args
 
 
 def run(session, plan: tuple[str, argparse.Namespace], fault_dir: Optional[str], stdout: TextIO) -> int:
@@ -121,10 +139,10 @@ def run(session, plan: tuple[str, argparse.Namespace], fault_dir: Optional[str],
     for i, result in zip(todo, session.map(ode_task, calls, "ode")):
         results[i] = result
         if args.work_dir is not None:
-            write_text_atomically(args.work_dir / f"{keys[i]}.json", json.dumps(list(result)))
+            write_text(args.work_dir / f"{keys[i]}.json", json.dumps(list(result)))
     stdouts = [r[0] for r in results]
     if args.csv is not None:
-        write_text_atomically(args.csv, splice_rows([r[1] for r in results]))
+        write_text(args.csv, splice_rows([r[1] for r in results]))
         print(f"wrote {args.csv}", file=sys.stderr)
     stdout.write(splice_json(stdouts) if args.json else splice_rows(stdouts))
     stdout.flush()

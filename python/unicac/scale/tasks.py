@@ -47,8 +47,19 @@ def run_cli(binary: str, args: Sequence[str], threads: int, cwd: Optional[str] =
         [binary, *args], capture_output=True, text=True, cwd=cwd, env=env, check=False
     )
     if done.returncode != 0:
-        raise CliError(f"unicac {' '.join(args)} failed (exit {done.returncode}):\n{done.stderr.strip()}")
+        raise CliError(cli_failure(args[0] if args else "", done.returncode, done.stderr))
     return done.stdout
+
+
+def cli_failure(command: str, returncode: int, stderr: str) -> str:
+    """One line: the CLI's own error (the last line it printed; progress lines come before it), not
+    the arguments the driver added (--shard, temporary files)."""
+    if returncode < 0:
+        return f"unicac {command} was killed by signal {-returncode}"
+    lines = [line.strip() for line in stderr.splitlines() if line.strip()]
+    message = lines[-1] if lines else f"exit code {returncode}, no message"
+    return f"unicac {command}: {message.removeprefix('error: ')}"
+
 
 
 def fail_once(fault_dir: Optional[str], key: str) -> None:

@@ -1,8 +1,9 @@
 """Training configs: BasicSR-shaped YAML (name, manual_seed, network, datasets.train/val,
 train.optim/scheduler/losses/total_iter, val, logger), validated before anything trains.
 
-Every key is checked against the schema below: an unknown key, a wrong type or a value out of its
-stated range raises `ConfigError` naming the key (`train.optim.lr: ...`). Missing optional keys take
+Every key is checked against the schema below: an unknown key, a wrong type, a number that is not
+finite (`.nan`, `.inf`) or a value out of its stated range raises `ConfigError` naming the key
+(`train.optim.lr: ...`); every number has both limits. Missing optional keys take
 the defaults written here, so a run's `config.yml` (the resolved config, saved in the run folder)
 lists every setting that shaped it.
 """
@@ -13,12 +14,18 @@ import copy
 import hashlib
 import inspect
 import json
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
 CONFIG_DIR = Path(__file__).with_name("configs")
+
+#: Limits of the loss weights, gradient clipping and frame sides (every number has a stated range).
+MAX_LOSS_WEIGHT = 1e3
+MAX_GRAD_CLIP = 1e6
+MAX_FRAME_SIDE_PX = 8192
 
 
 class ConfigError(ValueError):
@@ -49,10 +56,10 @@ _DATA = {
     "lenses": _f(list, [], items=(str,)),
     "images": _f((str, type(None))),
     "charts": _f(list, ["dead-leaves"], items=(str,)),
-    "frame_px": _f(list, [256, 192], items=(int,)),
+    "frame_px": _f(list, [256, 192], items=(int,)),  # [width, height], 16..MAX_FRAME_SIDE_PX each
     "isp": _f(bool, True),
     "noise": _f(bool, True),
-    "seed": _f(int, 0, low=0),
+    "seed": _f(int, 0, low=0, high=2**63 - 1),
     "patch_px": _f(int, 64, low=16, high=4096),
     "batch_size": _f(int, 4, low=1, high=1024),
     "num_workers": _f(int, 0, low=0, high=64),
@@ -61,6 +68,8 @@ _DATA = {
     # validation: the first `max_pairs` pairs of the split, centre crops of `crop_px` (None: whole image).
     "max_pairs": _f(int, 8, low=1, high=100_000),
     "crop_px": _f((int, type(None)), 128, low=16, high=8192),
+    # The noise-to-signal ratio of the Wiener estimate a `wiener` model takes (as `unicac bench --wiener-nsr`).
+    "wiener_nsr": _f((float, int), 0.01, low=1e-9, high=100),
 }
 
 SCHEMA: dict[str, Any] = {
@@ -74,26 +83,39 @@ SCHEMA: dict[str, Any] = {
     },
     "train": {
         "total_iter": _f(int, 1000, low=1, high=100_000_000),
-        "grad_clip": _f((float, int, type(None)), None, low=0),
+        "grad_clip": _f((float, int, type(None)), None, low=0, high=MAX_GRAD_CLIP),
+        # Stop cleanly (checkpoint, validation) once this many seconds of training have passed in this
+        # session; --resume continues. A session setting: not part of the config hash.
+        "time_budget_s": _f((float, int, type(None)), None, low=1, high=10**9),
+        # cpu, cuda or auto (cuda when available); mixed precision and channels_last where it helps.
+        "device": _f(str, "auto", choices=("auto", "cpu", "cuda")),
+        "amp": _f(str, "auto", choices=("auto", "off", "bf16", "fp16")),
+        "channels_last": _f(str, "auto", choices=("auto", "on", "off")),
+        # Exponential moving average of the generator's weights (validated and exported when set).
+        "ema_decay": _f((float, type(None)), None, low=0.0, high=0.999999),
+        # Refuse (false) or only warn (true): a patch under twice the dataset's largest PSF kernel, a
+        # receptive field under it. Session settings: not part of the config hash.
+        "allow_small_patch": _f(bool, False),
+        "allow_small_receptive_field": _f(bool, False),
         "optim": {
             "type": _f(str, "AdamW", choices=("Adam", "AdamW")),
             "lr": _f((float, int), 1e-3, low=0, high=1),
-            "weight_decay": _f((float, int), 0.0, low=0),
-            "betas": _f(list, [0.9, 0.9], items=(float, int)),
+            "weight_decay": _f((float, int), 0.0, low=0, high=1),
+            "betas": _f(list, [0.9, 0.9], items=(float, int)),  # two numbers in [0, 1)
         },
         "scheduler": {
             "type": _f(str, "CosineAnnealingLR", choices=("CosineAnnealingLR", "constant")),
-            "eta_min": _f((float, int), 1e-6, low=0),
+            "eta_min": _f((float, int), 1e-6, low=0, high=1),
         },
         "losses": {
-            "pixel": {"type": _f(str, "L1Loss", choices=("L1Loss", "CharbonnierLoss")), "weight": _f((float, int), 1.0, low=0)},
+            "pixel": {"type": _f(str, "L1Loss", choices=("L1Loss", "CharbonnierLoss")), "weight": _f((float, int), 1.0, low=0, high=MAX_LOSS_WEIGHT)},
             # Blind PSF prior: L1 between predicted and true PSF-feature maps.
-            "psf": {"weight": _f((float, int), 0.0, low=0)},
+            "psf": {"weight": _f((float, int), 0.0, low=0, high=MAX_LOSS_WEIGHT)},
             # LPIPS (VGG16 or AlexNet weights from `unicac weights fetch lpips`).
-            "perceptual": {"weight": _f((float, int), 0.0, low=0), "net": _f(str, "vgg16", choices=("vgg16", "alexnet"))},
+            "perceptual": {"weight": _f((float, int), 0.0, low=0, high=MAX_LOSS_WEIGHT), "net": _f(str, "vgg16", choices=("vgg16", "alexnet"))},
             "gan": {
-                "weight": _f((float, int), 0.0, low=0),
-                "start_iter": _f(int, 0, low=0),
+                "weight": _f((float, int), 0.0, low=0, high=MAX_LOSS_WEIGHT),
+                "start_iter": _f(int, 0, low=0, high=100_000_000),
                 "lr": _f((float, int), 1e-4, low=0, high=1),
                 "width": _f(int, 32, low=4, high=512),
             },
@@ -115,6 +137,8 @@ def _check_value(key: str, field: Field, value: Any) -> Any:
         raise ConfigError(f"{key}: expected {names}, got {type(value).__name__} ({value!r})")
     if field.choices is not None and value not in field.choices:
         raise ConfigError(f"{key}: '{value}' is not one of {list(field.choices)}")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"{key}: {value} is not a finite number")
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         if field.low is not None and value < field.low:
             raise ConfigError(f"{key}: {value} is below the limit {field.low}")
@@ -125,6 +149,8 @@ def _check_value(key: str, field: Field, value: Any) -> Any:
             if not isinstance(item, field.items) or isinstance(item, bool):
                 names = " or ".join(t.__name__ for t in field.items)
                 raise ConfigError(f"{key}[{i}]: expected {names}, got {type(item).__name__} ({item!r})")
+            if isinstance(item, float) and not math.isfinite(item):
+                raise ConfigError(f"{key}[{i}]: {item} is not a finite number")
     return copy.deepcopy(value)
 
 
@@ -151,6 +177,7 @@ def _resolve(schema: dict[str, Any], given: Any, prefix: str) -> dict[str, Any]:
 
 def _check_network(network: dict[str, Any]) -> None:
     from .archs import NETWORKS
+    from .archs.nafnet import PRIORS
 
     kind = network.get("type")
     if kind not in NETWORKS:
@@ -168,9 +195,11 @@ def _check_network(network: dict[str, Any]) -> None:
         if key not in known:
             raise ConfigError(f"network.{key}: unknown key for {kind} (known: {', '.join(sorted(known))})")
         default = known[key].default
+        if key == "prior" and value is not None and value not in PRIORS:
+            raise ConfigError(f"network.prior: {value!r} is not one of null, {', '.join(repr(p) for p in PRIORS)}")
+        if key == "target" and value not in ("psf_code", "psf"):
+            raise ConfigError(f"network.target: {value!r} is not one of 'psf_code', 'psf'")
         if default is None or default is inspect.Parameter.empty:
-            if key == "prior" and value not in (None, "fov", "psf"):
-                raise ConfigError(f"network.prior: {value!r} is not one of null, 'fov', 'psf'")
             continue
         expected = (list, tuple) if isinstance(default, (list, tuple)) else (type(default),)
         if isinstance(default, float):
@@ -181,6 +210,8 @@ def _check_network(network: dict[str, Any]) -> None:
             raise ConfigError(f"network.{key}: expected a list of block counts (integers 0..64), got {value!r}")
         if isinstance(value, int) and not isinstance(value, bool) and not 0 <= value <= 4096:
             raise ConfigError(f"network.{key}: {value} is outside 0..4096")
+        if isinstance(value, float) and not 0 < value <= 64:  # also refuses NaN
+            raise ConfigError(f"network.{key}: {value} is outside (0, 64]")
 
 
 def validate(config: Any) -> dict[str, Any]:
@@ -189,8 +220,10 @@ def validate(config: Any) -> dict[str, Any]:
     _check_network(resolved["network"])
     for split in ("train", "val"):
         data = resolved["datasets"][split]
-        if len(data["frame_px"]) != 2 or min(data["frame_px"]) < 16:
-            raise ConfigError(f"datasets.{split}.frame_px: expected [width, height] of at least 16 px, got {data['frame_px']}")
+        if len(data["frame_px"]) != 2 or not all(16 <= side <= MAX_FRAME_SIDE_PX for side in data["frame_px"]):
+            raise ConfigError(
+                f"datasets.{split}.frame_px: expected [width, height] of 16..{MAX_FRAME_SIDE_PX} px each, got {data['frame_px']}"
+            )
     perceptual = resolved["train"]["losses"]["perceptual"]
     if perceptual["weight"] > 0:
         from .losses import MIN_SIDE_PX
@@ -200,8 +233,9 @@ def validate(config: Any) -> dict[str, Any]:
                 f"datasets.train.patch_px: {resolved['datasets']['train']['patch_px']} px is below the "
                 f"{MIN_SIDE_PX[perceptual['net']]} px that the {perceptual['net']} perceptual loss needs"
             )
-    if len(resolved["train"]["optim"]["betas"]) != 2:
-        raise ConfigError("train.optim.betas: expected two numbers")
+    betas = resolved["train"]["optim"]["betas"]
+    if len(betas) != 2 or not all(0 <= beta < 1 for beta in betas):
+        raise ConfigError(f"train.optim.betas: expected two numbers in [0, 1), got {betas}")
     return resolved
 
 
@@ -231,14 +265,29 @@ def shipped(model: str) -> Path:
     return path
 
 
+#: Settings of one session, not of the run: a resumed run may change them (left out of the hash).
+SESSION_KEYS = ("time_budget_s", "allow_small_patch", "allow_small_receptive_field")
+
+
+def without_session(config: dict[str, Any]) -> dict[str, Any]:
+    """The config with the session settings (`SESSION_KEYS`) at their defaults: what a run folder keeps."""
+    run = copy.deepcopy(config)
+    for key in SESSION_KEYS:
+        if key in run.get("train", {}):
+            run["train"][key] = SCHEMA["train"][key].default
+    return run
+
+
 def sha256(config: dict[str, Any]) -> str:
-    """Hash of the resolved config (canonical JSON), recorded in checkpoints and ONNX metadata."""
-    return hashlib.sha256(json.dumps(config, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+    """Hash of the resolved config (canonical JSON) without the session settings (`SESSION_KEYS`),
+    recorded in checkpoints and ONNX metadata."""
+    run = without_session(config)
+    return hashlib.sha256(json.dumps(run, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
 
 
 def dump(config: dict[str, Any], path: Path) -> None:
     import yaml
 
-    from .files import atomic_write_bytes
+    from unicac.outputs import write_bytes
 
-    atomic_write_bytes(path, yaml.safe_dump(config, sort_keys=False).encode())
+    write_bytes(path, yaml.safe_dump(config, sort_keys=False).encode())

@@ -25,18 +25,19 @@ MAX_PAIRS = 1_000_000
 
 @torch.no_grad()
 def evaluate(run_dir: str, dataset: str, split: str = "test", max_pairs: int = MAX_PAIRS) -> dict[str, Any]:
-    net, _, state = load_run(run_dir)
+    net, config, state = load_run(run_dir)
     folder = DatasetFolder(dataset)
-    rows = folder.check_split(split, need_psf="psf" in net.inputs)[:max_pairs]
+    maps = net.inputs[1:]
+    rows = folder.check_split(split, need_psf=any(m in ("psf", "psf_code", "wiener") for m in maps))[:max_pairs]
     levels = {lens["lens_id"]: lens.get("level") for lens in folder.lenses()}
     scores: dict[Any, list[list[float]]] = defaultdict(list)
     for row in rows:
-        pair = folder.load(row, fov="fov" in net.inputs, psf="psf" in net.inputs)
+        pair = folder.load(row, fov="fov" in maps, psf="psf" in maps, psf_code="psf_code" in maps,
+                           wiener="wiener" in maps, wiener_nsr=config["datasets"]["train"]["wiener_nsr"])
         lq = torch.from_numpy(to_chw(pair["lq"]))[None]
         gt = torch.from_numpy(to_chw(pair["gt"]))[None]
-        fov = torch.from_numpy(pair["fov"])[None] if "fov" in pair else None
-        psf_map = torch.from_numpy(pair["psf"])[None] if "psf" in pair else None
-        restored = net(lq, fov, psf_map).clamp(0, 1)
+        given = {name: torch.from_numpy(to_chw(pair[name]) if name == "wiener" else pair[name])[None] for name in maps}
+        restored = net(lq, **given).clamp(0, 1)
         values = [float(psnr(restored, gt)), float(ssim(restored, gt)), float(psnr(lq, gt)), float(ssim(lq, gt))]
         scores[levels.get(row["lens_id"])].append(values)
         scores["all"].append(values)
@@ -57,6 +58,12 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if not 1 <= args.max_pairs <= MAX_PAIRS:
         p.error(f"--max-pairs: {args.max_pairs} is outside 1..{MAX_PAIRS}")
+    from .cli import run_command
+
+    return run_command(p.prog, _report, args)
+
+
+def _report(args: argparse.Namespace) -> int:
     report = evaluate(args.run_dir, args.dataset, args.split, args.max_pairs)
     if args.json:
         print(json.dumps(report))

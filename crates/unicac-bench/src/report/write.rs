@@ -37,6 +37,8 @@ pub struct Report {
     /// Metric name -> available (false: reported as null, see `notices`).
     pub metrics: std::collections::BTreeMap<String, bool>,
     pub notices: Vec<String>,
+    /// The onnxruntime library loaded and how it was found (None: not loaded).
+    pub onnxruntime: Option<crate::ort_library::Located>,
     pub models: Vec<ModelInfo>,
     #[serde(flatten)]
     pub results: Results,
@@ -46,20 +48,36 @@ fn csv_number(v: Option<f64>) -> String {
     v.map(|v| format!("{v:.6}")).unwrap_or_default()
 }
 
-/// `pairs.csv`: `model,pair_id,lens_id,level,psnr_db,ssim,lpips` (empty = unavailable).
+/// `pairs.csv`: `model,pair_id,lens_id,level,psnr_db,ssim,lpips,clipiqa` (empty = unavailable).
 pub fn pairs_csv(pairs: &[PairScore]) -> String {
-    let mut out = String::from("model,pair_id,lens_id,level,psnr_db,ssim,lpips\n");
+    let mut out = String::from("model,pair_id,lens_id,level,psnr_db,ssim,lpips,clipiqa\n");
     for p in pairs {
         out.push_str(&format!(
-            "{},{},{},{},{:.6},{:.6},{}\n",
+            "{},{},{},{},{:.6},{:.6},{},{}\n",
             p.model,
             p.pair_id,
             p.lens_id,
             p.level,
             p.psnr_db,
             p.ssim,
-            csv_number(p.lpips)
+            csv_number(p.lpips),
+            csv_number(p.clipiqa)
         ));
+    }
+    out
+}
+
+/// `lens_op.csv`: per model and lens, the O.P. the analysis uses with the lens's metrics
+/// (`model,lens_id,ode,rms_radius_um,op`), so every analysis figure can be recomputed outside unicac.
+pub fn lens_op_csv(analysis: &super::Analysis) -> String {
+    let mut out = String::from("model,lens_id,ode,rms_radius_um,op\n");
+    for (model, a) in &analysis.per_model {
+        for p in &a.points {
+            out.push_str(&format!(
+                "{model},{},{:.6},{:.6},{:.6}\n",
+                p.lens_id, p.ode, p.rms_radius_um, p.op
+            ));
+        }
     }
     out
 }
@@ -87,13 +105,14 @@ fn cost_table(models: &[ModelInfo]) -> String {
 fn overall_table(report: &Report) -> String {
     let mut out = String::from("### Overall (all test pairs)\n\n| rank | model | PSNR | SSIM | LPIPS | OIQE | FID | ClipIQA | O.P. | O.P. terms |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|---|\n");
     let mut rows: Vec<_> = report.results.overall.iter().collect();
-    rows.sort_by_key(|r| r.rank);
+    // Unranked models (no scored pair) last.
+    rows.sort_by_key(|r| r.rank.unwrap_or(usize::MAX));
     let f = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |v| format!("{v:.d$}"));
     for r in rows {
         let x = &r.row;
         out.push_str(&format!(
             "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-            r.rank,
+            r.rank.map_or("-".to_string(), |k| k.to_string()),
             x.model,
             f(x.psnr_db, 2),
             f(x.ssim, 4),
@@ -125,6 +144,7 @@ pub fn write_report(dir: &Path, report: &Report, pairs: &[PairScore]) -> Result<
     let json = serde_json::to_string_pretty(report).expect("report serialises");
     put("results.json", json.as_bytes())?;
     put("pairs.csv", pairs_csv(pairs).as_bytes())?;
+    put("lens_op.csv", lens_op_csv(&report.results.analysis).as_bytes())?;
     let names: Vec<String> = report.models.iter().map(|m| m.name.clone()).collect();
     let mut md = format!(
         "# unicac bench: {}\n\nsplit `{}`; metrics as pyiqa's defaults (docs/bench.md). Best **bold**, second <u>underlined</u>.\n\n",
@@ -150,28 +170,7 @@ pub fn write_report(dir: &Path, report: &Report, pairs: &[PairScore]) -> Result<
         )?;
     }
     md.push_str(&cost_table(&report.models));
-    let a = &report.results.analysis;
-    let r2 = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
-    md.push_str(&format!(
-        "\n### Which lens metric predicts restorability?\n\nPer-lens mean O.P. of {} over {} lenses: R^2 against ODE = {}, against RMS spot radius = {}.\n",
-        a.models.join(", "),
-        a.lenses,
-        r2(a.r2_ode),
-        r2(a.r2_rms)
-    ));
-    let ci = |v: Option<[f64; 2]>| v.map_or("n/a".to_string(), |[lo, hi]| format!("[{lo:.3}, {hi:.3}]"));
-    md.push_str(&format!(
-        "\n| lens metric | R^2 | 95% interval | Spearman rho | 95% interval |\n|---|---|---|---|---|\n| ODE | {} | {} | {} | {} |\n| RMS spot radius | {} | {} | {} | {} |\n\nIntervals: percentile bootstrap over lenses, {} resamples, seeded.\n",
-        r2(a.r2_ode),
-        ci(a.r2_ode_ci95),
-        r2(a.spearman_ode),
-        ci(a.spearman_ode_ci95),
-        r2(a.r2_rms),
-        ci(a.r2_rms_ci95),
-        r2(a.spearman_rms),
-        ci(a.spearman_rms_ci95),
-        a.bootstrap_resamples
-    ));
+    md.push_str(&super::analysis_md::markdown(&report.results.analysis));
     if !report.notices.is_empty() {
         md.push_str("\n### Notices\n\n");
         for n in &report.notices {
@@ -267,36 +266,41 @@ fn plots(dir: &Path, report: &Report) -> Result<Vec<PathBuf>> {
         )?;
         written.push(path);
     }
-    let a = &report.results.analysis;
-    if a.lenses >= 2 {
-        let r2 = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
-        let panel =
-            |title: String, x_desc: &str, points: Vec<(f64, f64)>, fit: Option<crate::analysis::LineFit>| {
+    let a = &report.results.analysis.all;
+    if a.predictors.lenses >= 2 {
+        use super::predictors::LensMetric;
+        let number = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
+        let panels: Vec<unicac_plot::ScatterPanel> = LensMetric::ALL
+            .iter()
+            .map(|&metric| {
+                let m = a.predictors.metric(metric);
+                let x_desc = match metric {
+                    LensMetric::Ode => "ODE of the lens",
+                    LensMetric::RmsRadius => "RMS spot radius (um)",
+                    LensMetric::LogRmsRadius => "ln RMS spot radius (um)",
+                };
+                let inverse = if m.direction_expected() == Some(false) {
+                    " (inverse)"
+                } else {
+                    ""
+                };
                 unicac_plot::ScatterPanel {
-                    title,
+                    title: format!(
+                        "{}: R^2 {}, r {}{inverse}",
+                        metric.label(),
+                        number(m.r2.value),
+                        number(m.pearson.value)
+                    ),
                     x_desc: x_desc.into(),
                     y_desc: "mean O.P. of the models".into(),
-                    points,
-                    fit: fit.map(|f| (f.intercept, f.slope)),
+                    points: a.points.iter().map(|p| (metric.of(p), p.op)).collect(),
+                    fit: m.fit.map(|f| (f.intercept, f.slope)),
                 }
-            };
-        let panels = [
-            panel(
-                format!("O.P. vs ODE, R^2 = {}", r2(a.r2_ode)),
-                "ODE of the lens",
-                a.points.iter().map(|p| (p.ode, p.op)).collect(),
-                a.fit_ode,
-            ),
-            panel(
-                format!("O.P. vs RMS radius, R^2 = {}", r2(a.r2_rms)),
-                "RMS spot radius (um)",
-                a.points.iter().map(|p| (p.rms_radius_um, p.op)).collect(),
-                a.fit_rms,
-            ),
-        ];
+            })
+            .collect();
         let path = dir.join("analysis.png");
         unicac_plot::scatter_fits(
-            &format!("Per-lens restorability, {} lenses", a.lenses),
+            &format!("Per-lens restorability, {} lenses", a.predictors.lenses),
             &panels,
             &path,
         )?;

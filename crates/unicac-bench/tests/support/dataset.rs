@@ -201,6 +201,19 @@ pub fn write(dir: &Path, test_split: bool) {
             });
         }
     }
+    // The PSF basis (docs/models.md, `psf_code`): fitted here on every lens's table (the fixture has no
+    // training split).
+    let tables: Vec<unicac_dataset::psf_basis::FitTable> = lenses
+        .iter()
+        .map(|l| unicac_dataset::psf_basis::FitTable {
+            dir: dir.join(&l.psf),
+            held_out: false,
+        })
+        .collect();
+    unicac_dataset::PsfBasis::fit(&tables, 0.95, "test")
+        .unwrap()
+        .write(&dir.join(unicac_dataset::psf_basis::BASIS_RELATIVE))
+        .unwrap();
     write_jsonl(&dir.join("lenses.jsonl"), &lenses).unwrap();
     write_jsonl(&dir.join("pairs.jsonl"), &pairs).unwrap();
     write_jsonl(&dir.join("edges.jsonl"), &edges).unwrap();

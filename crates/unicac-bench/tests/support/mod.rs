@@ -133,6 +133,29 @@ pub fn psf_model() -> Vec<u8> {
     g.to_bytes()
 }
 
+/// A contract-2 model: `restored = wiener + 0 x mean(psf_code)`; the sum only broadcasts when the
+/// code map has the image's height and width, and onnxruntime checks its 50 channels.
+pub fn wiener_code_model(basis_sha256: &str, contract: &str) -> Vec<u8> {
+    let mut g = GraphBuilder::new("wiener_code");
+    g.input("lq", &image_dims(3))
+        .input("psf_code", &image_dims(unicac_dataset::PSF_CODE_CHANNELS as i64))
+        .input("wiener", &image_dims(3))
+        .output("restored", &image_dims(3));
+    g.initializer(float_tensor("zero", &[1], &[0.0]));
+    g.node(
+        "ReduceMean",
+        &["psf_code"],
+        &["code_mean"],
+        &[("axes", Attr::Ints(vec![1])), ("keepdims", Attr::Int(1))],
+    );
+    g.node("Mul", &["code_mean", "zero"], &["nothing"], &[]);
+    g.node("Add", &["wiener", "nothing"], &["restored"], &[]);
+    g.metadata("unicac_contract", contract)
+        .metadata("inputs", "lq,psf_code,wiener")
+        .metadata("psf_basis_sha256", basis_sha256);
+    g.to_bytes()
+}
+
 /// A scratch folder under the target directory, emptied first.
 pub fn scratch(name: &str) -> std::path::PathBuf {
     let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);

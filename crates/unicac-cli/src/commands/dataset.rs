@@ -128,8 +128,11 @@ fn counts(map: &std::collections::BTreeMap<String, usize>) -> String {
 
 pub fn info(args: &DatasetInfoArgs) -> Result<()> {
     let info = unicac_dataset::info::info(&args.dir)?;
+    let ode_command = ode_command(&info.grading);
     if args.json {
-        return super::print_json(&info);
+        let mut value = serde_json::to_value(&info)?;
+        value["ode_command"] = serde_json::json!(ode_command);
+        return super::print_json(&value);
     }
     println!(
         "{} (unicac {}), frame {} x {} px",
@@ -159,10 +162,26 @@ pub fn info(args: &DatasetInfoArgs) -> Result<()> {
         info.disk_bytes as f64 / 1e6,
         info.cache_bytes as f64 / 1e6
     );
+    println!("each lens's recorded ODE is what `{ode_command}` prints (LENS: its `source` in lenses.jsonl)");
     Ok(())
 }
 
+/// The `unicac ode` command that grades a lens as the dataset did: on the CPU, as builds grade (a GPU
+/// traces the PSF rays with other rounding, so its digits may differ).
+fn ode_command(grading: &unicac_ode::FrameSensor) -> String {
+    let [w, h] = grading.frame_px;
+    let pitch = grading
+        .pixel_um
+        .map_or(String::new(), |p| format!(" --pixel-um {p}"));
+    format!("unicac ode LENS --frame {w}x{h}{pitch} --device cpu")
+}
+
 pub fn plot(args: &DatasetPlotArgs) -> Result<()> {
+    // The dataset is read as a whole: the picture may be neither one of its files nor land inside it.
+    let mut plan = unicac_io::OutputPlan::new();
+    plan.input_folder(&args.dir);
+    crate::outputs::picture(&mut plan, "--out", Some(&args.out))?;
+    plan.check()?;
     unicac_dataset::info::plot(&args.dir, &args.out)?;
     eprintln!("wrote {}", args.out.display());
     Ok(())

@@ -9,7 +9,7 @@ use unicac_design::run::{run_specs, Event, RunSettings, StopReason};
 use unicac_design::spec::{
     focal_length_for_sensor, paper_grid, GRID_ELEMENTS, GRID_F_NUMBERS, GRID_HALF_FOV_DEG, GRID_STOPS,
 };
-use unicac_design::DesignSpec;
+use unicac_design::{DesignError, DesignSpec};
 
 fn focal_length(args: &DesignArgs, half_fov_deg: f64) -> Result<f64> {
     match (&args.sensor, args.focal_length_mm) {
@@ -95,21 +95,8 @@ fn spec_line(spec: &DesignSpec) -> serde_json::Value {
     })
 }
 
-/// Largest --count: the kept designs are compared with every new one.
-const MAX_COUNT: usize = 1000;
-
-/// The edge-thickness flags applied to every spec.
+/// The edge-thickness flags applied to every spec, each spec checked again with them.
 fn with_edge_limits(mut specs: Vec<DesignSpec>, args: &DesignArgs) -> Result<Vec<DesignSpec>> {
-    for (flag, value) in [
-        ("--min-air-edge-mm", args.min_air_edge_mm),
-        ("--min-glass-edge-mm", args.min_glass_edge_mm),
-    ] {
-        if let Some(v) = value {
-            if !(v.is_finite() && v >= 0.0) {
-                bail!("{flag} {v}: must be a finite length >= 0");
-            }
-        }
-    }
     for spec in &mut specs {
         if let Some(v) = args.min_air_edge_mm {
             spec.constraints.air_edge_min_mm = v;
@@ -117,26 +104,31 @@ fn with_edge_limits(mut specs: Vec<DesignSpec>, args: &DesignArgs) -> Result<Vec
         if let Some(v) = args.min_glass_edge_mm {
             spec.constraints.glass_edge_min_mm = v;
         }
+        spec.validate().map_err(|e| flag_error(e, args))?;
     }
     Ok(specs)
 }
 
-pub fn run(args: &DesignArgs) -> Result<()> {
-    if !(1..=MAX_COUNT).contains(&args.count) {
-        bail!("--count {}: expected 1 to {MAX_COUNT}", args.count);
-    }
-    if let Some(t) = args.time_budget_s {
-        if !(t.is_finite() && t > 0.0) {
-            bail!("--time-budget-s {t}: must be positive");
-        }
-    }
-    let specs = with_edge_limits(specs(args)?, args)?;
-    if args.list_specs {
-        for spec in &specs {
-            println!("{}", spec_line(spec));
-        }
-        return Ok(());
-    }
+/// The design library's setting error in this face's words: the flag for the library's field.
+fn flag_error(error: DesignError, args: &DesignArgs) -> anyhow::Error {
+    let DesignError::InvalidSpec { field, message } = &error else {
+        return error.into();
+    };
+    let flag = match (field.as_str(), args.grid) {
+        ("focal_length_mm", _) if args.sensor.is_some() => "--sensor (the focal length it gives)".to_string(),
+        ("constraints.air_edge_min_mm", _) => "--min-air-edge-mm".into(),
+        ("constraints.glass_edge_min_mm", _) => "--min-glass-edge-mm".into(),
+        ("elements", true) => "--grid-elements".into(),
+        ("half_fov_deg", true) => "--grid-half-fov-deg".into(),
+        ("f_number", true) => "--grid-f-numbers".into(),
+        ("stop", true) => "--grid-stops".into(),
+        (field, _) => format!("--{}", field.replace('_', "-")),
+    };
+    anyhow::anyhow!("{flag}: {message}")
+}
+
+/// Every setting, checked before the library folder is opened (or made).
+fn settings(args: &DesignArgs) -> Result<RunSettings> {
     let mut settings = RunSettings::new(args.count, args.seed);
     settings.first_acceptable = args.first_acceptable;
     settings.time_budget_s = args.time_budget_s;
@@ -149,6 +141,23 @@ pub fn run(args: &DesignArgs) -> Result<()> {
     if args.time_budget_s.is_some() {
         // With a budget, keep searching (new rounds) until the lenses are found or time is up.
         settings.rounds = usize::MAX;
+    }
+    settings.validate().map_err(|e| flag_error(e, args))?;
+    Ok(settings)
+}
+
+pub fn run(args: &DesignArgs) -> Result<()> {
+    let settings = settings(args)?;
+    let specs = specs(args).map_err(|e| match e.downcast::<DesignError>() {
+        Ok(design) => flag_error(design, args),
+        Err(other) => other,
+    })?;
+    let specs = with_edge_limits(specs, args)?;
+    if args.list_specs {
+        for spec in &specs {
+            println!("{}", spec_line(spec));
+        }
+        return Ok(());
     }
     let mut library = Library::open(&args.out)?;
     let bar = super::progress(specs.len() * args.count, "design");

@@ -1,5 +1,6 @@
 //! One module per command.
 
+mod analysis;
 mod bench;
 mod chart;
 mod crops;
@@ -16,11 +17,11 @@ mod simulate;
 mod spot;
 mod trace;
 
-use crate::args::{Command, DatasetCommand, LensCommand};
+use crate::args::{AnalysisCommand, Command, DatasetCommand, LensCommand};
 use anyhow::Result;
 use serde::Serialize;
 
-pub fn run(command: Command) -> Result<()> {
+pub fn run(command: Command, host: &crate::Host) -> Result<()> {
     match command {
         Command::Lens(LensCommand::Info(args)) => lens::info(&args),
         Command::Lens(LensCommand::Convert(args)) => lens::convert(&args),
@@ -34,11 +35,16 @@ pub fn run(command: Command) -> Result<()> {
         Command::Chart(args) => chart::run(&args),
         Command::Ode(args) => ode::run(&args),
         Command::Mtf(args) => mtf::run(&args),
+        Command::Analysis(AnalysisCommand::Mtf(args)) => analysis::mtf(&args),
+        Command::Analysis(AnalysisCommand::ThroughFocus(args)) => analysis::through_focus(&args),
+        Command::Analysis(AnalysisCommand::FieldCurves(args)) => analysis::field_curves(&args),
+        Command::Analysis(AnalysisCommand::Illumination(args)) => analysis::illumination(&args),
+        Command::Analysis(AnalysisCommand::EncircledEnergy(args)) => analysis::encircled_energy(&args),
         Command::Gpu(command) => gpu::run(&command),
         Command::Design(args) => design::run(&args),
-        Command::Bench(args) => bench::run(&args),
-        Command::Metrics(args) => bench::metrics(&args),
-        Command::Weights(command) => bench::weights(&command),
+        Command::Bench(args) => bench::run(&args, host),
+        Command::Metrics(args) => bench::metrics(&args, host),
+        Command::Weights(command) => bench::weights(&command, host),
         Command::Dataset(DatasetCommand::Build(args)) => dataset::build(&args),
         Command::Dataset(DatasetCommand::Info(args)) => dataset::info(&args),
         Command::Dataset(DatasetCommand::Plot(args)) => dataset::plot(&args),
@@ -64,7 +70,9 @@ pub(crate) fn auto_aiming(
         return Ok(None);
     }
     let decision = unicac_trace::AutoAiming::decide(lens)?;
-    if decision.aiming == unicac_trace::Aiming::Real {
+    if decision.aiming == unicac_trace::Aiming::Real && !lens.is_rotationally_symmetric() {
+        eprintln!("aiming: real (auto: the lens has a decentred or tilted surface)");
+    } else if decision.aiming == unicac_trace::Aiming::Real {
         let miss = decision
             .chief_ray_stop_miss
             .map_or("does not reach the stop".to_string(), |m| {

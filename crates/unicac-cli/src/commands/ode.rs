@@ -1,4 +1,5 @@
-//! `unicac ode`: ODE and RMS spot radius of many lenses, in parallel, with a progress bar.
+//! `unicac ode`: ODE and RMS spot radius of many lenses, in parallel, with a progress bar; on the lens
+//! files' sensors or, with `--frame`, on the sensor `unicac dataset build` grades with.
 
 use super::{print_json, progress};
 use crate::args::OdeArgs;
@@ -6,7 +7,8 @@ use crate::lens_input::load_lens;
 use anyhow::Result;
 use rayon::prelude::*;
 use std::fmt::Write as _;
-use unicac_ode::{evaluate, LensOde, OdeSettings};
+use unicac_dataset::build::sources::parse_size;
+use unicac_ode::{evaluate, FrameSensor, LensOde, OdeSettings};
 
 pub fn run(args: &OdeArgs) -> Result<()> {
     let mut plan = crate::outputs::plan(None);
@@ -22,10 +24,11 @@ pub fn run(args: &OdeArgs) -> Result<()> {
         plan.output("--csv", csv);
     }
     crate::outputs::picture(&mut plan, "--plot", args.plot.as_deref())?;
+    let frame = frame_sensor(args)?;
     plan.check()?;
     let settings = OdeSettings {
         backend: super::gpu::backend(&args.device),
-        ..OdeSettings::default()
+        ..frame.map_or_else(OdeSettings::default, |f| f.ode_settings())
     };
     let bar = progress(args.lenses.len(), "ode");
     let results: Vec<Result<LensOde>> = args
@@ -33,6 +36,10 @@ pub fn run(args: &OdeArgs) -> Result<()> {
         .par_iter()
         .map(|name| {
             let result = load_lens(name)
+                .map(|lens| match frame {
+                    Some(f) => f.apply(&lens),
+                    None => lens,
+                })
                 .and_then(|lens| evaluate(&lens, &settings).map_err(|e| anyhow::anyhow!("{name}: {e}")))
                 .map(|report| LensOde {
                     lens: name.clone(),
@@ -71,6 +78,19 @@ pub fn run(args: &OdeArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// `--frame WxH [--pixel-um X]`: the sensor `unicac dataset build` grades on with the same flags.
+fn frame_sensor(args: &OdeArgs) -> Result<Option<FrameSensor>> {
+    let Some(text) = &args.frame else {
+        return Ok(None);
+    };
+    let frame = FrameSensor {
+        frame_px: parse_size(text).map_err(|m| anyhow::anyhow!("--frame: {m}"))?,
+        pixel_um: args.pixel_um,
+    };
+    frame.check().map_err(super::flag_error)?;
+    Ok(Some(frame))
 }
 
 fn csv(lenses: &[LensOde]) -> String {

@@ -23,8 +23,8 @@ struct TraceReport {
     wavelength_um: f64,
     start_mm: [f64; 3],
     start_direction: [f64; 3],
-    /// The stop surface (1-based) and where the ray crosses it (null if it stops before): with `--aim
-    /// real` the ray of pupil (px, py) crosses at (px, py) R_stop (docs/conventions.md).
+    /// The stop surface (1-based) and where the ray crosses it, in the stop's own frame (null if it
+    /// stops before): with `--aim real` the ray of pupil (px, py) crosses at (px, py) R_stop (docs/conventions.md).
     stop_surface: usize,
     stop_xy_mm: Option<[f64; 2]>,
     /// With --path: the start point, then the point on surface 1, 2, ...: `path_mm[k]` is on surface k.
@@ -52,7 +52,11 @@ pub fn run(args: &TraceArgs) -> Result<()> {
         system.trace_path(ray)
     };
     // path[0] is the start point, path[k] the point on surface k (1-based).
-    let stop_xy_mm = path.get(lens.stop_index + 1).map(|p| [p[0], p[1]]);
+    // In the stop's own frame (the frame real aiming targets; the global x, y for a centred stop).
+    let stop_xy_mm = path.get(lens.stop_index + 1).map(|p| {
+        let local = system.to_surface_frame(lens.stop_index, *p);
+        [local[0], local[1]]
+    });
     let arrived = status.is_ok();
     let end = path.last().copied().filter(|_| arrived);
     let mut end_ray = ray;

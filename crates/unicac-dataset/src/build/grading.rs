@@ -6,7 +6,6 @@ use crate::seeds::sha256_hex;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use unicac_ode::{OdeReport, OdeSettings};
-use unicac_optics::spec::SensorSpec;
 use unicac_optics::Lens;
 
 /// The scores of a lens that the dataset records (the ODE report without its timings and tables).
@@ -43,35 +42,8 @@ impl From<&OdeReport> for Grade {
     }
 }
 
-/// The sensor of a build: a `frame_px` frame, with the lens's largest field on its half-diagonal
-/// (`pixel_um` None) or with a given pitch. The lens file's own sensor is replaced by it, so the ODE
-/// and the pairs see the same pixels.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct BuildSensor {
-    pub frame_px: [usize; 2],
-    pub pixel_um: Option<f64>,
-}
-
-impl BuildSensor {
-    /// The lens as graded and rendered: its sensor replaced by this one.
-    pub fn apply(&self, lens: &Lens) -> Lens {
-        let mut lens = lens.clone();
-        lens.sensor = self.pixel_um.map(|p| SensorSpec {
-            width_mm: self.frame_px[0] as f64 * p * 1e-3,
-            height_mm: self.frame_px[1] as f64 * p * 1e-3,
-            pixel_pitch_um: p,
-        });
-        lens
-    }
-
-    /// ODE settings on this sensor.
-    pub fn ode_settings(&self) -> OdeSettings {
-        OdeSettings {
-            default_frame_px: self.frame_px,
-            ..OdeSettings::default()
-        }
-    }
-}
+/// The sensor of a build: the rule `unicac ode --frame` grades with (one implementation, in unicac-ode).
+pub use unicac_ode::FrameSensor as BuildSensor;
 
 /// On-disk cache of grades: `DIR/<key>.json`.
 #[derive(Debug, Clone)]

@@ -112,11 +112,8 @@ impl BuildSettings {
             )));
         }
         if let Some(p) = self.pixel_um {
-            if !(p.is_finite() && p > 0.0 && p <= 1000.0) {
-                return Err(DatasetError::Invalid(format!(
-                    "--pixel-um {p}: must be in (0, 1000]"
-                )));
-            }
+            unicac_ode::frame::check_pixel_um(p)
+                .map_err(|e| DatasetError::Invalid(format!("--pixel-um {}", e.message)))?;
         }
         if !(self.iso.is_finite() && self.iso > 0.0 && self.iso <= 1.0e6) {
             return Err(DatasetError::Invalid(format!(
@@ -465,6 +462,14 @@ pub fn build(
     }
     report.complete = dataset_complete(out, &plan);
     if report.complete {
+        // The PSF basis needs every training lens's table, so the run that completes the dataset fits it
+        // (a pure function of the tables: every shard would write the same bytes).
+        let basis_dir = out.join(crate::psf_basis::BASIS_RELATIVE);
+        if !basis_dir.join(crate::psf_basis::BASIS_JSON).exists() {
+            progress.stage("fitting the PSF basis", 1);
+            fit_psf_basis(out, &plan.lenses)?.write(&basis_dir)?;
+            progress.advance(1);
+        }
         manifest::write_json(&out.join(DATASET_JSON), &plan.manifest)?;
     }
     Ok(report)
@@ -788,6 +793,24 @@ fn write_manifests(out: &Path, plan: &Plan) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The dataset's PSF basis (docs/models.md, `psf_code`): fitted on the training lenses' tables, measured
+/// on the validation and test lenses' ones.
+pub fn fit_psf_basis(out: &Path, lenses: &[LensRow]) -> Result<crate::PsfBasis> {
+    let tables: Vec<crate::psf_basis::FitTable> = lenses
+        .iter()
+        .filter(|l| !l.psf.is_empty())
+        .map(|l| crate::psf_basis::FitTable {
+            dir: out.join(&l.psf),
+            held_out: l.split != "train",
+        })
+        .collect();
+    crate::PsfBasis::fit(
+        &tables,
+        crate::psf_basis::DEFAULT_ENERGY_SHARE,
+        env!("CARGO_PKG_VERSION"),
+    )
 }
 
 fn pair_complete(out: &Path, pair: &PairRow) -> bool {

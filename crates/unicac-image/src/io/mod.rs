@@ -21,9 +21,12 @@ use raster::Raster;
 use std::path::Path;
 
 /// Most samples (pixels x channels) a decoded file may hold (2^28: 1 GiB as f32, e.g. 89 MP RGB).
-/// OpenEXR headers are checked against it before decoding; PNG and TIFF decoding is bounded by the
-/// `image` crate's allocation limit (512 MiB per buffer).
+/// Every header (OpenEXR, PNG, TIFF, BMP) is checked against it before decoding.
 pub const MAX_DECODED_SAMPLES: usize = 1 << 28;
+
+/// Largest image file read (1 GiB + 64 MiB): [`MAX_DECODED_SAMPLES`] f32 samples stored uncompressed,
+/// plus room for headers and offset tables. Larger files are refused from their size, before reading.
+pub const MAX_IMAGE_FILE_BYTES: u64 = (4 << 28) + (64 << 20);
 
 /// Container formats this module reads and writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -151,12 +154,17 @@ impl LoadedImage {
 }
 
 /// Reads a PNG, TIFF, BMP or OpenEXR file, choosing the decoder from the file's signature (not its extension).
+/// The file must be a regular file of at most [`MAX_IMAGE_FILE_BYTES`]; the size its header declares is
+/// checked against [`MAX_DECODED_SAMPLES`] before decoding.
 pub fn read_image(path: impl AsRef<Path>) -> Result<LoadedImage> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| ImageError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        unicac_io::read_capped(path, MAX_IMAGE_FILE_BYTES, "MAX_IMAGE_FILE_BYTES").map_err(|source| {
+            ImageError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     decode_image(path, &bytes)
 }
 

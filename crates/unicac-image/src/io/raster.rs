@@ -7,7 +7,7 @@ use super::{Encoding, FileFormat, LoadedImage, SampleDepth};
 use crate::error::{check_layout, ImageError, Result};
 use crate::quantise::{from_code, max_code, to_code};
 use crate::Planar;
-use image::{ExtendedColorType, ImageEncoder};
+use image::{ExtendedColorType, ImageDecoder, ImageEncoder};
 use std::path::Path;
 
 /// The two integer-raster formats this module handles.
@@ -46,8 +46,22 @@ pub(super) fn decode(path: &Path, bytes: &[u8], raster: Raster) -> Result<Loaded
         Raster::Tiff => image::ImageFormat::Tiff,
         Raster::Bmp => image::ImageFormat::Bmp,
     };
-    let decoded =
-        image::load_from_memory_with_format(bytes, codec).map_err(|e| decode_error(e.to_string()))?;
+    let decoder = image::ImageReader::with_format(std::io::Cursor::new(bytes), codec)
+        .into_decoder()
+        .map_err(|e| decode_error(e.to_string()))?;
+    // The size the header declares is checked before the decoder allocates for it: the `image`
+    // crate's own limit (512 MiB per buffer) admits 8-bit files whose samples take 2 GiB as f32.
+    let (declared_w, declared_h) = decoder.dimensions();
+    let declared_channels = decoder.color_type().channel_count();
+    let samples = u64::from(declared_w) * u64::from(declared_h) * u64::from(declared_channels);
+    if samples > super::MAX_DECODED_SAMPLES as u64 {
+        return Err(decode_error(format!(
+            "the header declares {declared_w} x {declared_h} px x {declared_channels} channels, beyond \
+             the limit of {} samples (MAX_DECODED_SAMPLES)",
+            super::MAX_DECODED_SAMPLES
+        )));
+    }
+    let decoded = image::DynamicImage::from_decoder(decoder).map_err(|e| decode_error(e.to_string()))?;
     let (width, height) = (decoded.width() as usize, decoded.height() as usize);
     let colour = decoded.color();
     let channels = usize::from(colour.channel_count());

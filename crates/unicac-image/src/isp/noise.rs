@@ -23,6 +23,9 @@ use rand_distr::{Poisson, StandardNormal};
 
 /// Read-out bit depth of the default sensor: DeepLens' 10 bits (`unicac simulate --sensor-bits`).
 pub const DEFAULT_BIT_DEPTH: u8 = 10;
+/// Fewest bits the default sensor reads out with: its black level (64 DN) must lie below the white
+/// level 2^bits - 1, which takes 7 bits (127 DN).
+pub const MIN_DEFAULT_SENSOR_BITS: u8 = 7;
 
 /// Sensor read-out parameters. `Default` gives DeepLens' default sensor (prior-art.md section 1.4).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -269,5 +272,21 @@ mod tests {
         ));
         let nan = Planar::from_fn(1, 1, 1, |_, _, _| f32::NAN);
         assert!(read_out(&nan, &SensorNoise::default(), Some(1)).is_err());
+    }
+
+    #[test]
+    fn the_default_sensor_reads_out_at_every_depth_from_its_minimum_to_16_bits() {
+        let flat = Planar::from_fn(2, 2, 1, |_, _, _| 0.5);
+        for bit_depth in 1..=16u8 {
+            let sensor = SensorNoise {
+                bit_depth,
+                ..SensorNoise::default()
+            };
+            assert_eq!(
+                read_out(&flat, &sensor, Some(1)).is_ok(),
+                bit_depth >= MIN_DEFAULT_SENSOR_BITS,
+                "{bit_depth} bits"
+            );
+        }
     }
 }

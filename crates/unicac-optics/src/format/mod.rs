@@ -1,5 +1,6 @@
 //! Lens file formats: the unicac JSON format and Zemax .zmx. Both read into and write from `LensSpec`.
 
+mod breaks;
 pub mod json;
 pub mod zmx;
 
@@ -16,12 +17,20 @@ pub struct LoadedSpec {
     pub warnings: Vec<String>,
 }
 
-/// Reads a `.json` or `.zmx` lens file into its spec.
+/// Largest lens file read (16 MiB): a lens of a thousand surfaces takes well under 1 MiB in either
+/// format, so anything larger is not a lens file, and is refused before it is read.
+pub const MAX_LENS_FILE_BYTES: u64 = 16 << 20;
+
+/// Reads a `.json` or `.zmx` lens file into its spec (a regular file of at most
+/// [`MAX_LENS_FILE_BYTES`]).
 pub fn read_spec(path: &Path) -> Result<LoadedSpec> {
-    let bytes = std::fs::read(path).map_err(|source| OpticsError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        unicac_io::read_capped(path, MAX_LENS_FILE_BYTES, "MAX_LENS_FILE_BYTES").map_err(|source| {
+            OpticsError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     match extension(path).as_str() {
         "json" => Ok(LoadedSpec {
             spec: json::parse(&bytes, path)?,

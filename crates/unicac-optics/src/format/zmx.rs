@@ -2,12 +2,15 @@
 //!
 //! Supported: UTF-16 (with BOM, or detected by NUL bytes) and UTF-8 files; STANDARD and EVENASPH surfaces
 //! (CURV, DISZ, DIAM, CONI, PARM n = coefficient of r^(2n), STOP, GLAS with catalogue names and model
-//! glasses `___BLANK`, COMM); ENPD, FNUM, FLOA apertures; field angles and paraxial image heights
-//! (FTYP 0 / 2, YFLN, FWGN/FWGT); WAVM or WAVL/WWGT wavelengths and PWAV; GCAT.
-//! Anything that changes the optics and is not modelled (other surface types, tilts and decentres,
-//! x fields, mirrors, non-mm units, non-sequential mode) is an error naming the keyword; other unknown
-//! keywords are returned as warnings, never silently dropped.
+//! glasses `___BLANK`, COMM); COORDBRK surfaces (PARM 1-6: decentre x, y, tilt about x, y, z, order),
+//! folded into the decentre and tilt of the surfaces they move (see `breaks`); ENPD, FNUM, FLOA
+//! apertures; field angles and paraxial image heights (FTYP 0 / 2, YFLN, FWGN/FWGT); WAVM or WAVL/WWGT
+//! wavelengths and PWAV; GCAT.
+//! Anything that changes the optics and is not modelled (other surface types, a surface's own
+//! tilt/decenter keywords, x fields, mirrors, non-mm units, non-sequential mode) is an error naming the
+//! keyword; other unknown keywords are returned as warnings, never silently dropped.
 
+use super::breaks::{self, Break};
 use super::LoadedSpec;
 use crate::error::{OpticsError, Result};
 use crate::spec::{
@@ -30,6 +33,19 @@ const IGNORED: &[&str] = &[
 pub fn parse(bytes: &[u8], path: &Path) -> Result<LoadedSpec> {
     let text = decode(bytes);
     let mut reader = Reader::new(path);
+    // Every writer ends each record with a line break, so a last line without one is a file cut inside
+    // a record: `DIAM 21.5` cut to `DIAM 2` would still parse, as a different lens.
+    if let Some((index, last)) = text.lines().enumerate().last() {
+        if !last.trim().is_empty() && !text.ends_with(['\n', '\r']) {
+            return Err(reader.error(
+                index + 1,
+                format!(
+                    "`{}` ends the file without a line break: the file ends inside a record (is it truncated?)",
+                    last.trim()
+                ),
+            ));
+        }
+    }
     for (number, line) in text.lines().enumerate() {
         reader.line(number + 1, line)?;
     }
@@ -86,6 +102,8 @@ struct Reader<'a> {
     /// Surfaces in file order, starting with the object surface (SURF 0).
     surfaces: Vec<SurfaceSpec>,
     parms: Vec<Vec<(usize, f64)>>,
+    /// Per surface: whether it is a coordinate break (TYPE COORDBRK).
+    coordinate_breaks: Vec<bool>,
     /// Per surface: the line of its SURF keyword and whether CURV and DISZ were given (structure checks).
     blocks: Vec<SurfaceBlock>,
     object_distance: Option<f64>,
@@ -111,6 +129,7 @@ impl<'a> Reader<'a> {
             catalogs: Vec::new(),
             surfaces: Vec::new(),
             parms: Vec::new(),
+            coordinate_breaks: Vec::new(),
             blocks: Vec::new(),
             object_distance: None,
             unsupported: BTreeSet::new(),
@@ -175,6 +194,7 @@ impl<'a> Reader<'a> {
                 ));
             }
         }
+        self.check_image_surface()?;
         let stops = self.surfaces.iter().filter(|s| s.stop).count();
         if stops != 1 {
             return Err(self.error(
@@ -199,6 +219,49 @@ impl<'a> Reader<'a> {
                     format!("PWAV {primary}: no such wavelength (listed: {listed:?})"),
                 ));
             }
+        }
+        Ok(())
+    }
+
+    /// The last SURF block is the image surface. Zemax writes it with DISZ 0 and no glass, and any
+    /// interior surface has a thickness to the next one (every bundled lens's does) or a glass after
+    /// it, so a file cut at a surface boundary ends on a block that cannot be the image surface.
+    fn check_image_surface(&self) -> Result<()> {
+        let (Some(block), Some(image)) = (self.blocks.last(), self.surfaces.last()) else {
+            return Ok(());
+        };
+        let index = self.blocks.len() - 1;
+        if image.thickness_mm != 0.0 {
+            return Err(self.error(
+                block.line,
+                format!(
+                    "SURF {index}, the last surface, is the image surface but has DISZ {} (the image \
+                     surface has DISZ 0): the surfaces after it are missing (is the file truncated?)",
+                    image.thickness_mm
+                ),
+            ));
+        }
+        if let Some(material) = image.material.as_ref().filter(|m| !m.is_air()) {
+            let name = match material {
+                MaterialSpec::Named(name) => name.clone(),
+                MaterialSpec::Model { nd, vd } => format!("___BLANK (nd {nd}, vd {vd})"),
+            };
+            return Err(self.error(
+                block.line,
+                format!(
+                    "SURF {index}, the last surface, is the image surface but has GLAS {name}: nothing \
+                     follows the image surface, so the surfaces after it are missing (is the file truncated?)"
+                ),
+            ));
+        }
+        if image.stop {
+            return Err(self.error(
+                block.line,
+                format!(
+                    "SURF {index}, the last surface, is the image surface but is marked STOP: the \
+                     surfaces after it are missing (is the file truncated?)"
+                ),
+            ));
         }
         Ok(())
     }
@@ -293,6 +356,7 @@ impl<'a> Reader<'a> {
             "SURF" => {
                 self.surfaces.push(SurfaceSpec::default());
                 self.parms.push(Vec::new());
+                self.coordinate_breaks.push(false);
                 self.blocks.push(SurfaceBlock {
                     line: n,
                     declared_index: tokens.first().and_then(|t| t.parse().ok()),
@@ -304,6 +368,11 @@ impl<'a> Reader<'a> {
                 let surface_type = match tokens.first().copied() {
                     Some("STANDARD") => SurfaceType::Standard,
                     Some("EVENASPH") => SurfaceType::EvenAsphere,
+                    Some("COORDBRK") => {
+                        self.current(n, keyword)?;
+                        *self.coordinate_breaks.last_mut().expect("a surface") = true;
+                        SurfaceType::Standard
+                    }
                     other => {
                         self.unsupported.insert(format!("TYPE {}", other.unwrap_or("")));
                         SurfaceType::Standard
@@ -406,8 +475,13 @@ impl<'a> Reader<'a> {
             });
         }
         self.check_structure()?;
-        for (surface, parms) in self.surfaces.iter_mut().zip(&self.parms) {
-            if surface.surface_type == SurfaceType::EvenAsphere {
+        for ((surface, parms), &is_break) in self
+            .surfaces
+            .iter_mut()
+            .zip(&self.parms)
+            .zip(&self.coordinate_breaks)
+        {
+            if surface.surface_type == SurfaceType::EvenAsphere && !is_break {
                 let count = parms.iter().map(|(i, _)| *i).max().unwrap_or(0).min(10);
                 surface.aspheric_coefficients = vec![0.0; count];
                 for &(i, value) in parms {
@@ -420,6 +494,34 @@ impl<'a> Reader<'a> {
         let object = self.surfaces.remove(0);
         if object.stop {
             return Err(self.error(0, "the object surface cannot be the stop"));
+        }
+        if self.coordinate_breaks[0] {
+            return Err(self.error(
+                self.blocks[0].line,
+                "the object surface cannot be a coordinate break",
+            ));
+        }
+        if self.coordinate_breaks.iter().any(|b| *b) {
+            let steps = self
+                .surfaces
+                .drain(..)
+                .zip(self.coordinate_breaks.iter().skip(1))
+                .zip(self.parms.iter().skip(1))
+                .zip(self.blocks.iter().skip(1))
+                .map(|(((surface, &is_break), parms), block)| {
+                    if is_break {
+                        breaks::Step::Break(
+                            Break::from_parms(parms),
+                            surface.thickness_mm,
+                            block.line,
+                            surface.stop,
+                        )
+                    } else {
+                        breaks::Step::Surface(surface)
+                    }
+                })
+                .collect::<Vec<_>>();
+            self.surfaces = breaks::resolve(steps).map_err(|(line, message)| self.error(line, message))?;
         }
         let fields = self.fields()?;
         let field_count = fields.values().len();
@@ -547,17 +649,48 @@ pub fn to_string(spec: &LensSpec) -> String {
     // A spec without a stop has its stop at surface 1 (as `Lens::from_spec` reads it); the file says so,
     // since the reader requires one STOP.
     let implicit_stop = !spec.surfaces.iter().any(|s| s.stop);
+    let mut number = 0;
     for (i, s) in spec.surfaces.iter().enumerate() {
-        line(format!("SURF {}", i + 1));
+        // A decentred or tilted surface sits between coordinate breaks that place it and then undo
+        // the move, so the following surfaces stay on the nominal axis (`breaks::around`).
+        let (before, after) = breaks::around(&s.placement());
+        for b in &before {
+            number += 1;
+            line(format!("SURF {number}"));
+            write_break(b, 0.0, &mut line);
+        }
+        number += 1;
+        line(format!("SURF {number}"));
         if i == 0 && implicit_stop {
             line("  STOP".into());
         }
-        write_surface(s, &mut line);
+        let mut placed = s.clone();
+        if !after.is_empty() {
+            placed.thickness_mm = 0.0;
+        }
+        write_surface(&placed, i + 1 == spec.surfaces.len(), &mut line);
+        for (k, b) in after.iter().enumerate() {
+            number += 1;
+            line(format!("SURF {number}"));
+            let thickness = if k + 1 == after.len() { s.thickness_mm } else { 0.0 };
+            write_break(b, thickness, &mut line);
+        }
     }
     out
 }
 
-fn write_surface(s: &SurfaceSpec, line: &mut impl FnMut(String)) {
+fn write_break(b: &Break, thickness_mm: f64, line: &mut impl FnMut(String)) {
+    line("  TYPE COORDBRK".into());
+    line("  CURV 0.0 0 0 0 0 \"\"".into());
+    for (i, value) in b.parms().iter().enumerate() {
+        line(format!("  PARM {} {value:?}", i + 1));
+    }
+    line(format!("  DISZ {thickness_mm:?}"));
+}
+
+/// The image surface (`image`) is written as Zemax writes it, DISZ 0 and no glass, whatever the spec
+/// holds there (nothing follows it, so neither changes the lens; the reader requires both).
+fn write_surface(s: &SurfaceSpec, image: bool, line: &mut impl FnMut(String)) {
     if !s.label.is_empty() {
         line(format!("  COMM {}", s.label));
     }
@@ -572,8 +705,9 @@ fn write_surface(s: &SurfaceSpec, line: &mut impl FnMut(String)) {
     for (i, a) in s.aspheric_coefficients.iter().enumerate() {
         line(format!("  PARM {} {a:?}", i + 1));
     }
-    line(format!("  DISZ {:?}", s.thickness_mm));
+    line(format!("  DISZ {:?}", if image { 0.0 } else { s.thickness_mm }));
     match &s.material {
+        _ if image => {}
         None => {}
         Some(MaterialSpec::Named(name)) => {
             let bare = name.split_once(':').map_or(name.as_str(), |(_, g)| g);

@@ -1,5 +1,13 @@
 """Architectures by config name (`network.type`), wrapped in `Restorer`: one calling convention for the
-trainer, the exporter and the tests, whatever prior the network uses."""
+trainer, the exporter and the tests, whatever prior the network uses.
+
+Each architecture declares, as attributes, what the rest of the code needs to know about it (never
+an isinstance or name test):
+
+* `inputs`: the contract inputs it reads (docs/models.md), `lq` first, then any of `fov`, `psf`,
+  `psf_code`, `wiener`;
+* `predicts`: the map it predicts from `lq` and that training supervises (`psf_code`, `psf`), or None;
+* `architecture`: its name in run folders, ONNX metadata and `unicac-train models`."""
 
 from __future__ import annotations
 
@@ -8,6 +16,7 @@ from typing import Any, Optional
 import torch
 from torch import nn
 
+from .common import INPUT_CHANNELS, MAP_INPUTS
 from .discriminator import PatchDiscriminator
 from .nafnet import BlindPsfNAFNet, NAFNet
 from .restormer import Restormer
@@ -15,59 +24,56 @@ from .restormer import Restormer
 #: network.type -> class; keyword arguments come from the rest of the `network` section.
 NETWORKS: dict[str, type] = {"NAFNet": NAFNet, "BlindPsfNAFNet": BlindPsfNAFNet, "Restormer": Restormer}
 
+#: Each prior model's control: a model of the same parameter count (within 1%, tested) without the
+#: prior. Where the prior adds under 1% of the parameters the plain `nafnet` is that control.
+CONTROLS: dict[str, str] = {
+    "nafnet-fov": "nafnet",
+    "nafnet-psf": "nafnet-psf-control",
+    "nafnet-psf-moments": "nafnet",
+    "nafnet-psf-blind": "nafnet-psf-blind-control",
+    "wiener-nafnet": "nafnet",
+}
+
 
 class Restorer(nn.Module):
-    """A restoration network and the ONNX inputs it uses (`lq`, then any of `fov`, `psf`).
+    """A restoration network and what it declares (`inputs`, `predicts`, `architecture`).
 
-    `forward(lq, fov=None, psf=None)` restores; `training_outputs(lq, fov, psf)` also returns the
-    predicted PSF features of a blind-PSF network (supervised during training)."""
+    `forward(lq, **maps)` restores (maps by input name; the ones it does not read are ignored);
+    `training_outputs(lq, **maps)` also returns the map a blind network predicts (`prediction`)."""
 
-    def __init__(self, core: nn.Module, inputs: list[str], architecture: str) -> None:
+    def __init__(self, core: nn.Module) -> None:
         super().__init__()
         self.core = core
-        self.inputs = inputs
-        self.architecture = architecture
-        self.predicts_psf = isinstance(core, BlindPsfNAFNet)
+        self.inputs: list[str] = list(core.inputs)
+        self.predicts: Optional[str] = core.predicts
+        self.architecture: str = core.architecture
 
     @property
-    def needs_psf(self) -> bool:
-        """Whether training needs the true PSF-feature map (as input or as supervision)."""
-        return "psf" in self.inputs or self.predicts_psf
+    def needs(self) -> list[str]:
+        """The maps training needs: the inputs besides `lq`, and the map a blind network predicts."""
+        wanted = set(self.inputs[1:]) | ({self.predicts} if self.predicts else set())
+        return [name for name in MAP_INPUTS if name in wanted]
 
-    @property
-    def needs_fov(self) -> bool:
-        return "fov" in self.inputs
+    def forward(self, lq: torch.Tensor, **maps: Optional[torch.Tensor]) -> torch.Tensor:
+        return self.training_outputs(lq, **maps)["restored"]
 
-    def forward(self, lq: torch.Tensor, fov: Optional[torch.Tensor] = None, psf: Optional[torch.Tensor] = None) -> torch.Tensor:
-        return self.training_outputs(lq, fov, psf)["restored"]
-
-    def training_outputs(
-        self, lq: torch.Tensor, fov: Optional[torch.Tensor] = None, psf: Optional[torch.Tensor] = None
-    ) -> dict[str, torch.Tensor]:
-        if self.predicts_psf:
-            restored, predicted = self.core.forward_with_psf(lq)
-            return {"restored": restored, "psf_pred": predicted}
-        if "fov" in self.inputs:
-            return {"restored": self.core(lq, fov)}
-        if "psf" in self.inputs:
-            return {"restored": self.core(lq, psf)}
-        return {"restored": self.core(lq)}
+    def training_outputs(self, lq: torch.Tensor, **maps: Optional[torch.Tensor]) -> dict[str, torch.Tensor]:
+        if self.predicts:
+            restored, predicted = self.core.forward_with_prediction(lq)
+            return {"restored": restored, "prediction": predicted}
+        return {"restored": self.core(lq, **{name: maps.get(name) for name in self.inputs[1:]})}
 
 
 def build_network(network: dict[str, Any]) -> Restorer:
     """A `Restorer` from a validated `network` config section (`type` plus the class's arguments)."""
     options = dict(network)
-    kind = options.pop("type")
-    cls = NETWORKS[kind]
-    core = cls(**options)
-    prior = options.get("prior")
-    inputs = ["lq"] + ([prior] if kind == "NAFNet" and prior else [])
-    architecture = kind.lower() + (f"-{prior}" if kind == "NAFNet" and prior else "")
-    return Restorer(core, inputs, architecture)
+    cls = NETWORKS[options.pop("type")]
+    return Restorer(cls(**options))
 
 
 def count_parameters(module: nn.Module) -> int:
     return sum(p.numel() for p in module.parameters())
 
 
-__all__ = ["NETWORKS", "PatchDiscriminator", "Restorer", "build_network", "count_parameters"]
+__all__ = ["CONTROLS", "INPUT_CHANNELS", "MAP_INPUTS", "NETWORKS", "PatchDiscriminator", "Restorer", "build_network",
+           "count_parameters"]

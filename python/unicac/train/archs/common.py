@@ -1,5 +1,6 @@
 """Building blocks shared by the architectures: channel LayerNorm, padding to a multiple inside the
-graph, and the prior injection (FoV / PSF maps added at every encoder scale).
+graph, the prior injection (FoV / PSF maps added at every encoder scale), and the model inputs of
+docs/models.md with their channel counts.
 
 Every block works at any H and W: nothing caches a shape or bakes a size into the graph (the NAFNet
 TLC pooling and Swin attention masks are the counter-examples, see docs/models.md)."""
@@ -9,6 +10,12 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 from torch import nn
+
+
+#: The contract's inputs (docs/models.md) and their channels; `psf_code` = 3 x 16 coefficients + cos, sin.
+INPUT_CHANNELS = {"lq": 3, "fov": 2, "psf": 15, "psf_code": 50, "wiener": 3}
+#: The maps besides `lq`, in the order a model lists them.
+MAP_INPUTS = ("fov", "psf", "psf_code", "wiener")
 
 
 class LayerNorm2d(nn.Module):

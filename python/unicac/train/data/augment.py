@@ -1,4 +1,5 @@
-"""Flips and 90-degree rotations that move an image and its FoV / PSF-feature maps together.
+"""Flips and 90-degree rotations that move an image and its FoV / PSF-feature / PSF-code maps and its
+Wiener estimate together.
 
 A flipped or rotated crop is a crop seen through the mirrored or rotated lens: its pixels move, and
 so do the field positions and PSF shapes they carry. So the maps are not only moved like the image;
@@ -6,7 +7,11 @@ their values change with the geometry (docs/models.md conventions, x right, y do
 
 * horizontal flip (x -> -x): fov x negated; PSF dx and sxy negated;
 * vertical flip (y -> -y): fov y negated; PSF dy and sxy negated;
-* transpose (x <-> y): fov channels swapped; PSF dx <-> dy and sxx <-> syy swapped.
+* transpose (x <-> y): fov channels swapped; PSF dx <-> dy and sxx <-> syy swapped;
+* the PSF code's coefficients describe the kernel in its radial frame, the same for a kernel and its
+  mirror image (crates/unicac-dataset/src/psf_basis.rs): they move with the pixels unchanged, and its
+  last two channels (cos, sin of the azimuth) change as the FoV map's x and y;
+* the Wiener estimate is an image: it moves like `lq`.
 
 A rotation by 90 degrees is a transpose and a flip. Moving the image without its maps (or moving the
 maps without changing their values) teaches the model a wrong prior; tests/test_train.py checks these
@@ -20,6 +25,8 @@ from typing import Optional
 import numpy as np
 
 PSF_FEATURES_PER_CHANNEL = 5  # dx, dy, sxx, sxy, syy
+#: The PSF code's channels: coefficients, then cos and sin of the azimuth (docs/models.md).
+CODE_COS, CODE_SIN = 48, 49
 
 
 def _flip_image(chw: np.ndarray, axis: int) -> np.ndarray:
@@ -70,17 +77,37 @@ def transpose_psf(psf: np.ndarray) -> np.ndarray:
     return out
 
 
+def hflip_code(code: np.ndarray) -> np.ndarray:
+    out = np.flip(code, axis=2).copy()
+    out[CODE_COS] *= -1
+    return out
+
+
+def vflip_code(code: np.ndarray) -> np.ndarray:
+    out = np.flip(code, axis=1).copy()
+    out[CODE_SIN] *= -1
+    return out
+
+
+def transpose_code(code: np.ndarray) -> np.ndarray:
+    out = np.ascontiguousarray(np.transpose(code, (0, 2, 1)))
+    out[[CODE_COS, CODE_SIN]] = out[[CODE_SIN, CODE_COS]]
+    return out
+
+
 def augment(
     sample: dict[str, np.ndarray], rng: np.random.Generator, flip: bool, rotate: bool
 ) -> dict[str, np.ndarray]:
     """Draws one of the 8 flips/rotations (or the identity) from `rng` and applies it to `lq`, `gt`
-    (C x H x W) and, when present, `fov` and `psf`. The draws are made whatever the switches, so the
-    random stream does not depend on them."""
+    (C x H x W) and, when present, `wiener`, `fov`, `psf` and `psf_code`. The draws are made whatever
+    the switches, so the random stream does not depend on them."""
     hflip, vflip, transpose = (bool(b) for b in rng.integers(0, 2, size=3))
     hflip, vflip = hflip and flip, vflip and flip
     transpose = transpose and rotate
     out = dict(sample)
-    for key in ("lq", "gt"):
+    for key in ("lq", "gt", "wiener"):
+        if key not in out:
+            continue
         image = out[key]
         if hflip:
             image = _flip_image(image, 2)
@@ -89,7 +116,8 @@ def augment(
         if transpose:
             image = np.transpose(image, (0, 2, 1))
         out[key] = np.ascontiguousarray(image)
-    rules = {"fov": (hflip_fov, vflip_fov, transpose_fov), "psf": (hflip_psf, vflip_psf, transpose_psf)}
+    rules = {"fov": (hflip_fov, vflip_fov, transpose_fov), "psf": (hflip_psf, vflip_psf, transpose_psf),
+             "psf_code": (hflip_code, vflip_code, transpose_code)}
     for key, (h_rule, v_rule, t_rule) in rules.items():
         value: Optional[np.ndarray] = out.get(key)
         if value is None:

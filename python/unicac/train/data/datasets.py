@@ -21,6 +21,10 @@ from unicac.dataset import DatasetFolder, DatasetFolderError, PairGenerator, to_
 from .augment import augment
 
 _SEED_BOUND = 2**63
+#: The tensors a sample may carry: images, then the model-input maps (docs/models.md).
+KEYS = ("lq", "gt", "wiener", "fov", "psf", "psf_code")
+#: Maps that need the lens's PSF table.
+TABLE_MAPS = ("psf", "psf_code", "wiener")
 
 
 class IterationSampler(Sampler):  # type: ignore[type-arg]
@@ -47,26 +51,42 @@ def _epoch_index(seed: int, k: int, count: int) -> int:
 
 
 def _tensors(sample: dict[str, Any]) -> dict[str, Any]:
-    out = {key: torch.from_numpy(np.ascontiguousarray(sample[key])) for key in ("lq", "gt", "fov", "psf") if key in sample}
+    out = {key: torch.from_numpy(np.ascontiguousarray(sample[key])) for key in KEYS if key in sample}
     out["index"] = int(sample.get("index", 0))
     return out
 
 
 def collate(items: list[dict[str, Any]]) -> dict[str, Any]:
-    batch = {key: torch.stack([item[key] for item in items]) for key in ("lq", "gt", "fov", "psf") if key in items[0]}
+    batch = {key: torch.stack([item[key] for item in items]) for key in KEYS if key in items[0]}
     batch["index"] = torch.tensor([item["index"] for item in items])
     return batch
+
+
+def _sample(pair: dict[str, Any], index: int) -> dict[str, Any]:
+    """A loaded window as C x H x W arrays: the images, the Wiener estimate and the maps asked for."""
+    sample = {"lq": to_chw(pair["lq"]), "gt": to_chw(pair["gt"]), "index": index}
+    if "wiener" in pair:
+        sample["wiener"] = to_chw(pair["wiener"])
+    for key in ("fov", "psf", "psf_code"):
+        if key in pair:
+            sample[key] = pair[key]
+    return sample
+
+
+def _load_flags(maps: "set[str] | list[str] | tuple[str, ...]", options: dict[str, Any]) -> dict[str, Any]:
+    return {"fov": "fov" in maps, "psf": "psf" in maps, "psf_code": "psf_code" in maps, "wiener": "wiener" in maps,
+            "wiener_nsr": options["wiener_nsr"]}
 
 
 class FolderPatches(Dataset):  # type: ignore[type-arg]
     """Random patches of a built dataset's pairs (sample number k -> one augmented patch)."""
 
     def __init__(self, folder: DatasetFolder, rows: list[dict[str, Any]], options: dict[str, Any], seed: int,
-                 fov: bool, psf: bool) -> None:
+                 maps: "set[str] | list[str] | tuple[str, ...]" = ()) -> None:
         self.folder, self.rows, self.seed = folder, rows, seed
         self.patch = options["patch_px"]
         self.flip, self.rotate = options["use_flip"], options["use_rot"]
-        self.fov, self.psf = fov, psf
+        self.flags = _load_flags(maps, options)
 
     def __len__(self) -> int:  # samples are addressed by number; any k is valid
         return 2**62
@@ -79,20 +99,17 @@ class FolderPatches(Dataset):  # type: ignore[type-arg]
         if p > min(width, height):
             raise DatasetFolderError(f"datasets.train.patch_px: {p} px is larger than pair {row['pair_id']} ({width} x {height} px)")
         x, y = int(rng.integers(width - p + 1)), int(rng.integers(height - p + 1))
-        pair = self.folder.load(row, window=(x, y, p, p), fov=self.fov, psf=self.psf)
-        sample = {"lq": to_chw(pair["lq"]), "gt": to_chw(pair["gt"]), "index": k}
-        for key in ("fov", "psf"):
-            if key in pair:
-                sample[key] = pair[key]
-        return _tensors(augment(sample, rng, self.flip, self.rotate))
+        pair = self.folder.load(row, window=(x, y, p, p), **self.flags)
+        return _tensors(augment(_sample(pair, k), rng, self.flip, self.rotate))
 
 
 class FolderValidation(Dataset):  # type: ignore[type-arg]
     """The first `max_pairs` pairs of a split, centre-cropped to `crop_px` (no randomness)."""
 
-    def __init__(self, folder: DatasetFolder, rows: list[dict[str, Any]], options: dict[str, Any], fov: bool, psf: bool) -> None:
+    def __init__(self, folder: DatasetFolder, rows: list[dict[str, Any]], options: dict[str, Any],
+                 maps: "set[str] | list[str] | tuple[str, ...]" = ()) -> None:
         self.folder, self.rows = folder, rows[: options["max_pairs"]]
-        self.crop, self.fov, self.psf = options["crop_px"], fov, psf
+        self.crop, self.flags = options["crop_px"], _load_flags(maps, options)
 
     def __len__(self) -> int:
         return len(self.rows)
@@ -103,12 +120,8 @@ class FolderValidation(Dataset):  # type: ignore[type-arg]
         window = None
         if self.crop is not None and self.crop < min(width, height):
             window = ((width - self.crop) // 2, (height - self.crop) // 2, self.crop, self.crop)
-        pair = self.folder.load(row, window=window, fov=self.fov, psf=self.psf)
-        sample = {"lq": to_chw(pair["lq"]), "gt": to_chw(pair["gt"]), "index": i}
-        for key in ("fov", "psf"):
-            if key in pair:
-                sample[key] = pair[key]
-        return _tensors(sample)
+        pair = self.folder.load(row, window=window, **self.flags)
+        return _tensors(_sample(pair, i))
 
 
 class OnTheFly(Dataset):  # type: ignore[type-arg]
@@ -150,13 +163,16 @@ class Fixed(Dataset):  # type: ignore[type-arg]
         return self.inner[i]
 
 
-def _generator(options: dict[str, Any], seed: int, patch: int) -> PairGenerator:
+def _generator(options: dict[str, Any], split_key: str, seed: int, patch: int) -> PairGenerator:
     if not options["lenses"]:
-        raise DatasetFolderError("datasets: type onthefly needs `lenses` (lens files or builtin:NAME)")
-    return PairGenerator(
-        options["lenses"], options["images"], patch_px=patch, frame_px=tuple(options["frame_px"]), seed=seed,
-        charts=options["charts"], isp=options["isp"], noise=options["noise"],
-    )
+        raise DatasetFolderError(f"datasets.{split_key}.lenses: type onthefly needs lens files or builtin:NAME")
+    try:
+        return PairGenerator(
+            options["lenses"], options["images"], patch_px=patch, frame_px=tuple(options["frame_px"]), seed=seed,
+            charts=options["charts"], isp=options["isp"], noise=options["noise"],
+        )
+    except ValueError as error:  # names the generator's argument, which is the config key below datasets.SPLIT
+        raise DatasetFolderError(f"datasets.{split_key}.{error}") from error
 
 
 def _folder(options: dict[str, Any], split_key: str) -> DatasetFolder:
@@ -165,30 +181,40 @@ def _folder(options: dict[str, Any], split_key: str) -> DatasetFolder:
     return DatasetFolder(options["dataroot"])
 
 
-def _refuse_onthefly_psf(split_key: str, psf: bool) -> None:
-    if psf:
+def _refuse_onthefly_psf(split_key: str, maps: "set[str] | list[str] | tuple[str, ...]") -> None:
+    if any(m in TABLE_MAPS for m in maps):
         raise DatasetFolderError(
             f"datasets.{split_key}: this model needs PSF maps, which on-the-fly data does not provide; "
             "train it on a built dataset (unicac dataset build) that stores PSF tables"
         )
 
 
-def build_train_set(options: dict[str, Any], seed: int, fov: bool, psf: bool) -> Dataset:  # type: ignore[type-arg]
-    if options["type"] == "onthefly":
-        _refuse_onthefly_psf("train", psf)
-        generator = _generator(options, (seed ^ options["seed"]) % _SEED_BOUND, options["patch_px"])
-        return OnTheFly(generator, fov, options["use_flip"], options["use_rot"], seed)
-    folder = _folder(options, "train")
-    rows = folder.check_split(options["split"], need_psf=psf)
-    return FolderPatches(folder, rows, options, seed, fov, psf)
+def _checked_folder(options: dict[str, Any], split_key: str, maps: "set[str] | list[str] | tuple[str, ...]"
+                    ) -> tuple[DatasetFolder, list[dict[str, Any]]]:
+    folder = _folder(options, split_key)
+    rows = folder.check_split(options["split"], need_psf=any(m in TABLE_MAPS for m in maps))
+    if "psf_code" in maps:
+        folder.psf_basis()  # the code needs the dataset's basis: a clear error before training
+    return folder, rows
 
 
-def build_val_set(options: dict[str, Any], fov: bool, psf: bool) -> Dataset:  # type: ignore[type-arg]
+def build_train_set(options: dict[str, Any], seed: int, maps: "set[str] | list[str] | tuple[str, ...]" = ()
+                    ) -> Dataset:  # type: ignore[type-arg]
+    """Training samples with the maps named in `maps` (any of fov, psf, psf_code, wiener)."""
     if options["type"] == "onthefly":
-        _refuse_onthefly_psf("val", psf)
+        _refuse_onthefly_psf("train", maps)
+        generator = _generator(options, "train", (seed ^ options["seed"]) % _SEED_BOUND, options["patch_px"])
+        return OnTheFly(generator, "fov" in maps, options["use_flip"], options["use_rot"], seed)
+    folder, rows = _checked_folder(options, "train", maps)
+    return FolderPatches(folder, rows, options, seed, maps)
+
+
+def build_val_set(options: dict[str, Any], maps: "set[str] | list[str] | tuple[str, ...]" = ()
+                  ) -> Dataset:  # type: ignore[type-arg]
+    if options["type"] == "onthefly":
+        _refuse_onthefly_psf("val", maps)
         # Its own seed, distinct from any training stream; crop_px sets the patch (None: 128).
-        generator = _generator(options, (options["seed"] + 0x7A1) % _SEED_BOUND, options["crop_px"] or 128)
-        return Fixed(OnTheFly(generator, fov, False, False, None), options["max_pairs"])
-    folder = _folder(options, "val")
-    rows = folder.check_split(options["split"], need_psf=psf)
-    return FolderValidation(folder, rows, options, fov, psf)
+        generator = _generator(options, "val", (options["seed"] + 0x7A1) % _SEED_BOUND, options["crop_px"] or 128)
+        return Fixed(OnTheFly(generator, "fov" in maps, False, False, None), options["max_pairs"])
+    folder, rows = _checked_folder(options, "val", maps)
+    return FolderValidation(folder, rows, options, maps)

@@ -1,5 +1,5 @@
 """The training loop (`Trainer`) and run folders (`RunFolder`)."""
 
-from .trainer import RunError, RunFolder, Trainer
+from .trainer import NonFiniteTraining, RunError, RunFolder, Trainer
 
-__all__ = ["RunError", "RunFolder", "Trainer"]
+__all__ = ["NonFiniteTraining", "RunError", "RunFolder", "Trainer"]

@@ -4,14 +4,25 @@ Run folder (`--out RUN_DIR`):
 
     config.yml               the resolved config (every default filled in)
     run.json                 architecture, inputs, config_sha256, unicac version, parameters
-    checkpoints/latest.pt    full state after the last saved iteration (atomic: temp file + rename)
+    checkpoints/latest.pt    full state after the last saved iteration (atomic: temp file + rename);
+                             a loss or weight that turns NaN/inf stops the run before it is saved
     log.csv, log.jsonl       training loss / lr / it/s every print_freq iterations, validation PSNR/SSIM
     curves.png               the curves
 
 Reproducibility: weights are initialised from `manual_seed`; sample k of the stream is a pure function
 of (manual_seed, k) (see `data`); `torch.use_deterministic_algorithms(True)`. A run resumed from a
 checkpoint therefore reaches bit-identical weights to an uninterrupted run on the same machine and
-thread count (tests/test_train.py checks equality, tolerance 0).
+thread count (tests/test_train.py checks equality, tolerance 0), on CPU; on CUDA the ops without a
+deterministic kernel warn instead of failing, so equality there is not promised.
+
+Checks before the first iteration (docs/models.md): a patch smaller than twice the dataset's largest
+PSF kernel, or a network whose receptive field is narrower than that kernel, is refused (with
+`train.allow_small_patch` / `train.allow_small_receptive_field`: a warning).
+
+Device: `train.device` (auto = cuda when available), mixed precision `train.amp` (auto = bf16 on a
+GPU that has it, else fp16 with a gradient scaler; off on CPU) and `train.channels_last` (auto = on
+for cuda). `train.time_budget_s` stops the session cleanly: a checkpoint and a validation at the
+iteration reached, exportable as it is; `--resume` continues.
 
 Distributed (torchrun): when WORLD_SIZE > 1 the process group is initialised (gloo on CPU), the model
 is wrapped in DistributedDataParallel, rank r takes its own slice of every iteration's samples, and
@@ -20,8 +31,11 @@ only rank 0 validates, logs and writes checkpoints.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import pickle
+import sys
 import time
 from pathlib import Path
 from typing import Any, Optional
@@ -31,18 +45,38 @@ import torch.nn.functional as F
 from torch import nn
 from torch.utils.data import DataLoader
 
+from unicac.outputs import clean_stale_temporaries, write_bytes, write_with
+
 from .. import config as config_mod
 from ..archs import PatchDiscriminator, Restorer, build_network, count_parameters
-from ..archs.nafnet import PSF_FEATURE_SCALE
+from ..archs.nafnet import PRIOR_SCALE
+from ..archs.receptive import receptive_field_px
 from ..data import IterationSampler, build_train_set, build_val_set, collate
-from ..files import atomic_write, atomic_write_bytes, clean_temporaries
-from ..logger import Progress, RunLog
+from ..logger import LOG_FILES, Progress, RunLog
 from ..losses import LPIPS, gan_loss, pixel_loss
 from ..metrics import psnr, ssim
 
 
 class RunError(RuntimeError):
     """A run folder that cannot be started or resumed as asked (the message says why)."""
+
+
+class NonFiniteTraining(RunError):
+    """A loss or the weights became NaN or infinite: the run stops, its last checkpoint kept."""
+
+
+def load_checkpoint_file(path: Path) -> dict[str, Any]:
+    """A checkpoint's state (a dict holding `net`), or RunError naming the file."""
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except (OSError, EOFError, RuntimeError, ValueError, pickle.UnpicklingError) as error:
+        # torch's messages run over many lines; the first says what failed.
+        text = str(error).strip()
+        reason = text.splitlines()[0].split(". ")[0] if text else type(error).__name__
+        raise RunError(f"{path}: not a readable PyTorch checkpoint ({reason})") from error
+    if not isinstance(state, dict):
+        raise RunError(f"{path}: not a checkpoint (holds a {type(state).__name__}, not a state dict)")
+    return state
 
 
 def _unicac_version() -> str:
@@ -63,15 +97,25 @@ class RunFolder:
         self.info = self.path / "run.json"
         self.checkpoint = self.path / "checkpoints" / "latest.pt"
 
+    def outputs(self, resume: bool) -> list[Path]:
+        """The files a run writes here (a resumed run keeps the config.yml it was started with)."""
+        files = [self.info, self.checkpoint] + [self.path / name for name in LOG_FILES]
+        return files if resume else [self.config] + files
+
     def load_config(self) -> dict[str, Any]:
+        if not self.path.is_dir():
+            raise RunError(f"{self.path}: no such run folder")
         if not self.config.is_file():
             raise RunError(f"{self.path}: not a unicac-train run folder (no config.yml)")
         return config_mod.load(self.config)
 
     def load_checkpoint(self) -> dict[str, Any]:
         if not self.checkpoint.is_file():
-            raise RunError(f"{self.path}: no checkpoint yet ({self.checkpoint} is missing)")
-        return torch.load(self.checkpoint, map_location="cpu", weights_only=True)
+            raise RunError(f"{self.checkpoint}: missing (the run has saved no checkpoint yet)")
+        state = load_checkpoint_file(self.checkpoint)
+        if "net" not in state:
+            raise RunError(f"{self.checkpoint}: not a unicac-train checkpoint (no 'net' weights)")
+        return state
 
 
 class TrainingView(nn.Module):
@@ -81,19 +125,43 @@ class TrainingView(nn.Module):
         super().__init__()
         self.restorer = restorer
 
-    def forward(self, lq: torch.Tensor, fov: Optional[torch.Tensor], psf: Optional[torch.Tensor]) -> dict[str, torch.Tensor]:
-        return self.restorer.training_outputs(lq, fov, psf)
+    def forward(self, lq: torch.Tensor, **maps: torch.Tensor) -> dict[str, torch.Tensor]:
+        return self.restorer.training_outputs(lq, **maps)
 
 
-def _distributed() -> tuple[int, int]:
-    """(rank, world size); initialises the process group under torchrun (WORLD_SIZE > 1)."""
+def _warn(message: str) -> None:
+    sys.stderr.write(f"unicac-train: warning: {message}\n")
+
+
+def select_device(train: dict[str, Any]) -> tuple[torch.device, Optional[torch.dtype], bool]:
+    """(device, autocast dtype or None, channels_last) from `train.device/amp/channels_last`."""
+    asked = train["device"]
+    if asked == "cuda" and not torch.cuda.is_available():
+        raise config_mod.ConfigError("train.device: cuda was asked for, but torch sees no CUDA device (use cpu or auto)")
+    cuda = asked == "cuda" or (asked == "auto" and torch.cuda.is_available())
+    device = torch.device("cuda" if cuda else "cpu")
+    amp = train["amp"]
+    if amp == "auto":
+        amp = ("bf16" if torch.cuda.is_bf16_supported() else "fp16") if cuda else "off"
+    if amp == "fp16" and not cuda:
+        raise config_mod.ConfigError("train.amp: fp16 autocast needs a CUDA device; use bf16 or off on CPU")
+    dtype = {"off": None, "bf16": torch.bfloat16, "fp16": torch.float16}[amp]
+    channels_last = train["channels_last"] == "on" or (train["channels_last"] == "auto" and cuda)
+    return device, dtype, channels_last
+
+
+def _distributed(cuda: bool) -> tuple[int, int]:
+    """(rank, world size); initialises the process group under torchrun (WORLD_SIZE > 1): gloo on CPU,
+    nccl with one GPU per process (LOCAL_RANK) on CUDA."""
     world = int(os.environ.get("WORLD_SIZE", "1"))
     if world <= 1:
         return 0, 1
     import torch.distributed as dist
 
+    if cuda:
+        torch.cuda.set_device(int(os.environ.get("LOCAL_RANK", "0")))
     if not dist.is_initialized():
-        dist.init_process_group("gloo")
+        dist.init_process_group("nccl" if cuda else "gloo")
     return dist.get_rank(), dist.get_world_size()
 
 
@@ -104,7 +172,7 @@ def load_generator_weights(source: str) -> dict[str, torch.Tensor]:
         return RunFolder(path).load_checkpoint()["net"]
     if not path.is_file():
         raise RunError(f"path.pretrain_network_g: {path} is neither a run folder nor a checkpoint file")
-    state = torch.load(path, map_location="cpu", weights_only=True)
+    state = load_checkpoint_file(path)
     return state["net"] if "net" in state else state
 
 
@@ -115,33 +183,48 @@ class Trainer:
                  quiet: bool = False) -> None:
         self.config = config
         self.run = RunFolder(run_dir)
-        self.rank, self.world = _distributed()
+        self.resumed = resume
+        self.saved_iter: Optional[int] = None  # the iteration of the checkpoint on disk
+        train = config["train"]
+        if train["device"] != "cpu":
+            # cuBLAS needs this for deterministic matrix products; it is read when CUDA starts.
+            os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
+        self.device, self.amp_dtype, self.channels_last = select_device(train)
+        self.rank, self.world = _distributed(self.device.type == "cuda")
+        if self.device.type == "cuda" and self.world > 1:
+            self.device = torch.device("cuda", torch.cuda.current_device())
         self.quiet = quiet or self.rank != 0
         self.config_sha256 = config_mod.sha256(config)
         seed = config["manual_seed"]
-        torch.use_deterministic_algorithms(True)
+        torch.use_deterministic_algorithms(True, warn_only=self.device.type == "cuda")
         torch.manual_seed(seed)  # same initial weights on every rank
 
         self.net = build_network(config["network"])
-        self.view: nn.Module = TrainingView(self.net)
-        losses = config["train"]["losses"]
+        losses = train["losses"]
         self.lpips = LPIPS(losses["perceptual"]["net"]) if losses["perceptual"]["weight"] > 0 else None
-        self.use_gan = losses["gan"]["weight"] > 0
-        if self.net.predicts_psf and losses["psf"]["weight"] <= 0:
-            raise config_mod.ConfigError("train.losses.psf.weight: a blind-PSF network needs a positive PSF supervision weight")
-        self.discriminator = PatchDiscriminator(losses["gan"]["width"]) if self.use_gan else None
+        self._check_losses(losses, resume)
+        self.discriminator = PatchDiscriminator(losses["gan"]["width"]) if losses["gan"]["weight"] > 0 else None
         pretrain = config["path"]["pretrain_network_g"]
         if pretrain and not resume:
             try:
                 self.net.load_state_dict(load_generator_weights(pretrain))
             except RuntimeError as error:
                 raise RunError(f"path.pretrain_network_g: {pretrain} does not fit {self.net.architecture}: {error}") from error
+        self.ema: Optional[torch.optim.swa_utils.AveragedModel] = None
+        if train["ema_decay"] is not None:
+            self.ema = torch.optim.swa_utils.AveragedModel(
+                self.net, multi_avg_fn=torch.optim.swa_utils.get_ema_multi_avg_fn(train["ema_decay"]))
+        memory = torch.channels_last if self.channels_last else torch.contiguous_format
+        for module in (self.net, self.ema, self.lpips, self.discriminator):
+            if module is not None:
+                module.to(self.device, memory_format=memory)
+        self.view: nn.Module = TrainingView(self.net)
 
-        optim = config["train"]["optim"]
+        optim = train["optim"]
         kind = torch.optim.AdamW if optim["type"] == "AdamW" else torch.optim.Adam
         self.optimizer = kind(self.net.parameters(), lr=optim["lr"], weight_decay=optim["weight_decay"], betas=tuple(optim["betas"]))
-        total = config["train"]["total_iter"]
-        sched = config["train"]["scheduler"]
+        total = train["total_iter"]
+        sched = train["scheduler"]
         if sched["type"] == "CosineAnnealingLR":
             self.scheduler: Any = torch.optim.lr_scheduler.CosineAnnealingLR(self.optimizer, T_max=total, eta_min=sched["eta_min"])
         else:
@@ -150,12 +233,18 @@ class Trainer:
             torch.optim.Adam(self.discriminator.parameters(), lr=losses["gan"]["lr"], betas=(0.5, 0.99))
             if self.discriminator is not None else None
         )
+        # fp16 gradients underflow without loss scaling; bf16 has float32's range and needs none.
+        self.scaler = torch.amp.GradScaler("cuda") if self.amp_dtype == torch.float16 else None
 
         data = config["datasets"]
-        self.train_set = build_train_set(data["train"], seed, self.net.needs_fov, self.net.needs_psf)
-        self.val_set = build_val_set(data["val"], self.net.needs_fov, self.net.needs_psf) if self.rank == 0 else None
+        needs = self.net.needs
+        self.train_set = build_train_set(data["train"], seed, needs)
+        self.val_set = build_val_set(data["val"], needs) if self.rank == 0 else None
+        self.recipe = self._check_recipe()
 
         self.start_iter = 0
+        self.wall_time_s = 0.0
+        self.stopped_by_budget = False
         if resume:
             self._resume()
         elif self.run.checkpoint.exists():
@@ -168,6 +257,63 @@ class Trainer:
                 self.discriminator = DistributedDataParallel(self.discriminator)  # type: ignore[assignment]
         self.log = RunLog(self.run.path, resume_iter=self.start_iter if resume else None)
 
+    # -- checks ----------------------------------------------------------------------------------
+
+    def _check_losses(self, losses: dict[str, Any], resume: bool) -> None:
+        arch = self.net.architecture
+        if self.net.predicts and losses["psf"]["weight"] <= 0:
+            raise config_mod.ConfigError(f"train.losses.psf.weight: {arch} predicts the {self.net.predicts} map and needs a positive supervision weight")
+        if not self.net.predicts and losses["psf"]["weight"] > 0:
+            raise config_mod.ConfigError(f"train.losses.psf.weight: {arch} predicts no PSF map; set it to 0")
+        gan = losses["gan"]
+        if gan["weight"] > 0 and not self.config["path"]["pretrain_network_g"] and gan["start_iter"] == 0 and not resume:
+            raise config_mod.ConfigError(
+                "path.pretrain_network_g: a GAN fine-tunes a trained generator: give --init-from RUN (a finished "
+                "nafnet run); to train from scratch instead, set train.losses.gan.start_iter > 0 (pixel-loss warm-up)"
+            )
+
+    def _check_recipe(self) -> dict[str, Any]:
+        """The recipe's numbers (recorded in run.json), after the patch and receptive-field checks."""
+        train, data = self.config["train"], self.config["datasets"]["train"]
+        patch = data["patch_px"]
+        recipe: dict[str, Any] = {
+            "patch_px": patch, "batch_size": data["batch_size"], "total_iter": train["total_iter"],
+            "device": str(self.device), "amp": str(self.amp_dtype).replace("torch.", "") if self.amp_dtype else "off",
+            "channels_last": self.channels_last, "largest_kernel_px": None, "receptive_field_px": None,
+            "receptive_field_exact": None, "psf_basis_sha256": None,
+        }
+        if "psf_code" in self.net.needs and data["type"] == "unicac":
+            recipe["psf_basis_sha256"] = self.train_set.folder.psf_basis()["sha256"]
+        if data["type"] != "unicac":
+            return recipe  # on-the-fly lenses: their kernels are not known before they are traced
+        folder = self.train_set.folder
+        kernel = folder.largest_kernel_px(data["split"])
+        if kernel is None:
+            return recipe
+        recipe["largest_kernel_px"] = kernel
+        where = f"{folder.root}/psf/*/table.json"
+        if patch < 2 * kernel:
+            message = (f"datasets.train.patch_px: {patch} px is less than twice the dataset's largest PSF kernel "
+                       f"({kernel} px, {where}): such patches cannot hold a blurred detail and the context it came "
+                       f"from; use --patch-px {2 * kernel} or more")
+            if not train["allow_small_patch"]:
+                raise config_mod.ConfigError(message + " (--allow-small-patch trains anyway)")
+            _warn(message)
+        side = 32
+        while side < 2 * kernel:
+            side *= 2
+        key = json.dumps(self.config["network"], sort_keys=True)
+        width, exact = receptive_field_px(self.net, start_side_px=side, key=key, enough_px=kernel)
+        recipe["receptive_field_px"], recipe["receptive_field_exact"] = width, exact
+        if width < kernel:
+            message = (f"network: {self.net.architecture}'s receptive field is {width} px, narrower than the dataset's "
+                       f"largest PSF kernel ({kernel} px, {where}); it cannot undo blur wider than it sees: give it "
+                       "more levels or blocks (e.g. the 4-level configs, `unicac-train models --receptive-field`)")
+            if not train["allow_small_receptive_field"]:
+                raise config_mod.ConfigError(message + " (--allow-small-receptive-field trains anyway)")
+            _warn(message)
+        return recipe
+
     # -- state -----------------------------------------------------------------------------------
 
     def _state(self, iteration: int) -> dict[str, Any]:
@@ -179,8 +325,14 @@ class Trainer:
             "config_sha256": self.config_sha256,
             "architecture": self.net.architecture,
             "inputs": self.net.inputs,
+            "psf_basis_sha256": self.recipe["psf_basis_sha256"],
+            "wall_time_s": self.wall_time_s,
             "torch_rng": torch.get_rng_state(),
         }
+        if self.ema is not None:
+            state["net_ema"] = self.ema.state_dict()
+        if self.scaler is not None:
+            state["grad_scaler"] = self.scaler.state_dict()
         if self.discriminator is not None and self.optimizer_d is not None:
             disc = self.discriminator.module if hasattr(self.discriminator, "module") else self.discriminator
             state["discriminator"] = disc.state_dict()
@@ -188,36 +340,44 @@ class Trainer:
         return state
 
     def save_checkpoint(self, iteration: int) -> None:
+        # Every rank holds the same weights (DDP), so every rank reaches the same verdict.
+        if not all(bool(torch.isfinite(p).all()) for p in self.net.parameters()):
+            raise NonFiniteTraining(f"iteration {iteration}: the network's weights are not finite; {self._kept()}")
+        self.saved_iter = iteration
         if self.rank != 0:
             return
         state = self._state(iteration)
-        atomic_write(self.run.checkpoint, lambda handle: torch.save(state, handle))
+        write_with(self.run.checkpoint, lambda handle: torch.save(state, handle))
         self.log.flush()
 
     def _resume(self) -> None:
         if not self.run.checkpoint.is_file():
             raise RunError(f"--resume: {self.run.path} holds no checkpoint to resume (checkpoints/latest.pt)")
-        clean_temporaries(self.run.checkpoint.parent)
+        clean_stale_temporaries(self.run.checkpoint.parent)
         state = self.run.load_checkpoint()
         if state.get("config_sha256") != self.config_sha256:
-            raise RunError(
-                f"--resume: the config differs from the one {self.run.path} was started with "
-                f"(compare with {self.run.config}); resume with the same config"
-            )
+            raise RunError(f"--resume: the config differs from {self.run.config}, the one this run was started with")
         self.net.load_state_dict(state["net"])
         self.optimizer.load_state_dict(state["optimizer"])
         self.scheduler.load_state_dict(state["scheduler"])
+        if self.ema is not None:
+            self.ema.load_state_dict(state["net_ema"])
+        if self.scaler is not None and "grad_scaler" in state:
+            self.scaler.load_state_dict(state["grad_scaler"])
         if self.discriminator is not None and self.optimizer_d is not None:
             self.discriminator.load_state_dict(state["discriminator"])
             self.optimizer_d.load_state_dict(state["optimizer_d"])
         torch.set_rng_state(state["torch_rng"])
         self.start_iter = int(state["iteration"])
+        self.saved_iter = self.start_iter
+        self.wall_time_s = float(state.get("wall_time_s", 0.0))
 
-    def _write_run_info(self) -> None:
+    def _write_run_info(self, **extra: Any) -> None:
         if self.rank != 0:
             return
         self.run.path.mkdir(parents=True, exist_ok=True)
-        config_mod.dump(self.config, self.run.config)
+        if not (self.resumed and self.run.config.is_file()):  # a resumed run's config is an input
+            config_mod.dump(config_mod.without_session(self.config), self.run.config)
         info = {
             "name": self.config["name"],
             "architecture": self.net.architecture,
@@ -226,18 +386,38 @@ class Trainer:
             "config_sha256": self.config_sha256,
             "unicac_version": _unicac_version(),
             "world_size": self.world,
+            "recipe": self.recipe,
+            **extra,
         }
-        atomic_write_bytes(self.run.info, (json.dumps(info, indent=2) + "\n").encode())
+        write_bytes(self.run.info, (json.dumps(info, indent=2) + "\n").encode())
 
     # -- loop ------------------------------------------------------------------------------------
 
+    def _autocast(self) -> Any:
+        if self.amp_dtype is None:
+            return contextlib.nullcontext()
+        return torch.autocast(device_type=self.device.type, dtype=self.amp_dtype)
+
+    def _to_device(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        memory = torch.channels_last if self.channels_last else torch.contiguous_format
+        return {key: (value.to(self.device, non_blocking=True, memory_format=memory) if value.dim() == 4 else value)
+                for key, value in batch.items()}
+
+    def _maps(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        return {name: batch[name] for name in self.net.inputs[1:]}
+
+    def _prediction_loss(self, predicted: torch.Tensor, true: torch.Tensor) -> torch.Tensor:
+        scale = PRIOR_SCALE.get(self.net.predicts or "", 1.0)
+        return F.l1_loss(predicted.float() * scale, true * scale)
+
     def _losses(self, batch: dict[str, torch.Tensor], iteration: int) -> tuple[torch.Tensor, torch.Tensor]:
         losses = self.config["train"]["losses"]
-        out = self.view(batch["lq"], batch.get("fov"), batch.get("psf"))
-        restored = out["restored"]
+        with self._autocast():
+            out = self.view(batch["lq"], **self._maps(batch))
+        restored = out["restored"].float()
         loss = losses["pixel"]["weight"] * pixel_loss(losses["pixel"]["type"], restored, batch["gt"])
-        if "psf_pred" in out:
-            loss = loss + losses["psf"]["weight"] * F.l1_loss(out["psf_pred"] * PSF_FEATURE_SCALE, batch["psf"] * PSF_FEATURE_SCALE)
+        if "prediction" in out:
+            loss = loss + losses["psf"]["weight"] * self._prediction_loss(out["prediction"], batch[self.net.predicts])
         if self.lpips is not None:
             loss = loss + losses["perceptual"]["weight"] * self.lpips(restored.clamp(0, 1), batch["gt"])
         if self.discriminator is not None and iteration >= losses["gan"]["start_iter"]:
@@ -245,44 +425,108 @@ class Trainer:
         return loss, restored
 
     def _step(self, batch: dict[str, torch.Tensor], iteration: int) -> float:
+        batch = self._to_device(batch)
         self.net.train()
         if self.discriminator is not None:
             self.discriminator.requires_grad_(False)
         loss, restored = self._losses(batch, iteration)
+        self._stop_unless_finite("training loss", loss, iteration + 1)
         self.optimizer.zero_grad(set_to_none=True)
-        loss.backward()
         clip = self.config["train"]["grad_clip"]
-        if clip:
-            torch.nn.utils.clip_grad_norm_(self.net.parameters(), clip)
-        self.optimizer.step()
+        if self.scaler is not None:
+            self.scaler.scale(loss).backward()
+            self.scaler.unscale_(self.optimizer)
+            if clip:
+                torch.nn.utils.clip_grad_norm_(self.net.parameters(), clip)
+            self.scaler.step(self.optimizer)
+            self.scaler.update()
+        else:
+            loss.backward()
+            if clip:
+                torch.nn.utils.clip_grad_norm_(self.net.parameters(), clip)
+            self.optimizer.step()
         self.scheduler.step()
+        if self.ema is not None:
+            self.ema.update_parameters(self.net)
         if self.discriminator is not None and self.optimizer_d is not None and iteration >= self.config["train"]["losses"]["gan"]["start_iter"]:
             self.discriminator.requires_grad_(True)
             d_loss = gan_loss(self.discriminator(batch["gt"]), real=True) + gan_loss(self.discriminator(restored.detach()), real=False)
+            self._stop_unless_finite("discriminator loss", d_loss, iteration + 1)
             self.optimizer_d.zero_grad(set_to_none=True)
             d_loss.backward()
             self.optimizer_d.step()
         return float(loss.detach())
 
+    def _kept(self) -> str:
+        if self.saved_iter is None:
+            return "training stopped before any checkpoint was saved"
+        return f"training stopped; {self.run.checkpoint} keeps the last good state (iteration {self.saved_iter})"
+
+    def _stop_unless_finite(self, what: str, value: torch.Tensor, iteration: int) -> None:
+        """Raises NonFiniteTraining when `value` is NaN or infinite on any rank (all ranks stop together:
+        one rank stopping alone would leave the others waiting in the next all-reduce)."""
+        bad = torch.tensor(0.0 if bool(torch.isfinite(value.detach()).all()) else 1.0)
+        if self.world > 1:
+            import torch.distributed as dist
+
+            dist.all_reduce(bad, op=dist.ReduceOp.MAX)
+        if bad.item():
+            raise NonFiniteTraining(
+                f"iteration {iteration}: the {what} is {float(value.detach().float().mean())} "
+                f"(train.optim.lr, train.grad_clip and the train.losses weights set its scale); {self._kept()}"
+            )
+
+    @property
+    def evaluated(self) -> Restorer:
+        """The network validation and export use: the EMA weights when the run keeps them."""
+        return self.ema.module if self.ema is not None else self.net  # type: ignore[return-value]
+
     @torch.no_grad()
     def validate(self) -> dict[str, float]:
-        """Mean PSNR (dB) / SSIM of the restored and of the unrestored validation images (fixed set)."""
+        """Mean PSNR (dB) / SSIM of the restored and of the unrestored validation images (fixed set);
+        for a blind network also the L1 error of its predicted map (`prediction_l1`) and that of
+        predicting zeros (`prediction_l1_zero`: the code's mean, or no moments)."""
         assert self.val_set is not None
-        self.net.eval()
+        net = self.evaluated
+        net.eval()
         scores: dict[str, list[torch.Tensor]] = {"psnr_db": [], "ssim": [], "input_psnr_db": [], "input_ssim": []}
-        loader = DataLoader(self.val_set, batch_size=1, shuffle=False, num_workers=0, collate_fn=collate)
-        for batch in loader:
-            restored = self.net(batch["lq"], batch.get("fov"), batch.get("psf")).clamp(0, 1)
-            scores["psnr_db"].append(psnr(restored, batch["gt"]))
-            scores["ssim"].append(ssim(restored, batch["gt"]))
-            scores["input_psnr_db"].append(psnr(batch["lq"], batch["gt"]))
-            scores["input_ssim"].append(ssim(batch["lq"], batch["gt"]))
+        if net.predicts:
+            scores.update(prediction_l1=[], prediction_l1_zero=[])
+        # Validation draws nothing from the training's random stream (its DataLoader would).
+        with torch.random.fork_rng(devices=[]):
+            loader = DataLoader(self.val_set, batch_size=1, shuffle=False, num_workers=0, collate_fn=collate)
+            for batch in loader:
+                batch = self._to_device(batch)
+                with self._autocast():
+                    out = net.training_outputs(batch["lq"], **self._maps(batch))
+                restored, gt, lq = out["restored"].float().clamp(0, 1).cpu(), batch["gt"].cpu(), batch["lq"].cpu()
+                scores["psnr_db"].append(psnr(restored, gt))
+                scores["ssim"].append(ssim(restored, gt))
+                scores["input_psnr_db"].append(psnr(lq, gt))
+                scores["input_ssim"].append(ssim(lq, gt))
+                if "prediction" in out:
+                    true = batch[net.predicts].float()
+                    scores["prediction_l1"].append((out["prediction"].float() - true).abs().mean().view(1).cpu())
+                    scores["prediction_l1_zero"].append(true.abs().mean().view(1).cpu())
         self.net.train()
-        return {key: float(torch.cat(values).mean()) for key, values in scores.items()}
+        return {key: float(torch.cat(values).double().mean()) for key, values in scores.items()}
+
+    def _budget_spent(self, t0: float) -> bool:
+        """Whether this session's time budget is spent (rank 0 decides for every rank)."""
+        budget = self.config["train"]["time_budget_s"]
+        if budget is None:
+            return False
+        spent = torch.tensor([float(time.perf_counter() - t0 >= budget)])
+        if self.world > 1:
+            import torch.distributed as dist
+
+            dist.broadcast(spent, src=0)
+        return bool(spent.item())
 
     def train(self, stop_after: Optional[int] = None) -> dict[str, Any]:
         """Runs iterations start .. total_iter (or stops after iteration `stop_after`, as a kill would,
-        without a final checkpoint); returns the last validation scores."""
+        without a final checkpoint; or when `train.time_budget_s` is spent, with a checkpoint and a
+        validation); returns the last validation scores."""
         cfg = self.config
         total = cfg["train"]["total_iter"]
         every_val, every_ckpt, every_log = cfg["val"]["val_freq"], cfg["logger"]["save_checkpoint_freq"], cfg["logger"]["print_freq"]
@@ -291,37 +535,48 @@ class Trainer:
         batch = train_cfg["batch_size"]
         sampler = IterationSampler(self.start_iter, total, batch, self.rank, self.world)
         loader = DataLoader(self.train_set, batch_size=batch, sampler=sampler, num_workers=train_cfg["num_workers"],
-                            collate_fn=collate, drop_last=False)
+                            collate_fn=collate, drop_last=False, pin_memory=self.device.type == "cuda")
         progress = Progress(self.start_iter, total, every_log, enabled=not self.quiet)
         recent: list[float] = []
         last_val: dict[str, Any] = {}
         t0 = time.perf_counter()
+        wall_before = self.wall_time_s
         iteration = self.start_iter
         for iteration, data in enumerate(loader, start=self.start_iter + 1):
             recent.append(self._step(data, iteration - 1))
+            self.wall_time_s = wall_before + time.perf_counter() - t0
             progress.update(iteration, recent[-1])
             if self.rank == 0 and (iteration % every_log == 0 or iteration == total):
                 self.log.add(iter=iteration, kind="train", loss=sum(recent) / len(recent), lr=self.scheduler.get_last_lr()[0],
                              it_per_s=progress.rate(iteration), seconds=time.perf_counter() - t0)
                 recent = []
-            if self.rank == 0 and (iteration % every_val == 0 or iteration == total):
+            out_of_time = iteration < total and self._budget_spent(t0)
+            if self.rank == 0 and (iteration % every_val == 0 or iteration == total or out_of_time):
                 last_val = self.validate()
                 self.log.add(iter=iteration, kind="val", psnr_db=last_val["psnr_db"], ssim=last_val["ssim"],
-                             seconds=time.perf_counter() - t0)
+                             prediction_l1=last_val.get("prediction_l1"), seconds=time.perf_counter() - t0)
+                predicted = (f", {self.net.predicts} L1 {last_val['prediction_l1']:.4f} (zeros "
+                             f"{last_val['prediction_l1_zero']:.4f})") if "prediction_l1" in last_val else ""
                 progress.message(
                     f"iter {iteration}: val PSNR {last_val['psnr_db']:.2f} dB, SSIM {last_val['ssim']:.4f} "
-                    f"(input {last_val['input_psnr_db']:.2f} dB, {last_val['input_ssim']:.4f})"
+                    f"(input {last_val['input_psnr_db']:.2f} dB, {last_val['input_ssim']:.4f}){predicted}"
                 )
             if stop_after is not None and iteration >= stop_after:
                 return last_val
-            if iteration % every_ckpt == 0 or iteration == total:
+            if iteration % every_ckpt == 0 or iteration == total or out_of_time:
                 self.save_checkpoint(iteration)
+            if out_of_time:
+                self.stopped_by_budget = True
+                progress.message(f"iter {iteration}: time budget ({cfg['train']['time_budget_s']} s) spent; "
+                                 "checkpoint written (export it, or continue with --resume)")
+                break
         if self.rank == 0:
             self.log.flush()
             self.log.plot()
+            info = json.loads(self.run.info.read_text())
+            info.update(iterations=iteration, wall_time_s=round(self.wall_time_s, 3),
+                        stopped_by_time_budget=self.stopped_by_budget)
             if last_val:
-                info = json.loads(self.run.info.read_text())
                 info["final_validation"] = last_val
-                info["iterations"] = iteration
-                atomic_write_bytes(self.run.info, (json.dumps(info, indent=2) + "\n").encode())
+            write_bytes(self.run.info, (json.dumps(info, indent=2) + "\n").encode())
         return last_val
