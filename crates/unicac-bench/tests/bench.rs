@@ -255,7 +255,7 @@ fn full_run_reports_rows_overall_analysis_and_files() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next(),
-        Some("model,pair_id,lens_id,level,psnr_db,ssim,lpips")
+        Some("model,pair_id,lens_id,level,psnr_db,ssim,lpips,clipiqa")
     );
     let rows_of = |model: &str| -> Vec<Vec<String>> {
         csv.lines()
