@@ -122,7 +122,7 @@ def test_a_dataset_without_a_basis_names_the_fix(tmp_path):
     with pytest.raises(unicac.dataset.DatasetFolderError, match="unicac dataset build"):
         DatasetFolder(root).psf_basis()
     assert cli_main(["train", "--model", "nafnet-psf", "--dataset", str(root), "--iters", "2", "--patch-px", "24",
-                     "--out", str(tmp_path / "run")]) == 2
+                     "--out", str(tmp_path / "run")]) == 1
     assert not (tmp_path / "run").exists()
 
 
@@ -242,7 +242,7 @@ def test_a_patch_under_twice_the_largest_kernel_is_refused_or_warned(tmp_path, c
     monkeypatch.setattr(fake_dataset, "KERNEL_PX", 11)  # 2 x 11 = 22 px: above the 16 px minimum patch
     wide = make_dataset(tmp_path / "wide", pairs_per_split=1)
     args = ["train", "--model", "nafnet", "--dataset", str(wide), "--iters", "1", "--batch", "1"]
-    assert cli_main(args + ["--patch-px", "16", "--out", str(tmp_path / "r1")]) == 2
+    assert cli_main(args + ["--patch-px", "16", "--out", str(tmp_path / "r1")]) == 1
     err = capsys.readouterr().err
     assert "16 px is less than twice the dataset's largest PSF kernel (11 px" in err and "--patch-px 22" in err, err
     assert "--allow-small-patch" in err and not (tmp_path / "r1").exists()
@@ -297,7 +297,7 @@ def test_recipe_flags_reach_the_run_config(tmp_path, dataset):
     assert config["train"]["total_iter"] == 2 and config["train"]["device"] == "cpu"
     for bad, message in ((["--patch-px", "8"], "--patch-px: 8 is outside"), (["--batch", "0"], "--batch: 0 is outside"),
                          (["--time-budget-s", "0"], "--time-budget-s: 0 is outside")):
-        assert cli_main(["train", "--model", "nafnet", "--dataset", str(dataset), "--out", str(tmp_path / "x"), *bad]) == 2
+        assert cli_main(["train", "--model", "nafnet", "--dataset", str(dataset), "--out", str(tmp_path / "x"), *bad]) == 1
 
 
 def test_cpu_mixed_precision_and_channels_last_train(tmp_path, dataset):
@@ -377,7 +377,7 @@ def test_gan_fine_tunes_a_trained_run_with_an_ema_generator(tmp_path, dataset, m
 def test_export_fails_loudly_without_onnxruntime(tmp_path, dataset, monkeypatch, capsys):
     Trainer(tiny_config("wiener-nafnet", dataset, iters=1), tmp_path / "run", quiet=True).train()
     monkeypatch.setitem(sys.modules, "onnxruntime", None)  # `import onnxruntime` raises ImportError
-    assert cli_main(["export", str(tmp_path / "run"), "--out", str(tmp_path / "m.onnx")]) == 2
+    assert cli_main(["export", str(tmp_path / "run"), "--out", str(tmp_path / "m.onnx")]) == 1
     err = capsys.readouterr().err
     assert "parity check cannot run" in err and "--no-check" in err
     assert not (tmp_path / "m.onnx").exists()

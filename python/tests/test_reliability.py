@@ -335,7 +335,7 @@ def test_onthefly_config_errors_name_the_key(tmp_path):
     raw["datasets"] = {"train": {"type": "onthefly", "lenses": ["builtin:cooke_triplet"], "images": str(tmp_path / "none")}}
     config = config_mod.validate(raw)
     with pytest.raises(DatasetFolderError, match=r"datasets\.train\.images: .*none is not a folder"):
-        build_train_set(config["datasets"]["train"], 0, False, False)
+        build_train_set(config["datasets"]["train"], 0)
 
 
 def test_the_command_line_prints_no_traceback(tmp_path):
