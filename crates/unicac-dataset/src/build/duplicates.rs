@@ -14,9 +14,15 @@ pub fn refuse_duplicate_models(sources: &[LensSource], lenses: &[Lens], sensor: 
     for (source, lens) in sources.iter().zip(lenses) {
         let model = model_fingerprint(&sensor.apply(lens));
         if let Some(first) = first_by_model.insert(model, source) {
+            // Named in a stable order (sources are sorted by lens id, which hides the arguments' order).
+            let (a, b) = if first.source <= source.source {
+                (&first.source, &source.source)
+            } else {
+                (&source.source, &first.source)
+            };
             return Err(DatasetError::Invalid(format!(
                 "--lenses: {} and {} are the same lens (the same optical model on the build's sensor, in files of different bytes or names): it would be graded twice and could land in two splits; give it once",
-                first.source, source.source
+                a, b
             )));
         }
     }
