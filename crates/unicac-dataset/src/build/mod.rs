@@ -384,16 +384,7 @@ pub fn build(
         .collect();
     let ids: Vec<String> = planned.iter().map(|p| p.source.lens_id.clone()).collect();
     let grades: Vec<Grade> = planned.iter().map(|p| p.grade.clone()).collect();
-    let assignment = stratify::assign(
-        &ids,
-        &grades,
-        LevelCounts {
-            levels: settings.levels,
-            per_level: settings.test_lenses_per_level,
-            val: settings.val_lenses,
-            sub_benchmarks: settings.sub_benchmarks,
-        },
-    )?;
+    let assignment = stratify::assign(&ids, &grades, settings.level_counts())?;
     let plan = make_plan(
         settings,
         &settings_json,
