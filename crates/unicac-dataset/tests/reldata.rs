@@ -82,6 +82,9 @@ fn the_same_lens_under_two_names_is_refused_before_any_work() {
         .contains("the library holds 3 lenses"));
 }
 
+/// A change to the settings.
+type Change = Box<dyn Fn(&mut BuildSettings)>;
+
 /// `--test-lenses-per-level 9223372036854775808` panicked with "capacity overflow" (the sum wrapped),
 /// a 1 x 1 crop was accepted though no metric can score it, and bad counts or oversized charts were
 /// refused only after every lens was graded.
@@ -90,7 +93,7 @@ fn every_count_and_size_has_a_limit_checked_before_any_work() {
     let dir = scratch("limits");
     let out = dir.join("ds");
     let lenses = ["builtin:double_gauss", "builtin:cooke_triplet", "builtin:petzval"];
-    let cases: Vec<(&str, Box<dyn Fn(&mut BuildSettings)>, &str)> = vec![
+    let cases: Vec<(&str, Change, &str)> = vec![
         (
             "test_lenses_per_level",
             Box::new(|s| s.test_lenses_per_level = 1 << 63),
@@ -240,12 +243,7 @@ fn an_output_inside_an_input_folder_is_refused() {
     let images = dir.join("images");
     std::fs::create_dir_all(&images).unwrap();
     let chart = unicac_image::charts::dead_leaves(80, 60, 1).unwrap();
-    unicac_image::io::write_png(
-        &images.join("a.png"),
-        &chart,
-        unicac_image::io::SampleDepth::Eight,
-    )
-    .unwrap();
+    unicac_image::io::write_png(images.join("a.png"), &chart, unicac_image::io::SampleDepth::Eight).unwrap();
     let mut s = settings(&["builtin:double_gauss", "builtin:cooke_triplet"]);
     s.images = images.to_string_lossy().into_owned();
     let error = refused(&s, &images.join("ds")).to_string();
