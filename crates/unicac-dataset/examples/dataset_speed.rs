@@ -38,7 +38,8 @@ fn main() {
         frame_px: [1280, 800],
         pixel_um: None,
     };
-    let sources = build::sources::lens_sources(&lenses).expect("lenses");
+    let out = std::env::temp_dir().join(format!("unicac-dataset-speed-{}", std::process::id()));
+    let sources = build::sources::lens_sources(&lenses, &out).expect("lenses");
     let start = Instant::now();
     pool_for(threads).install(|| {
         for source in &sources {
@@ -47,7 +48,6 @@ fn main() {
         }
     });
     let ode_s_per_lens = start.elapsed().as_secs_f64() / sources.len() as f64;
-    let out = std::env::temp_dir().join(format!("unicac-dataset-speed-{}", std::process::id()));
     let pool = pool_for(threads);
     let start = Instant::now();
     let report = pool

@@ -25,6 +25,10 @@ pub enum DatasetError {
     },
     #[error("{0}")]
     Invalid(String),
+    /// A build setting out of its range; `field` names the `BuildSettings` field (a face maps it to
+    /// its own option name).
+    #[error("{field}: {message}")]
+    Setting { field: String, message: String },
 }
 
 pub type Result<T> = std::result::Result<T, DatasetError>;
@@ -34,6 +38,13 @@ impl DatasetError {
         DatasetError::Io {
             path: path.into(),
             source,
+        }
+    }
+
+    pub fn setting(field: impl Into<String>, message: impl Into<String>) -> DatasetError {
+        DatasetError::Setting {
+            field: field.into(),
+            message: message.into(),
         }
     }
 

@@ -48,11 +48,7 @@ fn metric_of(row: &LensRow, metric: &str) -> f64 {
 }
 
 fn level_of(row: &LensRow, metric: &str) -> Option<u32> {
-    match metric {
-        "u_s" => row.us_level,
-        "u_c" => row.uc_level,
-        _ => row.level,
-    }
+    row.level_in(metric)
 }
 
 fn range(values: impl Iterator<Item = f64>) -> [f64; 2] {

@@ -22,6 +22,7 @@ pub mod manifest;
 pub mod npy;
 pub mod psf_basis;
 pub mod psf_table;
+pub mod row_counts;
 pub mod seeds;
 
 pub use error::{DatasetError, Result};

@@ -53,6 +53,17 @@ pub struct LensRow {
     pub psf: String,
 }
 
+impl LensRow {
+    /// The lens's level in the stratification by `metric` (`ode`, `u_s` or `u_c`).
+    pub fn level_in(&self, metric: &str) -> Option<u32> {
+        match metric {
+            "u_s" => self.us_level,
+            "u_c" => self.uc_level,
+            _ => self.level,
+        }
+    }
+}
+
 /// The random draws of one pair's sensor/ISP chain.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct IspRecord {
@@ -191,16 +202,28 @@ impl Dataset {
         })
     }
 
+    /// The lens rows, checked against `dataset.json`'s counts per split and per level.
     pub fn lenses(&self) -> Result<Vec<LensRow>> {
-        read_jsonl(&self.dir.join(LENSES_JSONL))
+        let path = self.dir.join(LENSES_JSONL);
+        let rows: Vec<LensRow> = read_jsonl(&path)?;
+        crate::row_counts::check_lenses(&path, &rows, &self.manifest)?;
+        Ok(rows)
     }
 
+    /// The pair rows, checked against `dataset.json`'s counts per split.
     pub fn pairs(&self) -> Result<Vec<PairRow>> {
-        read_jsonl(&self.dir.join(PAIRS_JSONL))
+        let path = self.dir.join(PAIRS_JSONL);
+        let rows: Vec<PairRow> = read_jsonl(&path)?;
+        crate::row_counts::check_pairs(&path, &rows, &self.manifest.counts)?;
+        Ok(rows)
     }
 
+    /// The edge rows, checked against `dataset.json`'s count.
     pub fn edges(&self) -> Result<Vec<EdgeRow>> {
-        read_jsonl(&self.dir.join(EDGES_JSONL))
+        let path = self.dir.join(EDGES_JSONL);
+        let rows: Vec<EdgeRow> = read_jsonl(&path)?;
+        crate::row_counts::check_edges(&path, &rows, &self.manifest.counts)?;
+        Ok(rows)
     }
 
     /// A path from a manifest row, resolved against DIR (refusing absolute paths and `..`).

@@ -182,7 +182,7 @@ fn splits_are_lens_disjoint_and_levels_are_ordered_inside_their_thresholds() {
 fn regenerate(dataset: &Dataset, pair: &PairRow) -> (Vec<u8>, Vec<u8>) {
     let lenses = dataset.lenses().unwrap();
     let lens_row = lenses.iter().find(|l| l.lens_id == pair.lens_id).unwrap();
-    let lens_source = sources::lens_sources(std::slice::from_ref(&lens_row.source))
+    let lens_source = sources::lens_sources(std::slice::from_ref(&lens_row.source), &dataset.dir)
         .unwrap()
         .remove(0);
     assert_eq!(lens_source.sha256, lens_row.lens_sha256);
@@ -389,7 +389,7 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
         .unwrap_err()
         .to_string();
     assert!(
-        error.contains("holds another dataset") && error.contains("seed"),
+        error.contains("another build with different settings holds this folder") && error.contains("seed"),
         "{error}"
     );
     assert!(before == files(reference()));

@@ -63,6 +63,22 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     write_with(path, |file| file.write_all(bytes))
 }
 
+/// Writes `path` atomically, only if no file is there yet: an exclusive claim. The bytes go to a
+/// temporary sibling, which is then hard-linked to `path`; the link fails with `AlreadyExists` when
+/// another writer got there first, so of two processes racing for one path exactly one wins, and
+/// nobody ever reads the file half-written. The temporary is removed either way.
+pub fn write_new_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let temporary = temporary_sibling(path);
+    let result = File::create(&temporary)
+        .and_then(|mut file| {
+            file.write_all(bytes)?;
+            file.sync_all()
+        })
+        .and_then(|()| std::fs::hard_link(&temporary, path));
+    let _ = std::fs::remove_file(&temporary);
+    result
+}
+
 /// Writes `path` atomically with whatever `fill` writes into the (buffered, seekable) temporary file.
 /// On any error the temporary is removed and the target is left as it was.
 pub fn write_with<E>(path: &Path, fill: impl FnOnce(&mut BufWriter<File>) -> Result<(), E>) -> Result<(), E>
@@ -203,6 +219,18 @@ mod tests {
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         write_atomically(&target, b"new").unwrap();
         assert_eq!(std::fs::read(&target).unwrap(), b"new");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_new_file_is_claimed_once_and_never_replaced() {
+        let dir = folder("claim");
+        let target = dir.join("claim.json");
+        write_new_atomically(&target, b"first").unwrap();
+        let second = write_new_atomically(&target, b"second").unwrap_err();
+        assert_eq!(second.kind(), std::io::ErrorKind::AlreadyExists);
+        assert_eq!(std::fs::read(&target).unwrap(), b"first");
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -8,7 +8,8 @@
 //! - [`require_extension`]: an output's extension must name the format written (or the format follows
 //!   the extension: the caller picks it with [`extension_of`]);
 //! - [`write_atomically`] / [`write_with`] / [`write_via_path`]: a file appears complete or not at all
-//!   (a dot-named temporary sibling, synced, then renamed over the target);
+//!   (a dot-named temporary sibling, synced, then renamed over the target); [`write_new_atomically`]
+//!   the same, only where no file exists yet (an exclusive claim);
 //! - [`clean_stale_temporaries`] / [`clean_stale_temporaries_under`]: temporaries left by killed runs
 //!   are removed on the next run; a live writer's (a concurrent shard's) are kept;
 //! - [`read_capped`]: an input read whole is a regular file within a stated size (never a device, a
@@ -22,7 +23,7 @@ mod read;
 
 pub use atomic::{
     clean_stale_temporaries, clean_stale_temporaries_under, is_temporary_name, temporary_sibling,
-    write_atomically, write_via_path, write_with,
+    write_atomically, write_new_atomically, write_via_path, write_with,
 };
 pub use plan::{extension_of, require_extension, OutputError, OutputPlan};
 pub use read::read_capped;

@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use unicac_dataset::manifest::{write_json, write_jsonl, Counts, DatasetManifest, IspRecord};
+use unicac_dataset::row_counts;
 use unicac_dataset::{EdgeRow, FrameCrop, LensRow, PairRow, PsfTable, PsfTableMeta};
 use unicac_image::io::{write_png, SampleDepth};
 use unicac_image::Planar;
@@ -225,7 +226,13 @@ pub fn write(dir: &Path, test_split: bool) {
         seed: 0,
         frame_px: FRAME,
         stratifications: Vec::new(),
-        counts: Counts::default(),
+        // The counts a build records: bench refuses manifests that disagree with them.
+        counts: Counts {
+            lenses: row_counts::per_split(lenses.iter().map(|l| l.split.as_str())),
+            pairs: row_counts::per_split(pairs.iter().map(|p| p.split.as_str())),
+            edges: edges.len(),
+            ..Counts::default()
+        },
     };
     write_json(&dir.join("dataset.json"), &manifest).unwrap();
 }

@@ -87,7 +87,9 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
         terminal: std::io::stderr().is_terminal(),
     };
     let start = std::time::Instant::now();
-    let report = pool.install(|| build::build(&settings, &args.out, shard, &progress))?;
+    let report = pool
+        .install(|| build::build(&settings, &args.out, shard, &progress))
+        .map_err(flag_error)?;
     progress.stage("", 0);
     let seconds = start.elapsed().as_secs_f64();
     if args.json {
@@ -116,6 +118,20 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The dataset library's setting error in this face's words: the flag for the library's field.
+fn flag_error(error: unicac_dataset::DatasetError) -> anyhow::Error {
+    let unicac_dataset::DatasetError::Setting { field, message } = &error else {
+        return error.into();
+    };
+    let flag = match field.as_str() {
+        "crop_px" => "--crop".to_string(),
+        "frame_px" => "--frame".into(),
+        "white_balance_jitter" => "--wb-jitter".into(),
+        field => format!("--{}", field.replace('_', "-")),
+    };
+    anyhow::anyhow!("{flag} {message}")
 }
 
 fn counts(map: &std::collections::BTreeMap<String, usize>) -> String {

@@ -51,12 +51,22 @@ pub struct GradeCache {
     pub dir: PathBuf,
 }
 
+/// The lens as the build sees it: a hash of the model every number the tracer reads (the PSF cache's
+/// `lens_fingerprint`), without the lens's display name. Two files (a copy with another name or a
+/// trailing newline, a `.zmx` conversion, a built-in lens) holding the same model share it: the grade
+/// cache keys grades by it, and the build refuses two sources with one model.
+pub fn model_fingerprint(lens: &Lens) -> String {
+    let mut unnamed = lens.clone();
+    unnamed.name.clear();
+    unicac_sim::lens_fingerprint(&unnamed)
+}
+
 impl GradeCache {
     fn key(lens: &Lens, settings: &OdeSettings) -> String {
         sha256_hex(&[
-            b"unicac-dataset-ode 1",
+            b"unicac-dataset-ode 2",
             env!("CARGO_PKG_VERSION").as_bytes(),
-            unicac_sim::lens_fingerprint(lens).as_bytes(),
+            model_fingerprint(lens).as_bytes(),
             format!("{settings:?}").as_bytes(),
         ])
     }

@@ -14,7 +14,10 @@
 //! Everything that can fail on bad input (lens files, images, the ODE, PSF maps larger than the
 //! frame, a library too small) is checked before the first dataset file is written.
 
+pub mod claim;
+mod duplicates;
 pub mod grading;
+mod placement;
 pub mod render;
 pub mod sources;
 pub mod stratify;
@@ -69,8 +72,18 @@ pub struct BuildSettings {
     pub bit_depth: u8,
 }
 
-/// Largest `--pairs-per-lens`.
+/// Largest `pairs_per_lens`.
 pub const MAX_PAIRS_PER_LENS: usize = 100_000;
+/// Largest `levels`.
+pub use stratify::MAX_LEVELS;
+/// Largest `test_lenses_per_level` and `val_lenses`: a build takes at most `MAX_ITEMS` lenses.
+pub const MAX_TEST_LENSES_PER_LEVEL: usize = sources::MAX_ITEMS;
+pub const MAX_VAL_LENSES: usize = sources::MAX_ITEMS;
+/// Most pairs one build plans (each a manifest row held in memory: about 1 kB).
+pub const MAX_PAIRS: usize = 10_000_000;
+/// Smallest side of a training crop or of the frame (px): every metric scores it (SSIM's Gaussian
+/// window is 11 x 11 px).
+pub const MIN_CROP_SIDE_PX: usize = 2 * unicac_metrics::ssim::SSIM_RADIUS + 1;
 
 impl BuildSettings {
     /// The defaults of `unicac dataset build` (the paper's 5 levels x 24 test lenses, 75 validation).
@@ -98,36 +111,83 @@ impl BuildSettings {
         }
     }
 
-    fn check(&self) -> Result<()> {
-        if self.pairs_per_lens == 0 || self.pairs_per_lens > MAX_PAIRS_PER_LENS {
-            return Err(DatasetError::Invalid(format!(
-                "--pairs-per-lens {}: must be between 1 and {MAX_PAIRS_PER_LENS}",
-                self.pairs_per_lens
-            )));
+    /// Every setting within its stated limit, before any file is read (errors name the field).
+    pub fn check(&self) -> Result<()> {
+        let within = |field: &str, value: usize, min: usize, max: usize, limit: &str| {
+            if (min..=max).contains(&value) {
+                Ok(())
+            } else {
+                Err(DatasetError::setting(
+                    field,
+                    format!("{value}: must lie in [{min}, {max}] ({limit})"),
+                ))
+            }
+        };
+        within("levels", self.levels, 1, MAX_LEVELS, "MAX_LEVELS")?;
+        within(
+            "test_lenses_per_level",
+            self.test_lenses_per_level,
+            1,
+            MAX_TEST_LENSES_PER_LEVEL,
+            "MAX_TEST_LENSES_PER_LEVEL",
+        )?;
+        within("val_lenses", self.val_lenses, 0, MAX_VAL_LENSES, "MAX_VAL_LENSES")?;
+        within(
+            "pairs_per_lens",
+            self.pairs_per_lens,
+            1,
+            MAX_PAIRS_PER_LENS,
+            "MAX_PAIRS_PER_LENS",
+        )?;
+        self.level_counts().lenses_needed()?;
+        if let Some(frame) = self.frame_px {
+            check_frame(frame)?;
+        }
+        if let Some(crop) = self.crop_px {
+            check_side("crop_px", crop)?;
+            if let Some(frame) = self.frame_px {
+                if crop[0] > frame[0] || crop[1] > frame[1] {
+                    return Err(DatasetError::setting(
+                        "crop_px",
+                        format!(
+                            "{}x{} is larger than the {} x {} frame",
+                            crop[0], crop[1], frame[0], frame[1]
+                        ),
+                    ));
+                }
+            }
         }
         if !matches!(self.bit_depth, 8 | 16) {
-            return Err(DatasetError::Invalid(format!(
-                "--bit-depth {}: must be 8 or 16",
-                self.bit_depth
-            )));
+            return Err(DatasetError::setting(
+                "bit_depth",
+                format!("{}: must be 8 or 16", self.bit_depth),
+            ));
         }
         if let Some(p) = self.pixel_um {
-            unicac_ode::frame::check_pixel_um(p)
-                .map_err(|e| DatasetError::Invalid(format!("--pixel-um {}", e.message)))?;
+            unicac_ode::frame::check_pixel_um(p).map_err(|e| DatasetError::setting("pixel_um", e.message))?;
         }
         if !(self.iso.is_finite() && self.iso > 0.0 && self.iso <= 1.0e6) {
-            return Err(DatasetError::Invalid(format!(
-                "--iso {}: must be in (0, 1e6]",
-                self.iso
-            )));
+            return Err(DatasetError::setting(
+                "iso",
+                format!("{}: must be in (0, 1e6]", self.iso),
+            ));
         }
         if !(self.white_balance_jitter.is_finite() && (0.0..=1.0).contains(&self.white_balance_jitter)) {
-            return Err(DatasetError::Invalid(format!(
-                "--wb-jitter {}: must be in [0, 1]",
-                self.white_balance_jitter
-            )));
+            return Err(DatasetError::setting(
+                "white_balance_jitter",
+                format!("{}: must be in [0, 1]", self.white_balance_jitter),
+            ));
         }
         Ok(())
+    }
+
+    fn level_counts(&self) -> LevelCounts {
+        LevelCounts {
+            levels: self.levels,
+            per_level: self.test_lenses_per_level,
+            val: self.val_lenses,
+            sub_benchmarks: self.sub_benchmarks,
+        }
     }
 
     fn pipeline(&self) -> Pipeline {
@@ -215,10 +275,6 @@ pub struct BuildReport {
     pub temporaries_removed: usize,
 }
 
-/// The run-independent record of a build, kept in DIR so that a later run can tell a resume of the
-/// same dataset from a different one.
-const BUILD_JSON: &str = ".unicac-build.json";
-
 /// One lens with everything the plan needs.
 struct PlannedLens {
     source: LensSource,
@@ -242,39 +298,64 @@ pub fn build(
     shard: Shard,
     progress: &dyn Progress,
 ) -> Result<BuildReport> {
+    // Every check comes before any work: settings, where the output lies, the folder's record, the
+    // inputs (lenses, scenes, frame, the library's size), and only then the claim and the grading.
     settings.check()?;
+    placement::check_output_placement(settings, out)?;
     let settings_json = serde_json::to_value(settings).expect("settings serialise");
-    check_output(out, &settings_json)?;
-    // Inputs: lenses, scenes, frame.
-    let sources = sources::lens_sources(&settings.lenses)?;
+    claim::check_output(
+        out,
+        &claim::BuildRecord {
+            settings: settings_json.clone(),
+            scenes: None,
+        },
+    )?;
+    let sources = sources::lens_sources(&settings.lenses, out)?;
+    settings.level_counts().check(sources.len())?;
     let lenses: Vec<Lens> = sources.iter().map(|s| s.load()).collect::<Result<_>>()?;
     let test_first = sources::scenes(
         &settings.test_images,
-        "--test-images",
+        "test_images",
         "test",
         settings.seed,
         settings.frame_px,
+        out,
     )?;
     let frame_px = match settings.frame_px {
         Some(frame) => frame,
         None => {
             let first = test_first[0].load_linear()?;
-            [first.width, first.height]
+            let frame = [first.width, first.height];
+            check_frame(frame).map_err(|e| {
+                DatasetError::Invalid(format!(
+                    "the frame from the first test scene {}: {e}",
+                    test_first[0].source
+                ))
+            })?;
+            frame
         }
     };
     let test_scenes = test_first;
     let train_scenes = sources::scenes(
         &settings.images,
-        "--images",
+        "images",
         "train",
         settings.seed,
         Some(frame_px),
+        out,
     )?;
     check_scenes(&train_scenes, &test_scenes, frame_px, settings.crop_px)?;
+    check_pair_count(settings, sources.len(), test_scenes.len())?;
     let sensor = BuildSensor {
         frame_px,
         pixel_um: settings.pixel_um,
     };
+    duplicates::refuse_duplicate_models(&sources, &lenses, &sensor)?;
+    let record = claim::BuildRecord {
+        settings: settings_json.clone(),
+        scenes: Some(sources::scene_hashes(train_scenes.iter().chain(&test_scenes))),
+    };
+    let hold = claim::claim(out, &record)?;
     // Grades (cached).
     let cache = GradeCache {
         dir: grading::cache_dir(out).join("ode"),
@@ -303,16 +384,7 @@ pub fn build(
         .collect();
     let ids: Vec<String> = planned.iter().map(|p| p.source.lens_id.clone()).collect();
     let grades: Vec<Grade> = planned.iter().map(|p| p.grade.clone()).collect();
-    let assignment = stratify::assign(
-        &ids,
-        &grades,
-        LevelCounts {
-            levels: settings.levels,
-            per_level: settings.test_lenses_per_level,
-            val: settings.val_lenses,
-            sub_benchmarks: settings.sub_benchmarks,
-        },
-    )?;
+    let assignment = stratify::assign(&ids, &grades, settings.level_counts())?;
     let plan = make_plan(
         settings,
         &settings_json,
@@ -356,8 +428,9 @@ pub fn build(
         progress.advance(1);
     }
     // Writing starts here.
+    claim::confirm(out, &record)?;
+    hold.keep();
     let temporaries_removed = remove_temporaries(out)?;
-    manifest::write_json(&out.join(BUILD_JSON), &settings_json)?;
     write_manifests(out, &plan)?;
     let fov_path = out.join(fov_relative(frame_px));
     if !fov_path.exists() {
@@ -667,6 +740,58 @@ fn scene_size(scene: &Scene) -> Result<[usize; 2]> {
     }
 }
 
+/// The plan holds at most `MAX_PAIRS` pairs: every lens rendered with `pairs_per_lens` pairs or, for
+/// the test lenses, one per test scene (an upper bound, checked before grading).
+fn check_pair_count(settings: &BuildSettings, lenses: usize, test_scenes: usize) -> Result<()> {
+    let test_lenses = settings.levels.saturating_mul(settings.test_lenses_per_level);
+    let pairs = lenses
+        .saturating_sub(test_lenses)
+        .checked_mul(settings.pairs_per_lens)
+        .zip(test_lenses.checked_mul(test_scenes))
+        .and_then(|(a, b)| a.checked_add(b))
+        .filter(|&n| n <= MAX_PAIRS);
+    match pairs {
+        Some(_) => Ok(()),
+        None => Err(DatasetError::setting(
+            "pairs_per_lens",
+            format!(
+                "{}: {lenses} lenses x {} pairs (test lenses: {test_scenes} test scenes each) exceed the {MAX_PAIRS} pairs a build plans (MAX_PAIRS)",
+                settings.pairs_per_lens, settings.pairs_per_lens
+            ),
+        )),
+    }
+}
+
+/// A frame every stage can render and score: sides within `check_side`, at most
+/// `MAX_SIMULATE_PIXELS` pixels.
+fn check_frame([w, h]: [usize; 2]) -> Result<()> {
+    check_side("frame_px", [w, h])?;
+    if w.saturating_mul(h) > unicac_sim::MAX_SIMULATE_PIXELS {
+        return Err(DatasetError::setting(
+            "frame_px",
+            format!(
+                "{w}x{h}: more than {} px (MAX_SIMULATE_PIXELS)",
+                unicac_sim::MAX_SIMULATE_PIXELS
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Both sides of a frame or crop at least `MIN_CROP_SIDE_PX` (at most `MAX_FRAME_SIDE_PX`).
+fn check_side(field: &str, [w, h]: [usize; 2]) -> Result<()> {
+    let max = crate::MAX_FRAME_SIDE_PX;
+    if w < MIN_CROP_SIDE_PX || h < MIN_CROP_SIDE_PX || w > max || h > max {
+        return Err(DatasetError::setting(
+            field,
+            format!(
+                "{w}x{h}: each side must lie in [{MIN_CROP_SIDE_PX}, {max}] px (MIN_CROP_SIDE_PX: SSIM's 11 x 11 px window must fit; MAX_FRAME_SIDE_PX)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// `fov/WxH.npy`.
 pub fn fov_relative(frame_px: [usize; 2]) -> String {
     format!("fov/{}x{}.npy", frame_px[0], frame_px[1])
@@ -682,10 +807,13 @@ fn check_scenes(
 ) -> Result<()> {
     if let Some([w, h]) = crop_px {
         if w > frame_px[0] || h > frame_px[1] {
-            return Err(DatasetError::Invalid(format!(
-                "--crop {w}x{h} is larger than the {} x {} frame",
-                frame_px[0], frame_px[1]
-            )));
+            return Err(DatasetError::setting(
+                "crop_px",
+                format!(
+                    "{w}x{h} is larger than the {} x {} frame",
+                    frame_px[0], frame_px[1]
+                ),
+            ));
         }
     }
     let mut hashes = BTreeMap::new();
@@ -709,56 +837,6 @@ fn check_scenes(
         scene.frame_crop(w, h, frame_px)?;
     }
     Ok(())
-}
-
-/// `out` is absent, empty (dot-named leftovers aside), or a build of the same settings.
-fn check_output(out: &Path, settings: &serde_json::Value) -> Result<()> {
-    if !out.exists() {
-        return Ok(());
-    }
-    if !out.is_dir() {
-        return Err(DatasetError::Invalid(format!(
-            "--out {}: exists and is not a folder",
-            out.display()
-        )));
-    }
-    let recorded = [BUILD_JSON, DATASET_JSON].iter().find_map(|name| {
-        let bytes = std::fs::read(out.join(name)).ok()?;
-        let value: serde_json::Value = serde_json::from_slice(&bytes).ok()?;
-        Some(if *name == DATASET_JSON {
-            value.get("settings").cloned().unwrap_or_default()
-        } else {
-            value
-        })
-    });
-    match recorded {
-        Some(previous) if &previous == settings => Ok(()),
-        Some(previous) => {
-            let differing: Vec<String> = match (previous.as_object(), settings.as_object()) {
-                (Some(a), Some(b)) => b.keys().filter(|k| a.get(*k) != b.get(*k)).cloned().collect(),
-                _ => vec!["settings".into()],
-            };
-            Err(DatasetError::Invalid(format!(
-                "--out {} holds another dataset (built with different {}); choose another folder or remove it",
-                out.display(),
-                differing.join(", ")
-            )))
-        }
-        None => {
-            let entries = std::fs::read_dir(out).map_err(|e| DatasetError::io(out, e))?;
-            for entry in entries {
-                let name = entry.map_err(|e| DatasetError::io(out, e))?.file_name();
-                if !name.to_string_lossy().starts_with('.') {
-                    return Err(DatasetError::Invalid(format!(
-                        "--out {} is not empty and holds no unicac dataset build (found {}); choose an empty or new folder",
-                        out.display(),
-                        name.to_string_lossy()
-                    )));
-                }
-            }
-            Ok(())
-        }
-    }
 }
 
 /// Removes the temporaries under `out` that interrupted runs left (a concurrent shard's are kept).

@@ -50,8 +50,9 @@ fn load_spec(location: &str) -> Result<LensSpec> {
         .map_err(|e| DatasetError::Invalid(format!("{what} {location}: {e}")))
 }
 
-/// Expands every `--lenses` argument; ids sorted, duplicates (same id) listed once.
-pub fn lens_sources(arguments: &[String]) -> Result<Vec<LensSource>> {
+/// Expands every `lenses` argument; ids sorted, duplicates (same id) listed once. Folders are scanned
+/// without entering `out` (the build's own output).
+pub fn lens_sources(arguments: &[String], out: &Path) -> Result<Vec<LensSource>> {
     let mut found = Vec::new();
     for argument in arguments {
         if let Some(name) = argument.strip_prefix(BUILTIN_PREFIX) {
@@ -66,7 +67,7 @@ pub fn lens_sources(arguments: &[String]) -> Result<Vec<LensSource>> {
             if manifest.is_file() {
                 found.extend(library_lenses(argument, &manifest)?);
             } else {
-                for file in files_with(path, &LENS_EXTENSIONS)? {
+                for file in files_with(path, &LENS_EXTENSIONS, out)? {
                     found.push(file_source(&file, &display_path(argument, &file, path))?);
                 }
             }
@@ -171,11 +172,16 @@ fn display_path(argument: &str, file: &Path, dir: &Path) -> String {
     }
 }
 
-/// Files under `dir` (recursively, dot-named entries skipped) with one of `extensions`, sorted.
-fn files_with(dir: &Path, extensions: &[&str]) -> Result<Vec<PathBuf>> {
+/// Files under `dir` (recursively, dot-named entries and the folder `skip` left out) with one of
+/// `extensions`, sorted.
+fn files_with(dir: &Path, extensions: &[&str], skip: &Path) -> Result<Vec<PathBuf>> {
+    let skip = std::fs::canonicalize(skip).ok();
     let mut out = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
     while let Some(folder) = stack.pop() {
+        if skip.is_some() && std::fs::canonicalize(&folder).ok() == skip {
+            continue;
+        }
         let entries = std::fs::read_dir(&folder).map_err(|e| DatasetError::io(&folder, e))?;
         for entry in entries {
             let entry = entry.map_err(|e| DatasetError::io(&folder, e))?;
@@ -219,14 +225,17 @@ pub const DEFAULT_CHART_PX: [usize; 2] = [1280, 800];
 /// Most charts one `dead-leaves:N` argument makes.
 pub const MAX_CHARTS: usize = 100_000;
 
-/// Scenes of a `--images` / `--test-images` argument; `kind` (`train` or `test`) separates the chart seeds.
+/// Scenes of an `images` / `test_images` argument (`field` names it in errors); `kind` (`train` or
+/// `test`) separates the chart seeds. Folders are scanned without entering `out`.
 pub fn scenes(
     argument: &str,
-    flag: &str,
+    field: &str,
     kind: &str,
     seed: u64,
     frame_px: Option<[usize; 2]>,
+    out: &Path,
 ) -> Result<Vec<Scene>> {
+    let invalid = |message: String| DatasetError::setting(field, format!("{argument}: {message}"));
     if let Some(spec) = argument.strip_prefix("dead-leaves:") {
         let mut parts = spec.splitn(2, ':');
         let count: usize = parts
@@ -234,16 +243,16 @@ pub fn scenes(
             .and_then(|n| n.parse().ok())
             .filter(|&n| (1..=MAX_CHARTS).contains(&n))
             .ok_or_else(|| {
-                DatasetError::Invalid(format!(
-                    "{flag} {argument}: expected dead-leaves:N[:WxH] with 1 <= N <= {MAX_CHARTS}"
+                invalid(format!(
+                    "expected dead-leaves:N[:WxH] with 1 <= N <= {MAX_CHARTS}"
                 ))
             })?;
         let [width, height] = match parts.next() {
-            Some(size) => {
-                parse_size(size).map_err(|m| DatasetError::Invalid(format!("{flag} {argument}: {m}")))?
-            }
+            Some(size) => parse_size(size).map_err(invalid)?,
             None => frame_px.unwrap_or(DEFAULT_CHART_PX),
         };
+        // Checked here, before any lens is graded, not when the first chart is drawn.
+        unicac_image::charts::check_chart_size(width, height).map_err(|e| invalid(e.to_string()))?;
         return Ok((0..count)
             .map(|i| {
                 let chart_seed = derive_seed(
@@ -264,23 +273,17 @@ pub fn scenes(
     }
     let path = Path::new(argument);
     let files = if path.is_dir() {
-        files_with(path, &IMAGE_EXTENSIONS)?
+        files_with(path, &IMAGE_EXTENSIONS, out)?
     } else if path.exists() {
         vec![path.to_path_buf()]
     } else {
-        return Err(DatasetError::Invalid(format!(
-            "{flag} {argument}: no such file or folder"
-        )));
+        return Err(invalid("no such file or folder".into()));
     };
     if files.is_empty() {
-        return Err(DatasetError::Invalid(format!(
-            "{flag} {argument}: no PNG, TIFF or EXR images found"
-        )));
+        return Err(invalid("no PNG, TIFF or EXR images found".into()));
     }
     if files.len() > MAX_ITEMS {
-        return Err(DatasetError::Invalid(format!(
-            "{flag}: more than {MAX_ITEMS} images"
-        )));
+        return Err(invalid(format!("more than {MAX_ITEMS} images (MAX_ITEMS)")));
     }
     files
         .iter()
@@ -304,6 +307,19 @@ pub fn scenes(
                     sha256,
                 },
             })
+        })
+        .collect()
+}
+
+/// SHA-256 of every scene file, by its source: the build's record of its scenes (charts are generated
+/// from the seed and need none).
+pub fn scene_hashes<'a>(
+    scenes: impl Iterator<Item = &'a Scene>,
+) -> std::collections::BTreeMap<String, String> {
+    scenes
+        .filter_map(|scene| match &scene.kind {
+            SceneKind::File { sha256, .. } => Some((scene.source.clone(), sha256.clone())),
+            SceneKind::DeadLeaves { .. } => None,
         })
         .collect()
 }

@@ -13,6 +13,7 @@
 //! recorded in `dataset.json` and printed by `unicac dataset info` so the balance can be checked.
 
 use crate::build::grading::Grade;
+use crate::build::sources::MAX_ITEMS;
 use crate::error::{DatasetError, Result};
 use crate::manifest::{LevelSummary, Stratification};
 
@@ -37,30 +38,61 @@ pub struct LevelCounts {
 
 pub const MAX_LEVELS: usize = 100;
 
+impl LevelCounts {
+    /// Lenses the split needs (`levels` x `per_level` test, `val` validation, one training), with
+    /// checked arithmetic: at most `MAX_ITEMS`, the most lenses a build takes.
+    pub fn lenses_needed(&self) -> Result<usize> {
+        let needed = self
+            .levels
+            .checked_mul(self.per_level)
+            .and_then(|n| n.checked_add(self.val))
+            .and_then(|n| n.checked_add(1))
+            .filter(|&n| n <= MAX_ITEMS);
+        needed.ok_or_else(|| {
+            DatasetError::setting(
+                "test_lenses_per_level",
+                format!(
+                    "{}: {} levels x {} test lenses + {} validation + 1 training lens need more than the {MAX_ITEMS} lenses a build takes (MAX_ITEMS)",
+                    self.per_level, self.levels, self.per_level, self.val
+                ),
+            )
+        })
+    }
+
+    /// The counts are in range and a library of `lenses` lenses is large enough.
+    pub fn check(&self, lenses: usize) -> Result<()> {
+        if !(1..=MAX_LEVELS).contains(&self.levels) {
+            return Err(DatasetError::setting(
+                "levels",
+                format!("{}: must lie in [1, {MAX_LEVELS}] (MAX_LEVELS)", self.levels),
+            ));
+        }
+        if self.per_level == 0 {
+            return Err(DatasetError::setting(
+                "test_lenses_per_level",
+                "0: must be at least 1",
+            ));
+        }
+        let needed = self.lenses_needed()?;
+        if lenses < needed {
+            return Err(DatasetError::Invalid(format!(
+                "the library holds {lenses} lenses; {} levels x {} test lenses + {} validation + 1 training lens need {needed}",
+                self.levels, self.per_level, self.val
+            )));
+        }
+        Ok(())
+    }
+}
+
 pub fn assign(ids: &[String], grades: &[Grade], counts: LevelCounts) -> Result<Assignment> {
     let n = grades.len();
+    counts.check(n)?;
     let LevelCounts {
         levels,
         per_level,
         val,
         sub_benchmarks,
     } = counts;
-    if !(1..=MAX_LEVELS).contains(&levels) {
-        return Err(DatasetError::Invalid(format!(
-            "--levels {levels}: must be between 1 and {MAX_LEVELS}"
-        )));
-    }
-    if per_level == 0 {
-        return Err(DatasetError::Invalid(
-            "--test-lenses-per-level must be at least 1".into(),
-        ));
-    }
-    let needed = levels * per_level + val + 1;
-    if n < needed {
-        return Err(DatasetError::Invalid(format!(
-            "the library holds {n} lenses; {levels} levels x {per_level} test lenses + {val} validation + 1 training lens need {needed}"
-        )));
-    }
     let by_metric = |metric: fn(&Grade) -> f64, subset: &[usize]| {
         let mut order = subset.to_vec();
         order.sort_by(|&a, &b| {
