@@ -151,6 +151,7 @@ pub fn write(dir: &Path, test_split: bool) {
                 pixel_pitch_um: 2.0,
                 distortion: false,
                 illumination: false,
+                task: unicac_dataset::manifest::PairTask::Aligned,
                 isp_draw: IspRecord {
                     white_balance_gains: [1.0; 3],
                     white_balance_jitter: 0.0,
@@ -166,6 +167,7 @@ pub fn write(dir: &Path, test_split: bool) {
                 },
                 psf: psf_rel.clone(),
                 fov: fov_rel.clone(),
+                check: None,
             });
         }
         if test_split {
@@ -226,6 +228,8 @@ pub fn write(dir: &Path, test_split: bool) {
         frame_px: FRAME,
         stratifications: Vec::new(),
         counts: Counts::default(),
+        task: unicac_dataset::manifest::PairTask::Aligned,
+        comparable_by_ode_level: true,
     };
     write_json(&dir.join("dataset.json"), &manifest).unwrap();
 }
