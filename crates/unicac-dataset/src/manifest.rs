@@ -110,7 +110,8 @@ impl PairTask {
 pub struct PairCheck {
     /// PSNR of LQ against GT (peak 1).
     pub lq_gt_psnr_db: f64,
-    /// Mean over tiles of the length of the best shift of the GT's luminance onto the LQ's (px).
+    /// Mean over tiles of the length of the best shift of the GT (blurred by the lens in its own
+    /// geometry) onto the LQ, on luminance (px).
     pub registration_px: f64,
     /// 1 - MSE(LQ', GT blurred by the lens) / MSE(LQ', GT), LQ' the LQ without noise, clamped to
     /// [0, 1]: the share of the lens's part of the pair's error that its blur explains.

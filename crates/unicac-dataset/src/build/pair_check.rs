@@ -29,7 +29,9 @@ pub fn measure(lq: &Planar, lq_clean: &Planar, gt: &Planar, gt_blurred: &Planar)
     };
     PairCheck {
         lq_gt_psnr_db: rounded(psnr_db(pair_mse)),
-        registration_px: rounded(registration_px(lq, gt)),
+        // Against the blurred GT: a sharp GT against a strongly blurred LQ has no clear best shift
+        // (a heavy, asymmetric blur drags the match around), while blurring both leaves the geometry.
+        registration_px: rounded(registration_px(lq, gt_blurred)),
         blur_share: rounded(blur_share),
     }
 }
@@ -69,7 +71,7 @@ fn luminance(image: &Planar) -> Vec<f64> {
         .collect()
 }
 
-/// Mean over textured tiles of the length (px) of the shift of the GT that best matches the LQ
+/// Mean over textured tiles of the length (px) of the shift of `gt` that best matches `lq`
 /// (least squared luminance difference; integer search within +-`MAX_SHIFT_PX`, refined by a
 /// parabola through the neighbours on each axis). Tiles rather than one global shift, because a
 /// radial distortion moves opposite corners in opposite directions and averages out over a frame.
@@ -103,23 +105,29 @@ fn variance(plane: &[f64], w: usize, [x0, y0, x1, y1]: [usize; 4]) -> f64 {
 }
 
 /// The shift (dx, dy) for which GT(x + dx, y + dy) best matches LQ(x, y) over the tile (the GT is
-/// read with its border replicated).
+/// read with its border replicated). The match is the normalised cross-correlation (1 - NCC is
+/// minimised), so a difference of brightness or contrast across the tile (shading) does not pull
+/// the shift towards the brighter side.
 fn best_shift(lq: &[f64], gt: &[f64], w: usize, h: usize, [x0, y0, x1, y1]: [usize; 4]) -> [f64; 2] {
     let r = MAX_SHIFT_PX as isize;
     let side = 2 * MAX_SHIFT_PX + 1;
+    let n = ((x1 - x0) * (y1 - y0)) as f64;
     let mut error = vec![0.0f64; side * side];
     for dy in -r..=r {
         for dx in -r..=r {
-            let mut sum = 0.0;
+            let (mut sa, mut sb, mut saa, mut sbb, mut sab) = (0.0, 0.0, 0.0, 0.0, 0.0);
             for y in y0..y1 {
                 let sy = (y as isize + dy).clamp(0, h as isize - 1) as usize;
                 for x in x0..x1 {
                     let sx = (x as isize + dx).clamp(0, w as isize - 1) as usize;
-                    let d = lq[y * w + x] - gt[sy * w + sx];
-                    sum += d * d;
+                    let (a, b) = (lq[y * w + x], gt[sy * w + sx]);
+                    (sa, sb, saa, sbb, sab) = (sa + a, sb + b, saa + a * a, sbb + b * b, sab + a * b);
                 }
             }
-            error[(dy + r) as usize * side + (dx + r) as usize] = sum;
+            let covariance = sab - sa * sb / n;
+            let spread = ((saa - sa * sa / n) * (sbb - sb * sb / n)).max(0.0).sqrt();
+            let ncc = if spread > 0.0 { covariance / spread } else { 0.0 };
+            error[(dy + r) as usize * side + (dx + r) as usize] = 1.0 - ncc;
         }
     }
     let best = (0..error.len())
