@@ -46,8 +46,8 @@ pub struct DatasetInfo {
 /// A lens's pairs are flagged when their mean registration shift exceeds this (px): pixels of LQ
 /// and GT no longer correspond, so a model is taught to move pixels.
 pub const MISREGISTERED_PX: f64 = 0.5;
-/// ... or when blur explains less than this share of their error (the rest is misregistration,
-/// shading or noise: not what the ODE grades).
+/// ... or when blur explains less than this share of the lens's part of their error (the rest is
+/// the warp or the shading: not what the ODE grades).
 pub const MIN_BLUR_SHARE: f64 = 0.5;
 
 /// The mean checks of one lens's pairs (docs/dataset.md, "Pair checks").
@@ -85,7 +85,7 @@ fn lens_pair_checks(lens: &LensRow, pairs: &[&PairRow]) -> LensPairChecks {
     }
     if let Some(share) = share.filter(|&s| s < MIN_BLUR_SHARE) {
         reasons.push(format!(
-            "blur explains {:.0}% of the LQ-GT error (< {:.0}%); the rest is geometry, shading or noise",
+            "blur explains {:.0}% of the lens's LQ-GT error (< {:.0}%); the rest is distortion or shading",
             100.0 * share,
             100.0 * MIN_BLUR_SHARE
         ));
