@@ -39,9 +39,12 @@ def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
 
 
 def make_dataset(root: Path, *, psf: bool = True, gt_is_lq: bool = False, pairs_per_split: int = 4,
-                 crop_px: int = 72, seed: int = 0) -> Path:
+                 crop_px: int = 72, seed: int = 0, misaligned: bool = False, checks: bool = True) -> Path:
     """Writes the folder and returns it. `gt_is_lq`: the GT files are copies of the LQ files (the
-    pitfall of a GT folder pointed at the degraded one). `psf=False`: no PSF tables."""
+    pitfall of a GT folder pointed at the degraded one). `psf=False`: no PSF tables. The pair rows
+    carry the checks of aligned pairs (blur explains the error), or with `misaligned` those of a
+    `--task full` wide angle (pixels 3 px apart, blur explains 10%); `checks=False`: none (an old
+    dataset)."""
     rng = np.random.default_rng(seed)
     root.mkdir(parents=True, exist_ok=True)
     lenses = [("lensA-000000000001", "train", (128, 96), 1.5), ("lensB-000000000002", "val", (100, 100), 2.5)]
@@ -83,9 +86,16 @@ def make_dataset(root: Path, *, psf: bool = True, gt_is_lq: bool = False, pairs_
                 "gt": f"{split}/gt/{pair_id}.png", "seed": i, "frame_px": [fw, fh], "scene_crop": [0, 0, fw, fh],
                 "crop": [x0, y0, crop_px, crop_px], "pixel_pitch_um": 2.0, "distortion": True, "illumination": True,
                 "isp_draw": {}, "psf": table, "fov": f"fov/{fw}x{fh}.npy",
+                "task": "full" if misaligned else "aligned",
             })
+            if checks:
+                error = float(np.mean((lq_codes / 255.0 - gt_codes / 255.0) ** 2))
+                pair_rows[-1].update({"lq_gt_psnr_db": round(10 * np.log10(1 / max(error, 1e-10)), 4),
+                                      "registration_px": 3.0 if misaligned else 0.05,
+                                      "blur_share": 0.1 if misaligned else 0.9})
     manifest = {"format": "unicac-dataset", "format_version": 1, "unicac_version": unicac.__version__,
-                "settings": {}, "seed": seed, "frame_px": [128, 96], "stratifications": [],
+                "settings": {}, "seed": seed, "task": "full" if misaligned else "aligned",
+                "comparable_by_ode_level": not misaligned, "frame_px": [128, 96], "stratifications": [],
                 "counts": {"lenses": {"train": 1, "val": 1}, "pairs": {"train": pairs_per_split, "val": pairs_per_split}}}
     (root / "dataset.json").write_text(json.dumps(manifest))
     (root / "lenses.jsonl").write_text("".join(json.dumps(r) + "\n" for r in lens_rows))

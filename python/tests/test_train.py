@@ -194,6 +194,29 @@ def test_gan_config_without_lpips_weights_names_the_fetch_command(tmp_path, data
 
 # -- data pitfalls --------------------------------------------------------------------------------
 
+def test_misaligned_training_pairs_are_refused_naming_the_lens_unless_allowed(tmp_path, capsys):
+    misaligned = make_dataset(tmp_path / "full", misaligned=True, pairs_per_split=1)
+    checks = DatasetFolder(misaligned).pair_checks("train")
+    assert checks["lensA-000000000001"]["flag"] and checks["lensA-000000000001"]["mean_registration_px"] == 3.0
+    args = ["train", "--model", "nafnet", "--dataset", str(misaligned), "--iters", "1", "--patch-px", "64"]
+    assert cli_main(args + ["--out", str(tmp_path / "refused")]) == 1
+    err = capsys.readouterr().err
+    assert "lensA-000000000001" in err and "3.00 px apart" in err and "--allow-misaligned" in err, err
+    assert not (tmp_path / "refused").exists()
+    assert cli_main(args + ["--out", str(tmp_path / "allowed"), "--allow-misaligned", "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "warning" in err and "lensA-000000000001" in err, err
+    recipe = json.loads((tmp_path / "allowed" / "run.json").read_text())
+    assert "lensA-000000000001" in json.dumps(recipe)
+
+
+def test_aligned_training_pairs_pass_the_alignment_check(tmp_path):
+    aligned = DatasetFolder(make_dataset(tmp_path / "aligned", pairs_per_split=1))
+    assert all(c["flag"] is None and c["checked"] == 1 for c in aligned.pair_checks("train").values())
+    old = DatasetFolder(make_dataset(tmp_path / "old", pairs_per_split=1, checks=False))
+    assert all(c["checked"] == 0 and c["mean_blur_share"] is None for c in old.pair_checks("train").values())
+
+
 def test_gt_folder_pointing_at_lq_is_refused(tmp_path):
     folder = DatasetFolder(make_dataset(tmp_path / "same", gt_is_lq=True, pairs_per_split=1))
     with pytest.raises(DatasetFolderError, match="ground-truth folder points at the degraded images"):

@@ -352,6 +352,13 @@ def _image_float(path: Path) -> np.ndarray:
     raise DatasetFolderError(f"{path}: expected an 8- or 16-bit sRGB image, got {codes.dtype}")
 
 
+# The pair checks of `pairs.jsonl` and the thresholds `unicac dataset info` flags a lens at
+# (crates/unicac-dataset/src/info.rs: MISREGISTERED_PX, MIN_BLUR_SHARE).
+PAIR_CHECK_FIELDS = ("lq_gt_psnr_db", "registration_px", "blur_share")
+MISREGISTERED_PX = 0.5
+MIN_BLUR_SHARE = 0.5
+
+
 class DatasetFolder:
     """A built dataset folder, read as numpy.
 
@@ -436,6 +443,33 @@ class DatasetFolder:
                 except (OSError, ValueError, KeyError, TypeError) as error:
                     raise DatasetFolderError(f"{path}: cannot read kernel_px ({error})") from error
         return max(sizes) if sizes else None
+
+    def pair_checks(self, split: str) -> dict[str, dict[str, Any]]:
+        """The pairs' recorded checks (docs/dataset.md, "Pair checks") averaged per lens of ``split``:
+        lens_id -> {pairs, checked, mean_lq_gt_psnr_db, mean_registration_px, mean_blur_share, flag}.
+        ``flag`` says why a lens's pairs are dominated by something other than blur (the thresholds of
+        ``unicac dataset info``: mean shift above MISREGISTERED_PX or blur share below MIN_BLUR_SHARE);
+        the means are None for a dataset built before pairs carried checks."""
+        by_lens: dict[str, list[dict[str, Any]]] = {}
+        for row in self.pairs(split):
+            by_lens.setdefault(str(row.get("lens_id")), []).append(row)
+        out: dict[str, dict[str, Any]] = {}
+        for lens_id, rows in sorted(by_lens.items()):
+            checked = [r for r in rows if all(isinstance(r.get(k), (int, float)) for k in PAIR_CHECK_FIELDS)]
+
+            def mean(key: str, checked: list[dict[str, Any]] = checked) -> Optional[float]:
+                return sum(float(r[key]) for r in checked) / len(checked) if checked else None
+
+            shift, share = mean("registration_px"), mean("blur_share")
+            reasons = []
+            if shift is not None and shift > MISREGISTERED_PX:
+                reasons.append(f"LQ and GT pixels are {shift:.2f} px apart (> {MISREGISTERED_PX})")
+            if share is not None and share < MIN_BLUR_SHARE:
+                reasons.append(f"blur explains {100 * share:.0f}% of the lens's LQ-GT error (< {100 * MIN_BLUR_SHARE:.0f}%)")
+            out[lens_id] = {"pairs": len(rows), "checked": len(checked), "mean_lq_gt_psnr_db": mean("lq_gt_psnr_db"),
+                            "mean_registration_px": shift, "mean_blur_share": share,
+                            "flag": "; ".join(reasons) or None}
+        return out
 
     def lenses(self) -> list[dict[str, Any]]:
         """Rows of ``lenses.jsonl`` (lens_id, split, level, ode, ...)."""

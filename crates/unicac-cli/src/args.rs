@@ -122,6 +122,10 @@ pub struct DatasetBuildArgs {
     pub no_illumination: bool,
     #[arg(long)]
     pub no_distortion: bool,
+    /// What a pair asks a model to undo: aligned (the GT carries the lens's distortion and shading,
+    /// so LQ and GT differ by blur and noise: what the ODE grades) or full (undistorted, unshaded GT).
+    #[arg(long, value_enum, default_value_t = PairTaskArg::Aligned)]
+    pub task: PairTaskArg,
     /// Standard deviation of the per-pair white-balance gain perturbation.
     #[arg(long, default_value_t = 0.1)]
     pub wb_jitter: f32,
@@ -320,6 +324,13 @@ pub struct SimulateArgs {
     /// field (top-right corner).
     #[arg(long)]
     pub crops: Option<PathBuf>,
+}
+
+/// `dataset build --task` (docs/dataset.md, "What a pair teaches").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PairTaskArg {
+    Aligned,
+    Full,
 }
 
 /// `simulate --format`.

@@ -1,7 +1,7 @@
 //! `unicac dataset info` and `plot`: what a built dataset holds, read back from its manifests.
 
 use crate::error::{DatasetError, Result};
-use crate::manifest::{Dataset, LensRow, Stratification};
+use crate::manifest::{Dataset, LensRow, PairRow, PairTask, Stratification};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -33,9 +33,75 @@ pub struct DatasetInfo {
     pub pairs: BTreeMap<String, usize>,
     pub edges: usize,
     pub levels: Vec<LevelInfo>,
+    /// What the pairs ask a model to undo, and whether the ODE levels order their difficulty.
+    pub task: PairTask,
+    pub comparable_by_ode_level: bool,
+    /// The pairs' checks by lens (lenses with pairs, in manifest order).
+    pub pair_checks: Vec<LensPairChecks>,
     /// Bytes of every file under the folder, and of the cache (`.cache`) among them.
     pub disk_bytes: u64,
     pub cache_bytes: u64,
+}
+
+/// A lens's pairs are flagged when their mean registration shift exceeds this (px): pixels of LQ
+/// and GT no longer correspond, so a model is taught to move pixels.
+pub const MISREGISTERED_PX: f64 = 0.5;
+/// ... or when blur explains less than this share of the lens's part of their error (the rest is
+/// the warp or the shading: not what the ODE grades).
+pub const MIN_BLUR_SHARE: f64 = 0.5;
+
+/// The mean checks of one lens's pairs (docs/dataset.md, "Pair checks").
+#[derive(Debug, Clone, Serialize)]
+pub struct LensPairChecks {
+    pub lens_id: String,
+    pub split: String,
+    pub level: Option<u32>,
+    pub ode: f64,
+    /// Pairs of the lens, and how many of them carry checks (all in a complete dataset).
+    pub pairs: usize,
+    pub checked: usize,
+    pub mean_lq_gt_psnr_db: Option<f64>,
+    pub mean_registration_px: Option<f64>,
+    pub mean_blur_share: Option<f64>,
+    /// Why the lens's pairs are dominated by something other than blur; None when they are not.
+    pub flag: Option<String>,
+}
+
+fn lens_pair_checks(lens: &LensRow, pairs: &[&PairRow]) -> LensPairChecks {
+    let checks: Vec<_> = pairs.iter().filter_map(|p| p.check).collect();
+    let mean = |value: fn(&crate::manifest::PairCheck) -> f64| {
+        (!checks.is_empty()).then(|| checks.iter().map(value).sum::<f64>() / checks.len() as f64)
+    };
+    let (psnr, shift, share) = (
+        mean(|c| c.lq_gt_psnr_db),
+        mean(|c| c.registration_px),
+        mean(|c| c.blur_share),
+    );
+    let mut reasons = Vec::new();
+    if let Some(shift) = shift.filter(|&s| s > MISREGISTERED_PX) {
+        reasons.push(format!(
+            "misregistered: LQ and GT pixels are {shift:.2} px apart (> {MISREGISTERED_PX})"
+        ));
+    }
+    if let Some(share) = share.filter(|&s| s < MIN_BLUR_SHARE) {
+        reasons.push(format!(
+            "blur explains {:.0}% of the lens's LQ-GT error (< {:.0}%); the rest is distortion or shading",
+            100.0 * share,
+            100.0 * MIN_BLUR_SHARE
+        ));
+    }
+    LensPairChecks {
+        lens_id: lens.lens_id.clone(),
+        split: lens.split.clone(),
+        level: lens.level,
+        ode: lens.ode,
+        pairs: pairs.len(),
+        checked: checks.len(),
+        mean_lq_gt_psnr_db: psnr,
+        mean_registration_px: shift,
+        mean_blur_share: share,
+        flag: (!reasons.is_empty()).then(|| reasons.join("; ")),
+    }
 }
 
 fn metric_of(row: &LensRow, metric: &str) -> f64 {
@@ -104,6 +170,13 @@ pub fn info(dir: &Path) -> Result<DatasetInfo> {
             });
         }
     }
+    let pair_checks = lenses
+        .iter()
+        .filter_map(|lens| {
+            let own: Vec<&PairRow> = pairs.iter().filter(|p| p.lens_id == lens.lens_id).collect();
+            (!own.is_empty()).then(|| lens_pair_checks(lens, &own))
+        })
+        .collect();
     let (disk_bytes, cache_bytes) = disk_usage(dir)?;
     Ok(DatasetInfo {
         dir: dir.display().to_string(),
@@ -117,6 +190,9 @@ pub fn info(dir: &Path) -> Result<DatasetInfo> {
         pairs: pair_counts,
         edges: edges.len(),
         levels,
+        task: dataset.manifest.task,
+        comparable_by_ode_level: dataset.manifest.comparable_by_ode_level,
+        pair_checks,
         disk_bytes,
         cache_bytes,
     })

@@ -83,6 +83,52 @@ pub struct IspRecord {
     pub read_noise_dn_at_base_iso: f32,
 }
 
+/// What a pair asks a model to undo (docs/dataset.md, "What a pair teaches").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PairTask {
+    /// The GT is the sharp scene carried through the lens's own distortion warp and shading, so LQ
+    /// and GT differ by the blur (and the noise) alone: what the ODE grades.
+    #[default]
+    Aligned,
+    /// The GT is the undistorted, unshaded scene: the model must also undo the geometry and the
+    /// fall-off, which the ODE does not grade (levels then do not order the pairs' difficulty).
+    Full,
+}
+
+impl PairTask {
+    pub fn name(self) -> &'static str {
+        match self {
+            PairTask::Aligned => "aligned",
+            PairTask::Full => "full",
+        }
+    }
+
+    /// Whether the ODE levels order the difficulty of the pairs (they grade blur alone).
+    pub fn comparable_by_ode_level(self) -> bool {
+        self == PairTask::Aligned
+    }
+
+    /// Datasets written before the task existed carried the geometry in the LQ only.
+    fn legacy() -> PairTask {
+        PairTask::Full
+    }
+}
+
+/// Sanity measurements of one rendered pair (docs/dataset.md, "Pair checks"), on the sRGB values
+/// of the crop before PNG quantisation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PairCheck {
+    /// PSNR of LQ against GT (peak 1).
+    pub lq_gt_psnr_db: f64,
+    /// Mean over tiles of the length of the best shift of the GT (blurred by the lens in its own
+    /// geometry) onto the LQ, on luminance (px).
+    pub registration_px: f64,
+    /// 1 - MSE(LQ', GT blurred by the lens) / MSE(LQ', GT), LQ' the LQ without noise, clamped to
+    /// [0, 1]: the share of the lens's part of the pair's error that its blur explains.
+    pub blur_share: f64,
+}
+
 /// One LQ/GT pair (`pairs.jsonl`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PairRow {
@@ -107,10 +153,16 @@ pub struct PairRow {
     pub pixel_pitch_um: f64,
     pub distortion: bool,
     pub illumination: bool,
+    /// What the GT holds: `aligned` (the lens's geometry too) or `full` (the undistorted scene).
+    #[serde(default = "PairTask::legacy")]
+    pub task: PairTask,
     pub isp_draw: IspRecord,
     /// The lens's PSF table folder and the frame's FoV map (relative paths).
     pub psf: String,
     pub fov: String,
+    /// Measured once the pair is rendered (every pair of a complete dataset has it).
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub check: Option<PairCheck>,
 }
 
 /// One slanted-edge patch of a test lens's ODE (`edges.jsonl`).
@@ -175,6 +227,13 @@ pub struct DatasetManifest {
     pub stratifications: Vec<Stratification>,
     /// Lenses per split, pairs per split, edge patches.
     pub counts: Counts,
+    /// What the pairs ask a model to undo (also in `settings`).
+    #[serde(default = "PairTask::legacy")]
+    pub task: PairTask,
+    /// Whether the ODE levels order the pairs' difficulty: false for `full` pairs, whose error is
+    /// dominated by geometry the ODE does not grade.
+    #[serde(default)]
+    pub comparable_by_ode_level: bool,
 }
 
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -376,6 +435,8 @@ mod tests {
             frame_px: [64, 48],
             stratifications: vec![],
             counts: Counts::default(),
+            task: PairTask::Aligned,
+            comparable_by_ode_level: true,
         }
     }
 

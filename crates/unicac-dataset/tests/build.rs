@@ -205,7 +205,14 @@ fn regenerate(dataset: &Dataset, pair: &PairRow) -> (Vec<u8>, Vec<u8>) {
     let [w, h] = sources::parse_size(parts[2]).unwrap();
     let scene = unicac_image::charts::dead_leaves(w, h, parts[1].parse().unwrap()).unwrap();
     let frame = sources::cut(&scene, pair.scene_crop);
-    let (lq, gt) = render::render_pair(&sim, &frame, pair).unwrap();
+    let rendered = render::render_pair(&sim, &frame, pair).unwrap();
+    assert_eq!(
+        Some(rendered.check),
+        pair.check,
+        "{}: the recorded checks",
+        pair.pair_id
+    );
+    let (lq, gt) = (rendered.lq, rendered.gt);
     let dir = scratch(&format!("regen-{}", pair.pair_id));
     std::fs::create_dir_all(&dir).unwrap();
     let encode = |image: &unicac_image::Planar, name: &str| {

@@ -263,8 +263,14 @@ impl LensSimulator {
         (longer / self.settings.node_intervals.max(1)).max(MIN_NODE_SPACING_PX)
     }
 
-    /// Simulates the lens on a linear RGB image of the prepared size.
+    /// Simulates the lens on a linear RGB image of the prepared size: `blur`, then `geometry`.
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
+        self.geometry(&self.blur(image)?)
+    }
+
+    /// The lens's spatially varying blur alone (no distortion, no shading), in the ideal image's
+    /// coordinates: what `apply` does before `geometry`.
+    pub fn blur(&self, image: &Planar) -> SimResult<Planar> {
         self.check_frame(image)?;
         let (w, h) = (self.grid.width_px, self.grid.height_px);
         let mut blurred = Planar::new(w, h, 3);
@@ -280,10 +286,18 @@ impl LensSimulator {
                 blurred.plane_mut(c),
             );
         }
+        Ok(blurred)
+    }
+
+    /// The lens's geometry alone on a frame-sized linear RGB image: the distortion warp and the
+    /// relative-illumination shading that `apply` puts after the blur (each only when switched on).
+    /// Carrying a sharp image through it gives the target whose pixels correspond to `apply`'s.
+    pub fn geometry(&self, image: &Planar) -> SimResult<Planar> {
+        self.check_frame(image)?;
         if !self.settings.distortion && !self.settings.illumination {
-            return Ok(blurred);
+            return Ok(image.clone());
         }
-        Ok(self.warp_and_shade(&blurred, self.frame(), self.frame()))
+        Ok(self.warp_and_shade(image, self.frame(), self.frame()))
     }
 
     /// The whole chain on one sharp linear image, as `unicac simulate` runs it: the ISP draw of `seed`

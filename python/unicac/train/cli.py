@@ -3,7 +3,7 @@
     unicac-train train --config CFG.yml --out RUN_DIR [--resume]
     unicac-train train --model NAME --dataset DIR --iters N --out RUN_DIR [--resume]
         [--patch-px N] [--batch N] [--time-budget-s S] [--device cpu|cuda|auto] [--amp ...]
-        [--init-from RUN] [--allow-small-patch] [--allow-small-receptive-field]
+        [--init-from RUN] [--allow-small-patch] [--allow-small-receptive-field] [--allow-misaligned]
     unicac-train train --resume --out RUN_DIR [--time-budget-s S]   (the run's own config)
     unicac-train export RUN_DIR --out MODEL.onnx
     unicac-train models [--json] [--receptive-field]
@@ -71,6 +71,7 @@ def _config_from_args(args: argparse.Namespace) -> dict[str, Any]:
         raise config_mod.ConfigError(f"--init-from: {args.init_from} is neither a run folder nor a checkpoint file")
     train["allow_small_patch"] = bool(args.allow_small_patch or train["allow_small_patch"])
     train["allow_small_receptive_field"] = bool(args.allow_small_receptive_field or train["allow_small_receptive_field"])
+    train["allow_misaligned"] = bool(args.allow_misaligned or train["allow_misaligned"])
     return config_mod.validate(config)
 
 
@@ -198,6 +199,8 @@ def parser() -> argparse.ArgumentParser:
                    "the dataset's largest PSF kernel")
     t.add_argument("--allow-small-receptive-field", action="store_true", help="warn instead of refusing a network "
                    "whose receptive field is narrower than the dataset's largest PSF kernel")
+    t.add_argument("--allow-misaligned", action="store_true", help="warn instead of refusing training pairs whose "
+                   "LQ-GT error is dominated by misregistration or shading rather than blur (dataset build --task full)")
     t.add_argument("--out", required=True, help="run folder (config, checkpoints, logs, curves)")
     t.add_argument("--resume", action="store_true", help="continue the run in --out from its latest checkpoint "
                    "(alone: with the run's own config)")

@@ -97,6 +97,9 @@ SCHEMA: dict[str, Any] = {
         # receptive field under it. Session settings: not part of the config hash.
         "allow_small_patch": _f(bool, False),
         "allow_small_receptive_field": _f(bool, False),
+        # Refuse (false) or only warn (true): training pairs whose LQ-GT error is dominated by
+        # misregistration or shading rather than blur (the pairs' checks, docs/dataset.md).
+        "allow_misaligned": _f(bool, False),
         "optim": {
             "type": _f(str, "AdamW", choices=("Adam", "AdamW")),
             "lr": _f((float, int), 1e-3, low=0, high=1),
@@ -266,7 +269,7 @@ def shipped(model: str) -> Path:
 
 
 #: Settings of one session, not of the run: a resumed run may change them (left out of the hash).
-SESSION_KEYS = ("time_budget_s", "allow_small_patch", "allow_small_receptive_field")
+SESSION_KEYS = ("time_budget_s", "allow_small_patch", "allow_small_receptive_field", "allow_misaligned")
 
 
 def without_session(config: dict[str, Any]) -> dict[str, Any]:

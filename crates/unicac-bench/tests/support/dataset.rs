@@ -152,6 +152,7 @@ pub fn write(dir: &Path, test_split: bool) {
                 pixel_pitch_um: 2.0,
                 distortion: false,
                 illumination: false,
+                task: unicac_dataset::manifest::PairTask::Aligned,
                 isp_draw: IspRecord {
                     white_balance_gains: [1.0; 3],
                     white_balance_jitter: 0.0,
@@ -167,6 +168,7 @@ pub fn write(dir: &Path, test_split: bool) {
                 },
                 psf: psf_rel.clone(),
                 fov: fov_rel.clone(),
+                check: None,
             });
         }
         if test_split {
@@ -233,6 +235,8 @@ pub fn write(dir: &Path, test_split: bool) {
             edges: edges.len(),
             ..Counts::default()
         },
+        task: unicac_dataset::manifest::PairTask::Aligned,
+        comparable_by_ode_level: true,
     };
     write_json(&dir.join("dataset.json"), &manifest).unwrap();
 }

@@ -1,11 +1,11 @@
 //! `unicac dataset build|info|plot` (docs/dataset.md).
 
-use crate::args::{DatasetBuildArgs, DatasetInfoArgs, DatasetPlotArgs};
+use crate::args::{DatasetBuildArgs, DatasetInfoArgs, DatasetPlotArgs, PairTaskArg};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::sync::Mutex;
-use unicac_dataset::build::{self, sources::parse_size, BuildSettings, Progress, Shard};
+use unicac_dataset::build::{self, sources::parse_size, BuildSettings, PairTask, Progress, Shard};
 
 /// A bar per stage on a terminal (pairs/s and ETA); notes only otherwise.
 struct Bar {
@@ -67,6 +67,10 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     settings.noise = !args.no_noise;
     settings.illumination = !args.no_illumination;
     settings.distortion = !args.no_distortion;
+    settings.task = match args.task {
+        PairTaskArg::Aligned => PairTask::Aligned,
+        PairTaskArg::Full => PairTask::Full,
+    };
     settings.white_balance_jitter = args.wb_jitter;
     settings.iso = args.iso;
     settings.bit_depth = args.bit_depth;
@@ -173,6 +177,7 @@ pub fn info(args: &DatasetInfoArgs) -> Result<()> {
             level.ode_range[1]
         );
     }
+    print_pair_checks(&info);
     println!(
         "disk: {:.1} MB ({:.1} MB cache)",
         info.disk_bytes as f64 / 1e6,
@@ -180,6 +185,45 @@ pub fn info(args: &DatasetInfoArgs) -> Result<()> {
     );
     println!("each lens's recorded ODE is what `{ode_command}` prints (LENS: its `source` in lenses.jsonl)");
     Ok(())
+}
+
+/// The task and, per lens, the mean pair PSNR next to its ODE, with the lenses whose pairs are
+/// dominated by something other than blur flagged (thresholds in `unicac_dataset::info`).
+fn print_pair_checks(info: &unicac_dataset::info::DatasetInfo) {
+    println!(
+        "task: {}{}",
+        info.task.name(),
+        if info.comparable_by_ode_level {
+            ""
+        } else {
+            " (the GT is undistorted and unshaded: ODE levels, which grade blur alone, do not order these pairs)"
+        }
+    );
+    println!(
+        "{:<32} {:<5} {:>5} {:>7} {:>5} {:>9} {:>8} {:>10}  flag",
+        "lens", "split", "level", "ODE", "pairs", "PSNR dB", "shift px", "blur share"
+    );
+    let number = |v: Option<f64>, digits: usize| v.map_or("-".to_string(), |v| format!("{v:.digits$}"));
+    for lens in &info.pair_checks {
+        println!(
+            "{:<32} {:<5} {:>5} {:>7.4} {:>5} {:>9} {:>8} {:>10}  {}",
+            lens.lens_id,
+            lens.split,
+            lens.level.map_or("-".to_string(), |l| l.to_string()),
+            lens.ode,
+            lens.pairs,
+            number(lens.mean_lq_gt_psnr_db, 2),
+            number(lens.mean_registration_px, 2),
+            number(lens.mean_blur_share, 3),
+            lens.flag.as_deref().unwrap_or("")
+        );
+    }
+    let flagged = info.pair_checks.iter().filter(|l| l.flag.is_some()).count();
+    println!(
+        "{flagged} lens(es) flagged: mean shift > {} px or blur share < {} (docs/dataset.md, \"Pair checks\")",
+        unicac_dataset::info::MISREGISTERED_PX,
+        unicac_dataset::info::MIN_BLUR_SHARE
+    );
 }
 
 /// The `unicac ode` command that grades a lens as the dataset did: on the CPU, as builds grade (a GPU

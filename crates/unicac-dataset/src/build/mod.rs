@@ -17,6 +17,7 @@
 pub mod claim;
 mod duplicates;
 pub mod grading;
+pub mod pair_check;
 mod placement;
 pub mod render;
 pub mod sources;
@@ -24,8 +25,8 @@ pub mod stratify;
 
 use crate::error::{DatasetError, Result};
 use crate::manifest::{
-    self, Counts, DatasetManifest, EdgeRow, LensRow, PairRow, DATASET_JSON, EDGES_JSONL, LENSES_CSV,
-    LENSES_JSONL, PAIRS_JSONL, SPLITS,
+    self, Counts, DatasetManifest, EdgeRow, LensRow, PairCheck, PairRow, DATASET_JSON, EDGES_JSONL,
+    LENSES_CSV, LENSES_JSONL, PAIRS_JSONL, SPLITS,
 };
 use crate::seeds::{below, derive_seed};
 use grading::{BuildSensor, Grade, GradeCache};
@@ -39,6 +40,8 @@ use unicac_image::io::SampleDepth;
 use unicac_image::isp::Pipeline;
 use unicac_image::Planar;
 use unicac_optics::Lens;
+
+pub use crate::manifest::PairTask;
 
 /// Every option that decides the dataset's content (recorded as `settings` in `dataset.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -68,6 +71,9 @@ pub struct BuildSettings {
     pub iso: f32,
     pub distortion: bool,
     pub illumination: bool,
+    /// What a pair asks a model to undo: `aligned` (blur; the GT carries the lens's geometry) or
+    /// `full` (blur, distortion and shading).
+    pub task: PairTask,
     /// 8 or 16 (PNG sample depth of the pairs).
     pub bit_depth: u8,
 }
@@ -107,6 +113,7 @@ impl BuildSettings {
             iso: 100.0,
             distortion: true,
             illumination: true,
+            task: PairTask::Aligned,
             bit_depth: 8,
         }
     }
@@ -507,9 +514,11 @@ pub fn build(
             let scene = all_scenes[pair.image_id.as_str()];
             let image = scene_cache.get(scene)?;
             let frame = sources::cut(&image, pair.scene_crop);
-            let (lq, gt) = render::render_pair(&sim, &frame, pair)?;
-            write_png(&out.join(&pair.gt), &gt, depth)?;
-            write_png(&out.join(&pair.lq), &lq, depth)?;
+            let rendered = render::render_pair(&sim, &frame, pair)?;
+            write_png(&out.join(&pair.gt), &rendered.gt, depth)?;
+            write_png(&out.join(&pair.lq), &rendered.lq, depth)?;
+            // Last: its presence marks the pair complete.
+            manifest::write_json(&out.join(check_relative(pair)), &rendered.check)?;
             progress.advance(1);
             Ok(())
         })?;
@@ -543,6 +552,9 @@ pub fn build(
             fit_psf_basis(out, &plan.lenses)?.write(&basis_dir)?;
             progress.advance(1);
         }
+        // pairs.jsonl with every pair's checks (the manifests this run wrote at its start lacked the
+        // pairs it rendered).
+        write_manifests(out, &plan)?;
         manifest::write_json(&out.join(DATASET_JSON), &plan.manifest)?;
     }
     Ok(report)
@@ -625,9 +637,11 @@ fn make_plan(
             pixel_pitch_um: lens.pixel_pitch_um,
             distortion: settings.distortion,
             illumination: settings.illumination,
+            task: settings.task,
             isp_draw: render::isp_record(&pipeline, &draw),
             psf: lens.psf.clone(),
             fov: fov.clone(),
+            check: None,
         })
     };
     let mut pairs = Vec::new();
@@ -720,6 +734,8 @@ fn make_plan(
         frame_px,
         stratifications: assignment.stratifications.clone(),
         counts,
+        task: settings.task,
+        comparable_by_ode_level: settings.task.comparable_by_ode_level(),
     };
     Ok(Plan {
         frame_px,
@@ -851,7 +867,10 @@ fn write_manifests(out: &Path, plan: &Plan) -> Result<()> {
     let mut files: Vec<(String, Vec<u8>)> = vec![
         (LENSES_JSONL.into(), manifest::jsonl_bytes(&plan.lenses)),
         (LENSES_CSV.into(), manifest::lenses_csv(&plan.lenses)),
-        (PAIRS_JSONL.into(), manifest::jsonl_bytes(&plan.pairs)),
+        (
+            PAIRS_JSONL.into(),
+            manifest::jsonl_bytes(&with_checks(out, &plan.pairs)?),
+        ),
         (EDGES_JSONL.into(), manifest::jsonl_bytes(&plan.edges)),
     ];
     for split in SPLITS {
@@ -892,7 +911,35 @@ pub fn fit_psf_basis(out: &Path, lenses: &[LensRow]) -> Result<crate::PsfBasis> 
 }
 
 fn pair_complete(out: &Path, pair: &PairRow) -> bool {
-    out.join(&pair.lq).exists() && out.join(&pair.gt).exists()
+    out.join(&pair.lq).exists() && out.join(&pair.gt).exists() && out.join(check_relative(pair)).exists()
+}
+
+/// `SPLIT/check/PAIR_ID.json`: the pair's checks, written when it is rendered and gathered into
+/// `pairs.jsonl` by every run (all of them by the run that completes the dataset).
+pub fn check_relative(pair: &PairRow) -> String {
+    format!("{}/check/{}.json", pair.split, pair.pair_id)
+}
+
+/// The plan's pair rows with the checks of the pairs rendered so far.
+fn with_checks(out: &Path, pairs: &[PairRow]) -> Result<Vec<PairRow>> {
+    pairs
+        .iter()
+        .map(|pair| {
+            let path = out.join(check_relative(pair));
+            let check = match std::fs::read(&path) {
+                Ok(bytes) => Some(
+                    serde_json::from_slice::<PairCheck>(&bytes)
+                        .map_err(|e| DatasetError::format(&path, e.to_string()))?,
+                ),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+                Err(e) => return Err(DatasetError::io(&path, e)),
+            };
+            Ok(PairRow {
+                check,
+                ..pair.clone()
+            })
+        })
+        .collect()
 }
 
 fn dataset_complete(out: &Path, plan: &Plan) -> bool {

@@ -2,9 +2,10 @@
 //! Each is a pure function of its manifest row (and the lens), so a resumed or sharded build, or a
 //! reader checking a pair, recomputes exactly the stored bytes.
 
+use crate::build::pair_check;
 use crate::build::sources::cut;
 use crate::error::{DatasetError, Result};
-use crate::manifest::{IspRecord, PairRow};
+use crate::manifest::{IspRecord, PairCheck, PairRow, PairTask};
 use crate::psf_table::{PsfTable, PsfTableMeta, TABLE_FORMAT};
 use unicac_image::isp::{IspDraw, Pipeline, SensorNoise};
 use unicac_image::Planar;
@@ -65,10 +66,19 @@ pub fn isp_record(pipeline: &Pipeline, draw: &IspDraw) -> IspRecord {
     }
 }
 
-/// The (LQ, GT) images of a pair, sRGB-encoded in [0, 1], cut to the row's crop. `frame` is the
-/// scene already cut to the sensor frame (linear light). GT goes through the same ISP draw as LQ
-/// (white balance, mosaic and demosaic, tone) without the lens and without noise.
-pub fn render_pair(sim: &LensSimulator, frame: &Planar, row: &PairRow) -> Result<(Planar, Planar)> {
+/// A rendered pair: the images as written (sRGB in [0, 1], cut to the row's crop) and their checks.
+pub struct RenderedPair {
+    pub lq: Planar,
+    pub gt: Planar,
+    pub check: PairCheck,
+}
+
+/// The LQ/GT images of a pair. `frame` is the scene already cut to the sensor frame (linear light).
+/// LQ: the lens (blur, then its geometry: distortion warp and shading), sensor noise and the ISP.
+/// GT: the same ISP draw (white balance, mosaic and demosaic, tone) without the blur and without
+/// noise, on the scene carried through the lens's geometry (`aligned`) or on the scene itself
+/// (`full`); the geometry is the simulator's own, so both tasks warp with one implementation.
+pub fn render_pair(sim: &LensSimulator, frame: &Planar, row: &PairRow) -> Result<RenderedPair> {
     let pipeline = pipeline(&row.isp_draw, row.isp_draw.white_balance_jitter);
     let draw = pipeline.draw(row.seed).map_err(image_error(&row.pair_id))?;
     let recorded = row.isp_draw.white_balance_gains;
@@ -80,12 +90,12 @@ pub fn render_pair(sim: &LensSimulator, frame: &Planar, row: &PairRow) -> Result
             row.pair_id
         )));
     }
+    let sim_error = |e: unicac_sim::SimError| DatasetError::Invalid(format!("pair {}: {e}", row.pair_id));
     let raw = pipeline
         .unprocess(frame, &draw)
         .map_err(image_error(&row.pair_id))?;
-    let through_lens = sim
-        .apply(&raw)
-        .map_err(|e| DatasetError::Invalid(format!("pair {}: {e}", row.pair_id)))?;
+    let blurred = sim.blur(&raw).map_err(sim_error)?;
+    let through_lens = sim.geometry(&blurred).map_err(sim_error)?;
     let lq = pipeline
         .process(&through_lens, &draw)
         .map_err(image_error(&row.pair_id))?;
@@ -97,10 +107,22 @@ pub fn render_pair(sim: &LensSimulator, frame: &Planar, row: &PairRow) -> Result
         no_noise: true,
         ..pipeline
     };
-    let gt = gt_pipeline
-        .process(&raw, &clean)
-        .map_err(image_error(&row.pair_id))?;
-    Ok((cut(&lq, row.crop), cut(&gt, row.crop)))
+    let finish = |linear: &Planar| -> Result<Planar> {
+        let image = gt_pipeline
+            .process(linear, &clean)
+            .map_err(image_error(&row.pair_id))?;
+        Ok(cut(&image, row.crop))
+    };
+    // The GT, and the GT with the lens blur put in (what blur alone makes of it: the reference of
+    // `blur_share`); for aligned pairs that is the noiseless LQ itself, the same chain.
+    let lq_clean = finish(&through_lens)?;
+    let (gt, gt_blurred) = match row.task {
+        PairTask::Aligned => (finish(&sim.geometry(&raw).map_err(sim_error)?)?, lq_clean.clone()),
+        PairTask::Full => (finish(&raw)?, finish(&blurred)?),
+    };
+    let lq = cut(&lq, row.crop);
+    let check = pair_check::measure(&lq, &lq_clean, &gt, &gt_blurred);
+    Ok(RenderedPair { lq, gt, check })
 }
 
 fn image_error(what: &str) -> impl Fn(unicac_image::ImageError) -> DatasetError + '_ {

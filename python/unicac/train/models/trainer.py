@@ -17,7 +17,10 @@ deterministic kernel warn instead of failing, so equality there is not promised.
 
 Checks before the first iteration (docs/models.md): a patch smaller than twice the dataset's largest
 PSF kernel, or a network whose receptive field is narrower than that kernel, is refused (with
-`train.allow_small_patch` / `train.allow_small_receptive_field`: a warning).
+`train.allow_small_patch` / `train.allow_small_receptive_field`: a warning). Training pairs whose
+LQ-GT error is dominated by misregistration or shading rather than blur (their recorded checks,
+docs/dataset.md "Pair checks": a `dataset build --task full` set of a distorting lens) are refused,
+naming the lenses (with `train.allow_misaligned`: a warning).
 
 Device: `train.device` (auto = cuda when available), mixed precision `train.amp` (auto = bf16 on a
 GPU that has it, else fp16 with a gradient scaler; off on CPU) and `train.channels_last` (auto = on
@@ -280,13 +283,14 @@ class Trainer:
             "patch_px": patch, "batch_size": data["batch_size"], "total_iter": train["total_iter"],
             "device": str(self.device), "amp": str(self.amp_dtype).replace("torch.", "") if self.amp_dtype else "off",
             "channels_last": self.channels_last, "largest_kernel_px": None, "receptive_field_px": None,
-            "receptive_field_exact": None, "psf_basis_sha256": None,
+            "receptive_field_exact": None, "psf_basis_sha256": None, "pair_checks": None,
         }
         if "psf_code" in self.net.needs and data["type"] == "unicac":
             recipe["psf_basis_sha256"] = self.train_set.folder.psf_basis()["sha256"]
         if data["type"] != "unicac":
             return recipe  # on-the-fly lenses: their kernels are not known before they are traced
         folder = self.train_set.folder
+        recipe["pair_checks"] = self._check_alignment(folder, data["split"])
         kernel = folder.largest_kernel_px(data["split"])
         if kernel is None:
             return recipe
@@ -313,6 +317,34 @@ class Trainer:
                 raise config_mod.ConfigError(message + " (--allow-small-receptive-field trains anyway)")
             _warn(message)
         return recipe
+
+    def _check_alignment(self, folder: Any, split: str) -> dict[str, Any]:
+        """The training pairs' input-vs-target error from their recorded checks; refuses (or warns with
+        `train.allow_misaligned`) when a lens's pairs are dominated by misregistration or shading."""
+        checks = folder.pair_checks(split)
+        measured = [c for c in checks.values() if c["checked"]]
+        summary: dict[str, Any] = {
+            "task": folder.manifest.get("task", "full"),
+            "lenses": len(checks),
+            "measured_lenses": len(measured),
+            "mean_lq_gt_psnr_db": (sum(c["mean_lq_gt_psnr_db"] for c in measured) / len(measured)) if measured else None,
+            "flagged": sorted(lens for lens, c in checks.items() if c["flag"]),
+        }
+        if not measured:
+            _warn(f"{folder.root}/pairs.jsonl: the {split} pairs carry no checks (a dataset built before they were "
+                  "recorded): whether input and target correspond pixel for pixel is not known")
+            return summary
+        if summary["flagged"]:
+            named = "; ".join(f"{lens}: {checks[lens]['flag']}" for lens in summary["flagged"][:5])
+            more = len(summary["flagged"]) - 5
+            message = (f"{folder.root}: the {split} pairs of {len(summary['flagged'])} of {len(checks)} lenses differ by "
+                       f"more than blur ({named}{f'; and {more} more' if more > 0 else ''}); a model trained on them "
+                       "learns to move and brighten pixels, not to remove blur: rebuild with `unicac dataset build "
+                       "--task aligned`")
+            if not self.config["train"]["allow_misaligned"]:
+                raise config_mod.ConfigError(message + " (--allow-misaligned trains anyway)")
+            _warn(message)
+        return summary
 
     # -- state -----------------------------------------------------------------------------------
 
