@@ -154,3 +154,23 @@ def test_torch_iterable_dataset_with_workers(generator):
     first = next(b for b in batches if 0 in [int(i) for i in b["index"]])
     row = [int(i) for i in first["index"]].index(0)
     np.testing.assert_array_equal(first["degraded"][row].numpy(), to_chw(fixed.pair(0)["degraded"]))
+
+
+def _psnr_db(a: np.ndarray, b: np.ndarray) -> float:
+    return float(10 * np.log10(1.0 / np.mean((a.astype(np.float64) - b) ** 2)))
+
+
+def test_aligned_pairs_of_a_distorting_lens_differ_by_blur_and_full_ones_do_not():
+    """Issue 30 on the fly: the 100-degree wide angle (-33% distortion at the corner, strong fall-off) is
+    nearly sharp, so its aligned pairs are close; with `task="full"` the target is the undistorted,
+    unshaded scene and the same patches are far apart."""
+    from pathlib import Path
+
+    lens = str(Path(__file__).resolve().parents[2] / "lenses" / "wide_angle_100.json")
+    psnr = {}
+    for task in ("aligned", "full"):
+        generator = PairGenerator([lens], patch_px=48, frame_px=(192, 144), seed=3, isp=False, noise=False, task=task)
+        psnr[task] = np.mean([_psnr_db(p["degraded"], p["sharp"]) for p in map(generator.pair, range(6))])
+    assert psnr["aligned"] > 25.0 and psnr["aligned"] > psnr["full"] + 5.0, psnr
+    with pytest.raises(ValueError, match="task: 'undistort' is not one of"):
+        PairGenerator([lens], task="undistort")

@@ -39,6 +39,8 @@ from . import _native
 
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".exr")
 CHART_KINDS = ("dead-leaves", "checkerboard", "slanted-edge", "siemens-star")
+# What a pair asks a model to undo (as `unicac dataset build --task`; docs/dataset.md).
+PAIR_TASKS = ("aligned", "full")
 _SEED_BOUND = 2**63
 
 LensLike = Union[str, "os.PathLike[str]", _native.Lens]
@@ -64,6 +66,12 @@ class PairGenerator:
         seed: base seed; pair ``index`` depends on ``(seed, index)`` only.
         charts: chart kinds drawn from when ``images`` is None.
         isp, noise: switches of the sensor/ISP chain (as ``unicac simulate --no-isp/--no-noise``).
+        task: what a pair asks a model to undo, as ``unicac dataset build --task``: ``"aligned"`` (the
+            default) renders the patch without the lens's distortion warp and shading, so degraded and
+            target differ by blur and noise only (a built dataset's aligned pairs carry the warp and the
+            shading in both; here they are left out of both, which aligns the pixels alike);
+            ``"full"`` warps and shades the degraded patch only (the target is the undistorted,
+            unshaded scene: the model must also undistort and de-shade).
         pixel_um: sensor pixel pitch; None makes each lens's field fill the frame's half-diagonal.
         with_field_map: add ``"field_map"`` (float32 P x P x 3: x / half-diagonal, y / half-diagonal,
             field angle in degrees) to each pair.
@@ -85,6 +93,7 @@ class PairGenerator:
         charts: Sequence[str] = ("dead-leaves",),
         isp: bool = True,
         noise: bool = True,
+        task: str = "aligned",
         pixel_um: Optional[float] = None,
         with_field_map: bool = False,
         with_psf: bool = False,
@@ -98,6 +107,8 @@ class PairGenerator:
             raise ValueError(f"patch_px: {patch_px} must be positive and fit in frame_px {frame_px}")
         if psf_px is not None and (psf_px < 1 or psf_px % 2 == 0):
             raise ValueError(f"psf_px: {psf_px} must be a positive odd number")
+        if task not in PAIR_TASKS:
+            raise ValueError(f"task: '{task}' is not one of {PAIR_TASKS}")
         if images is None and not charts:
             raise ValueError("charts: give at least one chart kind when images is None")
         for kind in charts:
@@ -113,6 +124,7 @@ class PairGenerator:
         self.charts = tuple(charts)
         self.isp = bool(isp)
         self.noise = bool(noise)
+        self.task = task
         self.pixel_um = pixel_um
         self.with_field_map = bool(with_field_map)
         self.with_psf = bool(with_psf)
@@ -135,7 +147,9 @@ class PairGenerator:
             return cached
         lens = _native.load_lens(self.lens_sources[lens_index])
         width, height = self.frame_px
-        simulator = _native.Simulator(lens, width, height, pixel_um=self.pixel_um)
+        geometry = self.task == "full"  # aligned: neither the warp nor the shading, in either image
+        simulator = _native.Simulator(lens, width, height, pixel_um=self.pixel_um, distortion=geometry,
+                                      illumination=geometry)
         field_map = None
         if self.with_field_map:
             field_map = simulator.field_map()

@@ -59,6 +59,8 @@ _DATA = {
     "frame_px": _f(list, [256, 192], items=(int,)),  # [width, height], 16..MAX_FRAME_SIDE_PX each
     "isp": _f(bool, True),
     "noise": _f(bool, True),
+    # onthefly: what a pair asks the model to undo (as `unicac dataset build --task`).
+    "task": _f(str, "aligned", choices=("aligned", "full")),
     "seed": _f(int, 0, low=0, high=2**63 - 1),
     "patch_px": _f(int, 64, low=16, high=4096),
     "batch_size": _f(int, 4, low=1, high=1024),

@@ -169,7 +169,7 @@ def _generator(options: dict[str, Any], split_key: str, seed: int, patch: int) -
     try:
         return PairGenerator(
             options["lenses"], options["images"], patch_px=patch, frame_px=tuple(options["frame_px"]), seed=seed,
-            charts=options["charts"], isp=options["isp"], noise=options["noise"],
+            charts=options["charts"], isp=options["isp"], noise=options["noise"], task=options["task"],
         )
     except ValueError as error:  # names the generator's argument, which is the config key below datasets.SPLIT
         raise DatasetFolderError(f"datasets.{split_key}.{error}") from error
