@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use unicac_dataset::manifest::Dataset;
+use unicac_dataset::folder::Dataset;
 use unicac_dataset::{FrameCrop, PairRow, PsfTable};
 use unicac_image::io::{read_image, write_png, SampleDepth};
 use unicac_image::Planar;

@@ -1,7 +1,8 @@
 //! `unicac dataset info` and `plot`: what a built dataset holds, read back from its manifests.
 
 use crate::error::{DatasetError, Result};
-use crate::manifest::{Dataset, LensRow, PairRow, PairTask, Stratification};
+use crate::folder::Dataset;
+use crate::manifest::{LensRow, PairRow, PairTask, Stratification};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -5,6 +5,8 @@
 //!
 //! - `manifest`: the rows of `lenses.jsonl`, `pairs.jsonl`, `edges.jsonl` and `dataset.json`, with
 //!   readers that check the format version and writers;
+//! - `folder`: an opened dataset folder whose manifests are checked against `dataset.json`'s counts
+//!   (`row_counts`) when read;
 //! - `psf_table`: per-lens radial PSF tables (`psf/LENS_ID/kernels.npy` + `table.json`) and the
 //!   PSF-feature map of docs/models.md;
 //! - `psf_basis`: the dataset's PCA basis of its PSF kernels (`psf/basis/`) and the `psf_code` map of
@@ -15,6 +17,7 @@
 
 pub mod build;
 pub mod error;
+pub mod folder;
 pub mod fov;
 pub mod info;
 

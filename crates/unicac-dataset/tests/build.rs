@@ -5,7 +5,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use unicac_dataset::build::{self, render, sources, BuildSettings, Shard, Silent};
-use unicac_dataset::manifest::{Dataset, PairRow};
+use unicac_dataset::folder::Dataset;
+use unicac_dataset::manifest::PairRow;
 
 // The singlet's PSF exceeds a 64 x 48 frame: it serves as the lens that fails below.
 const LENSES: [&str; 6] = [

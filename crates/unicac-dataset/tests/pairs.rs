@@ -5,8 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use unicac_dataset::build::{self, BuildSettings, PairTask, Shard, Silent};
+use unicac_dataset::folder::Dataset;
 use unicac_dataset::info::{info, MIN_BLUR_SHARE, MISREGISTERED_PX};
-use unicac_dataset::manifest::{Dataset, PairRow};
+use unicac_dataset::manifest::PairRow;
 
 /// Laikin's 100-degree retrofocus (lenses/wide_angle_100.json: strong barrel distortion and
 /// fall-off) among two bundled lenses.
