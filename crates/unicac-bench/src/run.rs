@@ -839,16 +839,9 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
         let psf_code = match (&edge_table, needs_code_map) {
             (Some(table), true) => {
                 let codes = codes_for(table, &edge.lens_id);
-                let mut p = Planar::new(lq.width, lq.height, unicac_dataset::PSF_CODE_CHANNELS);
-                for row in 0..lq.height {
-                    for column in 0..lq.width {
-                        let (x, y) = position(row, column);
-                        for (c, v) in codes.at(x, y).iter().enumerate() {
-                            p.set(c, column, row, *v);
-                        }
-                    }
-                }
-                Some(p)
+                Some(per_pixel_map(lq.width, lq.height, &position, |x, y| {
+                    codes.at(x, y)
+                }))
             }
             _ => None,
         };
@@ -869,16 +862,9 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
         let psf = if needs_psf_map {
             let table = edge_table.clone().expect("PSF table loaded");
             let features = table.features();
-            let mut p = Planar::new(lq.width, lq.height, unicac_dataset::PSF_FEATURES);
-            for row in 0..lq.height {
-                for column in 0..lq.width {
-                    let (x, y) = position(row, column);
-                    for (c, v) in features.at(x, y).iter().enumerate() {
-                        p.set(c, column, row, *v);
-                    }
-                }
-            }
-            Some(p)
+            Some(per_pixel_map(lq.width, lq.height, &position, |x, y| {
+                features.at(x, y)
+            }))
         } else {
             None
         };
@@ -990,4 +976,24 @@ fn wiener_input<'a>(contract: &ModelContract, estimates: &'a BTreeMap<u64, Plana
 fn lenses_half_diagonal(pairs: &[PairRow]) -> f64 {
     let [w, h] = pairs[0].frame_px;
     0.5 * (w as f64).hypot(h as f64)
+}
+
+/// A `width` x `height` map of `N` channels whose pixel (row, column) holds `value` at the pixel's
+/// normalised field position (`position`): the PSF-code and PSF-feature inputs of an edge patch.
+fn per_pixel_map<const N: usize>(
+    width: usize,
+    height: usize,
+    position: &impl Fn(usize, usize) -> (f64, f64),
+    value: impl Fn(f64, f64) -> [f32; N],
+) -> Planar {
+    let mut map = Planar::new(width, height, N);
+    for row in 0..height {
+        for column in 0..width {
+            let (x, y) = position(row, column);
+            for (c, v) in value(x, y).into_iter().enumerate() {
+                map.set(c, column, row, v);
+            }
+        }
+    }
+    map
 }
