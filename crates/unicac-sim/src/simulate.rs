@@ -265,7 +265,11 @@ impl LensSimulator {
 
     /// Simulates the lens on a linear RGB image of the prepared size: `blur`, then `geometry`.
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
-        self.geometry(&self.blur(image)?)
+        let blurred = self.blur(image)?;
+        if !self.moves_or_shades() {
+            return Ok(blurred); // no copy of a frame that `geometry` would hand back unchanged
+        }
+        self.geometry(&blurred)
     }
 
     /// The lens's spatially varying blur alone (no distortion, no shading), in the ideal image's
@@ -294,10 +298,15 @@ impl LensSimulator {
     /// Carrying a sharp image through it gives the target whose pixels correspond to `apply`'s.
     pub fn geometry(&self, image: &Planar) -> SimResult<Planar> {
         self.check_frame(image)?;
-        if !self.settings.distortion && !self.settings.illumination {
+        if !self.moves_or_shades() {
             return Ok(image.clone());
         }
         Ok(self.warp_and_shade(image, self.frame(), self.frame()))
+    }
+
+    /// Whether `geometry` changes an image: the distortion warp or the shading is switched on.
+    fn moves_or_shades(&self) -> bool {
+        self.settings.distortion || self.settings.illumination
     }
 
     /// The whole chain on one sharp linear image, as `unicac simulate` runs it: the ISP draw of `seed`
@@ -427,7 +436,7 @@ impl LensSimulator {
                 blurred.plane_mut(c),
             );
         }
-        if !self.settings.distortion && !self.settings.illumination {
+        if !self.moves_or_shades() {
             return Ok(crop(
                 &blurred,
                 PixelWindow {
