@@ -41,8 +41,10 @@ fi
 # crops, only warn).
 # The zoo (docs/models.md): each prior model next to its equal-size control; nafnet before nafnet-gan,
 # which fine-tunes it.
-zoo=(nafnet nafnet-fov nafnet-psf nafnet-psf-control nafnet-psf-moments nafnet-psf-blind nafnet-psf-blind-control
-  wiener-nafnet restormer nafnet-gan)
+# Ordered by what the claims need first (training resumes across sessions): the plain model, the dense
+# prior and its control, physics plus learning, then the ablations, the blind pair, restormer and the GAN.
+zoo=(nafnet nafnet-psf nafnet-psf-control wiener-nafnet nafnet-fov nafnet-psf-moments nafnet-psf-blind
+  nafnet-psf-blind-control restormer nafnet-gan)
 case "$scale" in
   tiny)
     grid=(--grid-elements 1,2,3 --grid-half-fov-deg 20,30 --grid-f-numbers 4 --grid-stops middle)
