@@ -31,6 +31,7 @@ pub(super) fn decode(path: &Path, bytes: &[u8]) -> Result<LoadedImage> {
     let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
         .map_err(|e| decode_error(e.to_string()))?;
     for header in meta.headers.iter() {
+        check_declared_size_fits_the_file(header, bytes.len()).map_err(decode_error)?;
         let samples = header
             .layer_size
             .0
@@ -95,6 +96,59 @@ pub(super) fn decode(path: &Path, bytes: &[u8]) -> Result<LoadedImage> {
         encoding: Encoding::Linear,
         channel_names,
     })
+}
+
+/// Most uncompressed bytes one stored byte can expand to under each OpenEXR compression, a bound no
+/// valid file exceeds: RLE stores a run of at most 128 bytes in 2; deflate (ZIP, PXR24 after its 24-bit
+/// rounding of f32, DWA's lossless parts) expands at most 1,032-fold; PIZ's Huffman stage writes a run of
+/// at most 255 16-bit values in at least 9 bits; B44 packs 32 bytes of f16 into at least 3 (B44A's flat
+/// blocks) and stores f32/u32 as is. DWA and HTJ2K layer entropy coders, so they get deflate's bound
+/// times RLE's. A header declaring more pixel bytes than its file could hold is refused before the
+/// `exr` crate allocates for it (it allocates ~30 bytes per declared sample while decoding: a 1.4 kB
+/// B44 file declaring 65 M samples took 2 GB before it failed; found by the `image` fuzz target).
+fn max_expansion(compression: exr::compression::Compression) -> usize {
+    use exr::compression::Compression::*;
+    match compression {
+        Uncompressed => 1,
+        RLE => 64,
+        ZIP1 | ZIP16 => 1_032,
+        PXR24 => 1_032 * 4 / 3 + 1,
+        PIZ => 455,
+        B44 | B44A => 11,
+        _ => 1_032 * 64,
+    }
+}
+
+/// Refuses a header whose uncompressed pixel bytes could not come out of `file_bytes` bytes under its
+/// compression (see [`max_expansion`]); 64 bytes of slack per chunk cover the chunk headers.
+fn check_declared_size_fits_the_file(
+    header: &exr::meta::header::Header,
+    file_bytes: usize,
+) -> std::result::Result<(), String> {
+    if header.deep {
+        return Ok(()); // deep data is refused later by `no_deep_data`
+    }
+    let declared = header.channels.list.iter().try_fold(0usize, |sum, channel| {
+        let size = channel.subsampled_resolution(header.layer_size);
+        size.0
+            .checked_mul(size.1)?
+            .checked_mul(channel.sample_type.bytes_per_sample())?
+            .checked_add(sum)
+    });
+    let expansion = max_expansion(header.compression);
+    let most = file_bytes.saturating_mul(expansion);
+    match declared {
+        Some(declared) if declared <= most => Ok(()),
+        _ => Err(format!(
+            "the header declares {} x {} px x {} channels ({} bytes of pixels), more than a {file_bytes}-byte \
+             file can hold with {} (at most {expansion} bytes per stored byte)",
+            header.layer_size.0,
+            header.layer_size.1,
+            header.channels.list.len(),
+            declared.map_or_else(|| "an overflowing number of".to_string(), |d| d.to_string()),
+            header.compression
+        )),
+    }
 }
 
 /// Default channel names by channel count: Y, (Y, A), (R, G, B), (R, G, B, A).
