@@ -96,6 +96,9 @@ pub struct ModelContract {
     pub psf_basis_sha256: Option<String>,
     /// The noise-to-signal ratio of a `wiener` model's input (`wiener_nsr`; None: the bench default).
     pub wiener_nsr: Option<f64>,
+    /// Whether the graph leaves the batch dimension N free on every input and on `restored` (the
+    /// bench then runs a lens's edge patches as one batch; a model fixed at N = 1 gets them one by one).
+    pub dynamic_batch: bool,
 }
 
 impl ModelContract {
@@ -261,6 +264,12 @@ pub fn check(path: &Path, model: &ModelProto) -> Result<ModelContract> {
             )));
         }
     }
+    let dynamic_batch = graph
+        .input
+        .iter()
+        .filter(|v| !initializers.contains(&v.name.as_str()))
+        .chain(&graph.output)
+        .all(batch_is_free);
     Ok(ModelContract {
         path: path.to_path_buf(),
         inputs,
@@ -268,7 +277,21 @@ pub fn check(path: &Path, model: &ModelProto) -> Result<ModelContract> {
         metadata,
         psf_basis_sha256,
         wiener_nsr,
+        dynamic_batch,
     })
+}
+
+/// True unless the value's dimension 0 (N) is a fixed number.
+fn batch_is_free(value: &ValueInfoProto) -> bool {
+    let Some(type_proto::Value::TensorType(tensor)) = value.r#type.as_ref().and_then(|t| t.value.as_ref())
+    else {
+        return true;
+    };
+    let first = tensor.shape.as_ref().and_then(|shape| shape.dim.first());
+    !matches!(
+        first.and_then(|d| d.value.as_ref()),
+        Some(tensor_shape_proto::dimension::Value::DimValue(_))
+    )
 }
 
 /// float32, rank 4, and `channels` in dimension 1 when that dimension is fixed.

@@ -14,7 +14,8 @@
 //! - [`cost`]: parameters, FLOPs and latency from the graph;
 //! - [`report`]: aggregation into `results.json`, CSV, tables and pictures; the report folder's policy;
 //! - [`memory`]: the peak memory of a run, estimated and checked before any work;
-//! - [`run`]: `unicac bench` from checks to report; [`compare`]: `unicac metrics`.
+//! - [`run`]: `unicac bench` from checks to report ([`edges`]: its slanted-edge patches, batched per
+//!   lens); [`compare`]: `unicac metrics`.
 //!
 //! ONNX files are read and written with the crate's own `prost` declarations of the ONNX messages
 //! ([`onnx`]): one small, well-kept dependency gives exact control over the graphs we build (the LPIPS
@@ -34,6 +35,7 @@ pub mod clipiqa;
 pub mod compare;
 pub mod contract;
 pub mod cost;
+pub mod edges;
 pub mod error;
 pub mod fid;
 pub mod lpips;

@@ -12,6 +12,7 @@ use unicac_image::Planar;
 
 use crate::clipiqa::ClipIqa;
 use crate::contract::{load_model, ModelContract, ModelInput};
+use crate::edges::{EdgePatch, MapNeeds};
 use crate::error::{BenchError, Result};
 use crate::fid::FidNetwork;
 use crate::lpips::Lpips;
@@ -55,7 +56,9 @@ pub struct BenchSettings {
     pub onnxruntime: Search,
 }
 
-/// Progress reports: (done, total, what).
+/// Progress reports: (work done, total work, what is being done). Work is counted in pixels (each test
+/// pair's and edge patch's, through every method), to which a run's time is about proportional, so
+/// `done / total` gives a fair estimate of the time left even though pairs are larger than patches.
 pub type Progress<'a> = &'a mut dyn FnMut(usize, usize, &str);
 
 enum Method {
@@ -220,21 +223,9 @@ pub fn run_onnx_with(
     maps: &InputMaps,
     tiling: Tiling,
 ) -> Result<Planar> {
-    let mut inputs: Vec<(&'static str, &Planar)> = vec![("lq", lq)];
-    for (input, map) in [
-        (ModelInput::Fov, maps.fov),
-        (ModelInput::Psf, maps.psf),
-        (ModelInput::PsfCode, maps.psf_code),
-        (ModelInput::Wiener, maps.wiener),
-    ] {
-        if contract.wants(input) {
-            let map =
-                map.ok_or_else(|| invalid(format!("model input `{}` is not available", input.name())))?;
-            inputs.push((input.name(), map));
-        }
-    }
+    let inputs = model_inputs(contract, lq, maps)?;
     let planes: Vec<&Planar> = inputs.iter().map(|(_, p)| *p).collect();
-    let mut out = run_tiled(&planes, tiling, |_, tiles| {
+    let out = run_tiled(&planes, tiling, |_, tiles| {
         let named = inputs
             .iter()
             .zip(tiles)
@@ -248,25 +239,108 @@ pub fn run_onnx_with(
                 )
             })
             .collect();
-        let result = session.run(named, &["restored"])?.remove(0);
         let (w, h) = (tiles[0].width, tiles[0].height);
-        if result.shape != [1, 3, h, w] {
-            return Err(invalid(format!(
-                "`restored` has shape {:?}, expected [1, 3, {h}, {w}]",
-                result.shape
-            )));
+        let mut restored = run_restored(session, named, 1, w, h)?;
+        Ok(restored.remove(0))
+    })?;
+    clamped_output(out)
+}
+
+/// Runs `images` (each with its maps; all of one size) through the model as one N x C x H x W batch,
+/// untiled: the same outputs as one run per image (a convolutional network treats the batch's images
+/// independently), for one call's overhead. Each image's result is checked on its own, so one
+/// non-finite output fails only its image.
+pub fn run_onnx_batch(
+    session: &mut Session,
+    contract: &ModelContract,
+    images: &[(&Planar, InputMaps)],
+) -> Result<Vec<Result<Planar>>> {
+    let Some((first, _)) = images.first() else {
+        return Ok(Vec::new());
+    };
+    let (w, h) = (first.width, first.height);
+    if images.iter().any(|(lq, _)| (lq.width, lq.height) != (w, h)) {
+        return Err(invalid("a batch holds images of one size".into()));
+    }
+    let per_image: Vec<Vec<(&'static str, &Planar)>> = images
+        .iter()
+        .map(|(lq, maps)| model_inputs(contract, lq, maps))
+        .collect::<Result<_>>()?;
+    let named = per_image[0]
+        .iter()
+        .enumerate()
+        .map(|(index, (name, plane))| {
+            let data = per_image
+                .iter()
+                .flat_map(|inputs| inputs[index].1.data.iter().copied())
+                .collect();
+            (
+                *name,
+                Tensor {
+                    shape: vec![images.len(), plane.channels, h, w],
+                    data,
+                },
+            )
+        })
+        .collect();
+    let restored = run_restored(session, named, images.len(), w, h)?;
+    Ok(restored.into_iter().map(clamped_output).collect())
+}
+
+/// The graph inputs `contract` declares, named, `lq` first.
+fn model_inputs<'a>(
+    contract: &ModelContract,
+    lq: &'a Planar,
+    maps: &InputMaps<'a>,
+) -> Result<Vec<(&'static str, &'a Planar)>> {
+    let mut inputs: Vec<(&'static str, &Planar)> = vec![("lq", lq)];
+    for (input, map) in [
+        (ModelInput::Fov, maps.fov),
+        (ModelInput::Psf, maps.psf),
+        (ModelInput::PsfCode, maps.psf_code),
+        (ModelInput::Wiener, maps.wiener),
+    ] {
+        if contract.wants(input) {
+            let map =
+                map.ok_or_else(|| invalid(format!("model input `{}` is not available", input.name())))?;
+            inputs.push((input.name(), map));
         }
-        Ok(Planar {
+    }
+    Ok(inputs)
+}
+
+/// One session run; `restored` split into its `batch` images of `w` x `h`.
+fn run_restored(
+    session: &mut Session,
+    named: Vec<(&str, Tensor)>,
+    batch: usize,
+    w: usize,
+    h: usize,
+) -> Result<Vec<Planar>> {
+    let result = session.run(named, &["restored"])?.remove(0);
+    if result.shape != [batch, 3, h, w] {
+        return Err(invalid(format!(
+            "`restored` has shape {:?}, expected [{batch}, 3, {h}, {w}]",
+            result.shape
+        )));
+    }
+    Ok(result
+        .data
+        .chunks_exact(3 * w * h)
+        .map(|image| Planar {
             width: w,
             height: h,
             channels: 3,
-            data: result.data,
+            data: image.to_vec(),
         })
-    })?;
+        .collect())
+}
+
+/// The contract's reading of `restored`: non-finite values are an error, others clamped to [0, 1].
+fn clamped_output(mut out: Planar) -> Result<Planar> {
     if out.data.iter().any(|v| !v.is_finite()) {
         return Err(invalid("the model returned NaN or infinite values".into()));
     }
-    // The contract: values outside [0, 1] are clamped by the reader.
     out.data.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
     Ok(out)
 }
@@ -658,9 +732,14 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
             .or_insert_with(|| basis.as_ref().expect("basis read").field_codes(table))
             .clone()
     };
-    let total = pairs.len() + edges.len();
-    for (index, pair) in pairs.iter().enumerate() {
-        progress(index, total, &pair.pair_id);
+    let pair_px = |p: &PairRow| p.crop[2] * p.crop[3];
+    let edge_px = |e: &unicac_dataset::EdgeRow| e.size_px * e.size_px;
+    let pairs_px: usize = pairs.iter().map(pair_px).sum();
+    let total = pairs_px + edges.iter().map(edge_px).sum::<usize>();
+    let mut done = 0;
+    for pair in &pairs {
+        progress(done, total, &pair.pair_id);
+        done += pair_px(pair);
         let lq_path = dataset.resolve(&pair.lq).map_err(dataset_error)?;
         let gt_path = dataset.resolve(&pair.gt).map_err(dataset_error)?;
         let (lq, gt) = (read_rgb(&lq_path)?, read_rgb(&gt_path)?);
@@ -789,143 +868,61 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
             });
         }
     }
-    // OIQE of the restored edge patches.
+    // OIQE of the restored edge patches, a lens at a time: each model runs a lens's patches as batches.
     let mut edge_scores: BTreeMap<(String, String), Vec<unicac_metrics::MtfSummary>> = BTreeMap::new();
-    for (index, edge) in edges.iter().enumerate() {
-        progress(pairs.len() + index, total, &edge.edge_id);
-        let path = dataset.resolve(&edge.lq).map_err(dataset_error)?;
-        let lq = read_rgb(&path)?;
-        let channel = match edge.channel.as_str() {
-            "R" => 0,
-            "G" => 1,
-            "B" => 2,
-            other => {
-                return Err(invalid(format!(
-                    "edges.jsonl: edge {} has channel `{other}`",
-                    edge.edge_id
-                )))
-            }
-        };
-        // The patch sits at the ODE field on the frame's +y radius (docs/ode.md): its pixels' normalised
-        // positions for the maps.
-        let half = 0.5 * (lq.width as f64);
-        let scale = lenses_half_diagonal(&pairs);
-        let position = |row: usize, column: usize| -> (f64, f64) {
-            (
-                (column as f64 + 0.5 - half) / scale,
-                edge.field_fraction + (row as f64 + 0.5 - 0.5 * lq.height as f64) / scale,
-            )
-        };
-        let fov = needs_fov_map.then(|| {
-            let mut p = Planar::new(lq.width, lq.height, 2);
-            for row in 0..lq.height {
-                for column in 0..lq.width {
-                    let (x, y) = position(row, column);
-                    p.set(0, column, row, x as f32);
-                    p.set(1, column, row, y as f32);
-                }
-            }
-            p
-        });
-        let edge_table = if needs_psf_map || needs_code_map || !wiener_nsrs.is_empty() {
+    let needs = MapNeeds {
+        fov: needs_fov_map,
+        psf: needs_psf_map,
+        psf_code: needs_code_map,
+    };
+    let wants_wiener = s.methods.iter().any(|m| m == "wiener");
+    let half_diagonal_px = lenses_half_diagonal(&pairs);
+    for group in edges.chunk_by(|a, b| a.lens_id == b.lens_id) {
+        progress(done, total, &group[0].edge_id);
+        done += group.iter().map(edge_px).sum::<usize>();
+        let lens_id = &group[0].lens_id;
+        let table = if needs_psf_map || needs_code_map || !wiener_nsrs.is_empty() || wants_wiener {
             let lens_pair = pairs
                 .iter()
-                .find(|p| p.lens_id == edge.lens_id)
+                .find(|p| &p.lens_id == lens_id)
                 .expect("lens has pairs");
-            Some(table_for(&lens_pair.psf, &edge.lens_id)?)
+            Some(table_for(&lens_pair.psf, lens_id)?)
         } else {
             None
         };
-        let psf_code = match (&edge_table, needs_code_map) {
-            (Some(table), true) => {
-                let codes = codes_for(table, &edge.lens_id);
-                Some(per_pixel_map(lq.width, lq.height, &position, |x, y| {
-                    codes.at(x, y)
-                }))
-            }
+        let codes = match (&table, needs_code_map) {
+            (Some(t), true) => Some(codes_for(t, lens_id)),
             _ => None,
         };
-        let wiener_inputs = wiener_nsrs
+        let patches = group
             .iter()
-            .map(|&nsr| {
-                let table = edge_table.as_ref().expect("PSF table loaded");
-                let at = |r: usize, c: usize| {
-                    let (x, y) = position(r, c);
-                    [x, y]
-                };
-                Ok((
-                    nsr.to_bits(),
-                    crate::wiener::wiener_restore(&lq, table, &at, nsr)?,
-                ))
+            .map(|row| {
+                EdgePatch::load(
+                    &dataset,
+                    row,
+                    half_diagonal_px,
+                    needs,
+                    table.as_ref(),
+                    codes.as_ref(),
+                    &wiener_nsrs,
+                )
             })
-            .collect::<Result<BTreeMap<u64, Planar>>>()?;
-        let psf = if needs_psf_map {
-            let table = edge_table.clone().expect("PSF table loaded");
-            let features = table.features();
-            Some(per_pixel_map(lq.width, lq.height, &position, |x, y| {
-                features.at(x, y)
-            }))
-        } else {
-            None
-        };
+            .collect::<Result<Vec<_>>>()?;
         for entry in entries.iter_mut() {
-            let restored = match &mut entry.method {
-                Method::Identity => Ok(lq.clone()),
-                Method::Wiener { nsr } => {
-                    let lens_pair = pairs
-                        .iter()
-                        .find(|p| p.lens_id == edge.lens_id)
-                        .expect("lens has pairs");
-                    let table = table_for(&lens_pair.psf, &edge.lens_id)?;
-                    crate::wiener::wiener_restore(
-                        &lq,
-                        &table,
-                        &|r, c| {
-                            let (x, y) = position(r, c);
-                            [x, y]
-                        },
-                        *nsr,
-                    )
+            let restored = restore_patches(&mut entry.method, &patches, table.as_ref(), s.tiling);
+            for (patch, restored) in patches.iter().zip(restored) {
+                let summary = restored.map_err(|e| e.to_string()).and_then(|r| {
+                    patch
+                        .score(&r)
+                        .map_err(|e| format!("slanted edge of the restored patch: {e}"))
+                });
+                match summary {
+                    Ok(summary) => edge_scores
+                        .entry((entry.info.name.clone(), lens_id.clone()))
+                        .or_default()
+                        .push(summary),
+                    Err(e) => entry.info.failures.push(format!("{}: {e}", patch.path.display())),
                 }
-                Method::Onnx { contract, session } => {
-                    let maps = InputMaps {
-                        fov: fov.as_ref(),
-                        psf: psf.as_ref(),
-                        psf_code: psf_code.as_ref(),
-                        wiener: wiener_input(contract, &wiener_inputs),
-                    };
-                    run_onnx_with(session, contract, &lq, &maps, s.tiling)
-                }
-            };
-            let restored = match restored {
-                Ok(r) => r,
-                Err(e) => {
-                    entry.info.failures.push(format!("{}: {e}", path.display()));
-                    continue;
-                }
-            };
-            let linear = unicac_image::color::srgb_to_linear(&restored);
-            let border = lq.width.min(lq.height) / 8;
-            let roi = unicac_metrics::Roi {
-                x: border,
-                y: border,
-                width: lq.width - 2 * border,
-                height: lq.height - 2 * border,
-            };
-            match unicac_metrics::slanted_edge_mtf(
-                &linear,
-                channel,
-                roi,
-                &unicac_metrics::SlantedEdgeOptions::default(),
-            ) {
-                Ok(mtf) => edge_scores
-                    .entry((entry.info.name.clone(), edge.lens_id.clone()))
-                    .or_default()
-                    .push(mtf.summary()),
-                Err(e) => entry.info.failures.push(format!(
-                    "{}: slanted edge of the restored patch: {e}",
-                    path.display()
-                )),
             }
         }
     }
@@ -978,22 +975,43 @@ fn lenses_half_diagonal(pairs: &[PairRow]) -> f64 {
     0.5 * (w as f64).hypot(h as f64)
 }
 
-/// A `width` x `height` map of `N` channels whose pixel (row, column) holds `value` at the pixel's
-/// normalised field position (`position`): the PSF-code and PSF-feature inputs of an edge patch.
-fn per_pixel_map<const N: usize>(
-    width: usize,
-    height: usize,
-    position: &impl Fn(usize, usize) -> (f64, f64),
-    value: impl Fn(f64, f64) -> [f32; N],
-) -> Planar {
-    let mut map = Planar::new(width, height, N);
-    for row in 0..height {
-        for column in 0..width {
-            let (x, y) = position(row, column);
-            for (c, v) in value(x, y).into_iter().enumerate() {
-                map.set(c, column, row, v);
+/// Restores a lens's edge patches with one method. A model that leaves the batch free runs them in
+/// batches (one call each, untiled: patches are smaller than any useful tile); should a batch fail as a
+/// whole, its patches are retried one by one so each failure is its own.
+fn restore_patches(
+    method: &mut Method,
+    patches: &[EdgePatch],
+    table: Option<&PsfTable>,
+    tiling: Tiling,
+) -> Vec<Result<Planar>> {
+    match method {
+        Method::Identity => patches.iter().map(|p| Ok(p.lq.clone())).collect(),
+        Method::Wiener { nsr } => patches
+            .iter()
+            .map(|p| p.wiener_restore(table.expect("PSF table loaded"), *nsr))
+            .collect(),
+        Method::Onnx { contract, session } => {
+            let one_by_one = |session: &mut Session, batch: &[EdgePatch]| -> Vec<Result<Planar>> {
+                batch
+                    .iter()
+                    .map(|p| run_onnx_with(session, contract, &p.lq, &p.maps(contract), tiling))
+                    .collect()
+            };
+            let fits_a_tile =
+                |p: &EdgePatch| tiling.tile_px.is_none_or(|t| p.lq.width <= t && p.lq.height <= t);
+            if !contract.dynamic_batch || !patches.iter().all(fits_a_tile) {
+                return one_by_one(session, patches);
             }
+            let mut out = Vec::with_capacity(patches.len());
+            for batch in crate::edges::batches(patches) {
+                let images: Vec<(&Planar, InputMaps)> =
+                    batch.iter().map(|p| (&p.lq, p.maps(contract))).collect();
+                match run_onnx_batch(session, contract, &images) {
+                    Ok(restored) => out.extend(restored),
+                    Err(_) => out.extend(one_by_one(session, batch)),
+                }
+            }
+            out
         }
     }
-    map
 }

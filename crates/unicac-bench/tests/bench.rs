@@ -7,7 +7,9 @@ mod support;
 use std::path::{Path, PathBuf};
 
 use unicac_bench::contract::{load_model, ModelInput};
-use unicac_bench::run::{read_rgb, run_bench, run_onnx, BenchSettings};
+use unicac_bench::run::{
+    read_rgb, run_bench, run_onnx, run_onnx_batch, run_onnx_with, BenchSettings, InputMaps,
+};
 use unicac_bench::tiling::Tiling;
 use unicac_bench::BenchError;
 use unicac_dataset::FrameCrop;
@@ -446,4 +448,65 @@ fn a_contract_2_model_gets_the_wiener_estimate_and_the_code_of_its_basis() {
         "{error}"
     );
     assert!(!other.join("report").exists());
+}
+
+#[test]
+fn a_batch_of_images_restores_as_each_image_alone() {
+    let Some(runtime) = support::ort_or_skip() else {
+        return;
+    };
+    let dir = support::scratch("batch");
+    let path = write_model(&dir, "conv.onnx", &support::conv_model(true));
+    let (contract, _, bytes) = load_model(&path).unwrap();
+    assert!(contract.dynamic_batch, "N is symbolic in the graph");
+    let mut session = runtime.session(&bytes, 1, "conv").unwrap();
+    let (w, h) = (40, 28);
+    let images: Vec<(Planar, Planar)> = (0..3)
+        .map(|seed| {
+            let noise = support::values(3 * w * h, 11 + seed, 0.5);
+            let lq = Planar::from_fn(w, h, 3, |c, x, y| 0.5 + noise[(c * h + y) * w + x]);
+            let fov = Planar::from_fn(w, h, 2, |c, x, y| {
+                (c as f32 + 1.0) * (x + seed as usize * y) as f32 / 100.0
+            });
+            (lq, fov)
+        })
+        .collect();
+    let maps = |fov| InputMaps {
+        fov: Some(fov),
+        ..InputMaps::default()
+    };
+    let batch: Vec<(&Planar, InputMaps)> = images.iter().map(|(lq, fov)| (lq, maps(fov))).collect();
+    let batched = run_onnx_batch(&mut session, &contract, &batch).unwrap();
+    assert_eq!(batched.len(), 3);
+    for ((lq, fov), batched) in images.iter().zip(batched) {
+        let alone = run_onnx_with(&mut session, &contract, lq, &maps(fov), Tiling::default()).unwrap();
+        let batched = batched.unwrap();
+        let worst = alone
+            .data
+            .iter()
+            .zip(&batched.data)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-6, "batched differs from alone by {worst}");
+    }
+    // Images of two sizes are not one batch.
+    let small = Planar::new(20, 20, 3);
+    let fov = Planar::new(20, 20, 2);
+    let mixed = vec![batch[0], (&small, maps(&fov))];
+    assert!(run_onnx_batch(&mut session, &contract, &mixed).is_err());
+}
+
+#[test]
+fn a_model_fixed_at_one_image_per_run_is_known_from_its_graph() {
+    use unicac_bench::onnx::builder::{Dim, GraphBuilder};
+    let dims = [Dim::Fixed(1), Dim::Fixed(3), Dim::Named("H"), Dim::Named("W")];
+    let mut g = GraphBuilder::new("fixed_batch");
+    g.input("lq", &dims).output("restored", &dims);
+    g.node("Identity", &["lq"], &["restored"], &[]);
+    let dir = support::scratch("fixed-batch");
+    let path = write_model(&dir, "fixed.onnx", &g.to_bytes());
+    let (contract, _, _) = load_model(&path).unwrap();
+    assert!(!contract.dynamic_batch);
+    let path = write_model(&dir, "free.onnx", &support::identity_model());
+    assert!(load_model(&path).unwrap().0.dynamic_batch);
 }

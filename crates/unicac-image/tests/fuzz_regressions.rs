@@ -65,3 +65,16 @@ fn the_most_compressible_exr_still_reads() {
     assert_eq!((read.image.width, read.image.height), (2048, 2048));
     assert!(read.image.plane(0).iter().all(|&v| v == 0.25));
 }
+
+/// `image` target under AddressSanitizer (2026-12-05, the first inputs after the bound above): a
+/// 221-byte OpenEXR whose channel declares a sampling of 0 made the bound's size computation divide by
+/// zero (a panic inside the `exr` crate's `subsampled_resolution`). Now an error naming the file.
+#[test]
+fn an_exr_channel_sampled_every_zero_pixels_is_an_error_not_a_panic() {
+    let bytes = include_bytes!("fuzz_regressions/exr_channel_sampling_zero.exr");
+    let error = unicac_image::io::decode_image(Path::new("sampling.exr"), bytes)
+        .unwrap_err()
+        .to_string();
+    assert!(error.starts_with("sampling.exr: "), "{error}");
+    assert!(error.contains("declares a sampling of"), "{error}");
+}

@@ -128,6 +128,18 @@ fn check_declared_size_fits_the_file(
     if header.deep {
         return Ok(()); // deep data is refused later by `no_deep_data`
     }
+    // A hostile header's sampling may be 0 (`subsampled_resolution` would divide by it).
+    if let Some(channel) = header
+        .channels
+        .list
+        .iter()
+        .find(|c| c.sampling.0 == 0 || c.sampling.1 == 0)
+    {
+        return Err(format!(
+            "channel {} declares a sampling of {} x {} px; it must be at least 1",
+            channel.name, channel.sampling.0, channel.sampling.1
+        ));
+    }
     let declared = header.channels.list.iter().try_fold(0usize, |sum, channel| {
         let size = channel.subsampled_resolution(header.layer_size);
         size.0
