@@ -1,6 +1,10 @@
-//! The slanted-edge patches behind `unicac bench`'s OIQE: each patch read with the maps its models take
-//! (positions on the frame's +y radius, where the dataset rendered it), and its restoration scored by the
-//! slanted-edge MTF of the blurred channel inside a border.
+//! The slanted-edge patches behind `unicac bench`'s OIQE. The dataset stores, per test lens, ODE field
+//! and edge direction, one grey edge per colour channel, each blurred by that channel's kernel. The
+//! bench restores them as the lens renders an edge: one RGB image whose channel c is channel c's patch
+//! (a grey edge through the lens's three kernels, colour fringes included), and measures channel c's
+//! slanted-edge MTF on its restoration. Per-channel methods (identity, Wiener) score exactly as on the
+//! separate patches; a network sees an edge of the kind it was trained on, and runs a third of the pixels.
+//! Rows that do not form such a triple (a hand-made dataset) are restored one by one, as stored.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -26,13 +30,59 @@ pub(crate) struct MapNeeds {
     pub psf_code: bool,
 }
 
-/// One edge patch, read, with the maps its models take.
+/// Edge rows restored as one image: the R, G and B patches of one field and direction, or one row.
+pub(crate) type EdgeGroup<'a> = Vec<&'a EdgeRow>;
+
+/// Groups `rows` (in order of first appearance) into the images the bench restores.
+pub(crate) fn edge_groups(rows: &[EdgeRow]) -> Vec<EdgeGroup<'_>> {
+    let key = |r: &EdgeRow| {
+        (
+            r.lens_id.clone(),
+            r.field_fraction.to_bits(),
+            r.direction.clone(),
+            r.size_px,
+        )
+    };
+    let mut order: Vec<(_, EdgeGroup)> = Vec::new();
+    for row in rows {
+        match order.iter_mut().find(|(k, _)| *k == key(row)) {
+            Some((_, group)) => group.push(row),
+            None => order.push((key(row), vec![row])),
+        }
+    }
+    let mut groups = Vec::new();
+    for (_, group) in order {
+        let mut channels: Vec<&str> = group.iter().map(|r| r.channel.as_str()).collect();
+        channels.sort_unstable();
+        if channels == ["B", "G", "R"] {
+            groups.push(group);
+        } else {
+            groups.extend(group.into_iter().map(|row| vec![row]));
+        }
+    }
+    groups
+}
+
+/// The channel index of an edge row's `channel` (R, G, B).
+fn channel_index(row: &EdgeRow) -> Result<usize> {
+    match row.channel.as_str() {
+        "R" => Ok(0),
+        "G" => Ok(1),
+        "B" => Ok(2),
+        other => Err(BenchError::InvalidInput(format!(
+            "edges.jsonl: edge {} has channel `{other}`",
+            row.edge_id
+        ))),
+    }
+}
+
+/// One image of edge rows to restore, read, with the maps its models take.
 pub(crate) struct EdgePatch<'a> {
-    pub row: &'a EdgeRow,
-    pub path: PathBuf,
+    /// The rows it scores, each with its file and the channel measured.
+    pub rows: Vec<(&'a EdgeRow, PathBuf, usize)>,
     pub lq: Planar,
-    /// The channel whose kernel blurred the patch (0 = R).
-    pub channel: usize,
+    /// Normalised image height of the patch's centre (its ODE field).
+    field_fraction: f64,
     /// Half-diagonal (px) of the frames the lens's pairs were rendered at: the field's unit.
     half_diagonal_px: f64,
     fov: Option<Planar>,
@@ -43,37 +93,51 @@ pub(crate) struct EdgePatch<'a> {
 }
 
 impl<'a> EdgePatch<'a> {
-    /// Reads the patch of `row` and computes the maps `needs` names (from `table`, the lens's PSF
-    /// table, and `codes`, its field codes) and the Wiener estimates at `wiener_nsrs`.
+    /// Reads the patches of `group` (composed into one RGB image when it is an R, G, B triple) and
+    /// computes the maps `needs` names (from `table`, the lens's PSF table, and `codes`, its field
+    /// codes) and the Wiener estimates at `wiener_nsrs`.
     pub fn load(
         dataset: &Dataset,
-        row: &'a EdgeRow,
+        group: &[&'a EdgeRow],
         half_diagonal_px: f64,
         needs: MapNeeds,
         table: Option<&PsfTable>,
         codes: Option<&FieldCodes>,
         wiener_nsrs: &[f64],
     ) -> Result<EdgePatch<'a>> {
-        let path = dataset
-            .resolve(&row.lq)
-            .map_err(|e| BenchError::InvalidInput(e.to_string()))?;
-        let lq = read_rgb(&path)?;
-        let channel = match row.channel.as_str() {
-            "R" => 0,
-            "G" => 1,
-            "B" => 2,
-            other => {
-                return Err(BenchError::InvalidInput(format!(
-                    "edges.jsonl: edge {} has channel `{other}`",
-                    row.edge_id
-                )))
+        let mut rows = Vec::with_capacity(group.len());
+        let mut lq: Option<Planar> = None;
+        for &row in group {
+            let path = dataset
+                .resolve(&row.lq)
+                .map_err(|e| BenchError::InvalidInput(e.to_string()))?;
+            let channel = channel_index(row)?;
+            let patch = read_rgb(&path)?;
+            match &mut lq {
+                None => lq = Some(patch),
+                Some(image) if (image.width, image.height) == (patch.width, patch.height) => {
+                    image.plane_mut(channel).copy_from_slice(patch.plane(channel))
+                }
+                Some(image) => {
+                    return Err(BenchError::InvalidInput(format!(
+                        "{}: {}x{} px, but the other channels' patches of edge {} are {}x{}",
+                        path.display(),
+                        patch.width,
+                        patch.height,
+                        row.edge_id,
+                        image.width,
+                        image.height
+                    )))
+                }
             }
-        };
+            rows.push((row, path, channel));
+        }
+        let lq = lq.expect("an edge group has a row");
+        let row = group[0];
         let mut patch = EdgePatch {
-            row,
-            path,
+            rows,
             lq,
-            channel,
+            field_fraction: row.field_fraction,
             half_diagonal_px,
             fov: None,
             psf: None,
@@ -104,7 +168,7 @@ impl<'a> EdgePatch<'a> {
         let (w, h) = (self.lq.width as f64, self.lq.height as f64);
         [
             (column as f64 + 0.5 - 0.5 * w) / self.half_diagonal_px,
-            self.row.field_fraction + (row as f64 + 0.5 - 0.5 * h) / self.half_diagonal_px,
+            self.field_fraction + (row as f64 + 0.5 - 0.5 * h) / self.half_diagonal_px,
         ]
     }
 
@@ -129,9 +193,13 @@ impl<'a> EdgePatch<'a> {
         }
     }
 
-    /// The slanted-edge MTF summary of a restoration of this patch, measured in linear light on the
-    /// blurred channel inside a border of an eighth of the patch (where the edge is whole).
-    pub fn score(&self, restored: &Planar) -> std::result::Result<unicac_metrics::MtfSummary, String> {
+    /// The slanted-edge MTF summary of `channel` of a restoration of this patch, measured in linear
+    /// light inside a border of an eighth of the patch (where the edge is whole).
+    pub fn score(
+        &self,
+        restored: &Planar,
+        channel: usize,
+    ) -> std::result::Result<unicac_metrics::MtfSummary, String> {
         let linear = unicac_image::color::srgb_to_linear(restored);
         let border = self.lq.width.min(self.lq.height) / 8;
         let roi = unicac_metrics::Roi {
@@ -142,7 +210,7 @@ impl<'a> EdgePatch<'a> {
         };
         unicac_metrics::slanted_edge_mtf(
             &linear,
-            self.channel,
+            channel,
             roi,
             &unicac_metrics::SlantedEdgeOptions::default(),
         )
@@ -184,4 +252,55 @@ pub(crate) fn batches<'p, 'a>(patches: &'p [EdgePatch<'a>]) -> Vec<&'p [EdgePatc
         start = end;
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(lens: &str, field: f64, channel: &str, direction: &str) -> EdgeRow {
+        EdgeRow {
+            edge_id: format!("{lens}_{field}_{channel}_{direction}"),
+            lens_id: lens.into(),
+            level: Some(1),
+            field_fraction: field,
+            field_deg: 0.0,
+            channel: channel.into(),
+            direction: direction.into(),
+            lq: String::new(),
+            gt: String::new(),
+            size_px: 64,
+            slant_deg: 5.0,
+            pixel_pitch_um: 2.0,
+        }
+    }
+
+    #[test]
+    fn the_three_channels_of_a_field_and_direction_form_one_image_and_others_stay_alone() {
+        let rows = vec![
+            row("a", 0.0, "R", "sagittal"),
+            row("a", 0.0, "R", "tangential"),
+            row("a", 0.0, "G", "sagittal"),
+            row("a", 0.0, "G", "tangential"),
+            row("a", 0.0, "B", "sagittal"),
+            row("a", 0.0, "B", "tangential"),
+            row("a", 0.5, "R", "sagittal"),
+            row("a", 0.5, "G", "sagittal"),
+            row("b", 0.0, "R", "sagittal"),
+        ];
+        let groups: Vec<Vec<&str>> = edge_groups(&rows)
+            .iter()
+            .map(|g| g.iter().map(|r| r.edge_id.as_str()).collect())
+            .collect();
+        assert_eq!(
+            groups,
+            vec![
+                vec!["a_0_R_sagittal", "a_0_G_sagittal", "a_0_B_sagittal"],
+                vec!["a_0_R_tangential", "a_0_G_tangential", "a_0_B_tangential"],
+                vec!["a_0.5_R_sagittal"],
+                vec!["a_0.5_G_sagittal"],
+                vec!["b_0_R_sagittal"],
+            ]
+        );
+    }
 }

@@ -12,7 +12,7 @@ use unicac_image::Planar;
 
 use crate::clipiqa::ClipIqa;
 use crate::contract::{load_model, ModelContract, ModelInput};
-use crate::edges::{EdgePatch, MapNeeds};
+use crate::edges::{edge_groups, EdgePatch, MapNeeds};
 use crate::error::{BenchError, Result};
 use crate::fid::FidNetwork;
 use crate::lpips::Lpips;
@@ -733,9 +733,15 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
             .clone()
     };
     let pair_px = |p: &PairRow| p.crop[2] * p.crop[3];
-    let edge_px = |e: &unicac_dataset::EdgeRow| e.size_px * e.size_px;
+    // An edge image is restored once for its rows (an R, G, B triple shares one).
+    let edge_px = |rows: &[unicac_dataset::EdgeRow]| -> usize {
+        edge_groups(rows)
+            .iter()
+            .map(|g| g[0].size_px * g[0].size_px)
+            .sum()
+    };
     let pairs_px: usize = pairs.iter().map(pair_px).sum();
-    let total = pairs_px + edges.iter().map(edge_px).sum::<usize>();
+    let total = pairs_px + edge_px(&edges);
     let mut done = 0;
     for pair in &pairs {
         progress(done, total, &pair.pair_id);
@@ -879,7 +885,7 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
     let half_diagonal_px = lenses_half_diagonal(&pairs);
     for group in edges.chunk_by(|a, b| a.lens_id == b.lens_id) {
         progress(done, total, &group[0].edge_id);
-        done += group.iter().map(edge_px).sum::<usize>();
+        done += edge_px(group);
         let lens_id = &group[0].lens_id;
         let table = if needs_psf_map || needs_code_map || !wiener_nsrs.is_empty() || wants_wiener {
             let lens_pair = pairs
@@ -894,12 +900,12 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
             (Some(t), true) => Some(codes_for(t, lens_id)),
             _ => None,
         };
-        let patches = group
+        let patches = edge_groups(group)
             .iter()
-            .map(|row| {
+            .map(|rows| {
                 EdgePatch::load(
                     &dataset,
-                    row,
+                    rows,
                     half_diagonal_px,
                     needs,
                     table.as_ref(),
@@ -911,17 +917,19 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
         for entry in entries.iter_mut() {
             let restored = restore_patches(&mut entry.method, &patches, table.as_ref(), s.tiling);
             for (patch, restored) in patches.iter().zip(restored) {
-                let summary = restored.map_err(|e| e.to_string()).and_then(|r| {
-                    patch
-                        .score(&r)
-                        .map_err(|e| format!("slanted edge of the restored patch: {e}"))
-                });
-                match summary {
-                    Ok(summary) => edge_scores
-                        .entry((entry.info.name.clone(), lens_id.clone()))
-                        .or_default()
-                        .push(summary),
-                    Err(e) => entry.info.failures.push(format!("{}: {e}", patch.path.display())),
+                for (_, path, channel) in &patch.rows {
+                    let summary = restored.as_ref().map_err(|e| e.to_string()).and_then(|r| {
+                        patch
+                            .score(r, *channel)
+                            .map_err(|e| format!("slanted edge of the restored patch: {e}"))
+                    });
+                    match summary {
+                        Ok(summary) => edge_scores
+                            .entry((entry.info.name.clone(), lens_id.clone()))
+                            .or_default()
+                            .push(summary),
+                        Err(e) => entry.info.failures.push(format!("{}: {e}", path.display())),
+                    }
                 }
             }
         }
