@@ -4,8 +4,14 @@
 #   2. dataset  ODE grading, ODE-stratified test levels (+ U_s / U_c sub-benchmarks), paired images
 #   3. train    the model zoo (unicac-train; PyTorch) and its ONNX export
 #   4. bench    identity, Wiener and every model through onnxruntime: per-level tables, ODE-vs-RMS R^2
-# Usage: scripts/reproduce.sh [--scale tiny|cpu|small|paper] [--out DIR] [--ray WORKERS] [--images DIR --test-images DIR]
+# Usage: scripts/reproduce.sh [--scale tiny|cpu|small|paper-test|paper] [--out DIR] [--ray WORKERS]
+#        [--images DIR --test-images DIR] [--models-from DIR]
 #        [--time-budget-s S]   (per model and session: training stops cleanly and exports what it reached)
+# --scale paper-test: the paper's test-set shape (5 ODE levels x 24 test lenses, 75 validation lenses) on
+# a library of its own, benchmarked with models trained elsewhere (--models-from, default the `small`
+# scale's out/reproduce-small/models): every test lens is one the models never saw, which is what a
+# universal CAC model must handle. Nothing is trained; models missing from that folder are left out (named).
+# With --models-from, any scale benchmarks those models instead of training its own.
 # Every stage resumes: run the same command again after an interruption (SIGKILL included) and finished
 # work is kept (design and dataset resume their folders, training resumes from its latest checkpoint,
 # exports and the report are redone only when missing). Each stage's wall time goes to OUT/timings.tsv.
@@ -17,7 +23,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-scale=tiny out= ray_workers= images= test_images= budget=
+scale=tiny out= ray_workers= images= test_images= budget= models_from=
 while [ $# -gt 0 ]; do
   case "$1" in
     --scale) scale=${2:?--scale needs a value}; shift 2 ;;
@@ -26,6 +32,7 @@ while [ $# -gt 0 ]; do
     --images) images=${2:?--images needs a value}; shift 2 ;;
     --test-images) test_images=${2:?--test-images needs a value}; shift 2 ;;
     --time-budget-s) budget=${2:?--time-budget-s needs a value}; shift 2 ;;
+    --models-from) models_from=${2:?--models-from needs a value}; shift 2 ;;
     *) echo "reproduce.sh: unknown argument '$1' (see the usage at the top of scripts/reproduce.sh)" >&2; exit 2 ;;
   esac
 done
@@ -73,6 +80,18 @@ case "$scale" in
     allow=()
     models=("${zoo[@]}")
     ;;
+  paper-test)
+    # Up to 6 elements, so that the severe levels hold designs of every size; one design per
+    # specification, spherical and aspheric. Few training pairs: this dataset's training split is unused.
+    grid=(--grid-elements 1,2,3,4,5,6 --grid-half-fov-deg 20,30,40 --grid-f-numbers 2,3,4 --grid-stops front,middle,back)
+    design_count=1 design_budget_s=5400
+    levels=5 per_level=24 val_lenses=75
+    images=${images:-dead-leaves:8:384x288} test_images=${test_images:-dead-leaves:3:384x288} frame=384x288
+    pairs_per_lens=1 crop=256x256 iters=0 patch=256 batch=4
+    allow=()
+    models=("${zoo[@]}")
+    models_from=${models_from:-out/reproduce-small/models}
+    ;;
   paper)
     grid=()   # the whole grid: elements 1-6 x half field 20/30/40 x F/2,3,4 x stop front/middle/back
     design_count=5 design_budget_s=864000
@@ -82,7 +101,7 @@ case "$scale" in
     allow=()
     models=("${zoo[@]}")
     ;;
-  *) echo "reproduce.sh: --scale must be tiny, cpu, small or paper, not '$scale'" >&2; exit 2 ;;
+  *) echo "reproduce.sh: --scale must be tiny, cpu, small, paper-test or paper, not '$scale'" >&2; exit 2 ;;
 esac
 
 source scripts/setup.sh
@@ -121,6 +140,19 @@ fi
 "$unicac" weights fetch lpips --python "$py" >/dev/null
 mkdir -p "$out/runs" "$out/models"
 bench_models=()
+if [ -n "$models_from" ]; then
+  if [ ! -d "$models_from" ]; then
+    echo "reproduce.sh: --models-from $models_from: no such folder (train the models first, e.g. --scale small)" >&2; exit 2
+  fi
+  for model in "${models[@]}"; do
+    if [ -f "$models_from/$model.onnx" ]; then
+      bench_models+=(--model "$model=$models_from/$model.onnx")
+    else
+      echo "reproduce.sh: $models_from/$model.onnx is missing: $model is left out of the bench" >&2
+    fi
+  done
+  models=()
+fi
 for model in "${models[@]}"; do
   run=$out/runs/$model onnx=$out/models/$model.onnx
   bench_models+=(--model "$model=$onnx")
