@@ -18,9 +18,9 @@ use crate::contract::{ModelContract, ModelInput};
 use crate::error::{BenchError, Result};
 use crate::run::{read_rgb, InputMaps};
 
-/// Most pixels of edge patches run through a model in one batch (2^20: 64 patches of 128 x 128, whose
-/// 50-channel PSF codes take 200 MB as f32).
-pub const MAX_EDGE_BATCH_PX: usize = 1 << 20;
+/// Most pixels of edge images run through a model in one batch (2^18: a 512 x 512 image's worth, so a
+/// batch needs no more memory than a test pair of that size; 2^20 doubled the small run's peak to 1.2 GB).
+pub const MAX_EDGE_BATCH_PX: usize = 1 << 18;
 
 /// Which per-pixel maps the benchmarked models take.
 #[derive(Debug, Clone, Copy, Default)]
