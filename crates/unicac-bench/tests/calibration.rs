@@ -18,6 +18,7 @@ use std::io::Read;
 use std::path::PathBuf;
 
 use unicac_bench::compare::read_display_rgb;
+use unicac_image::Planar;
 use unicac_metrics::{psnr_pyiqa, ssim_pyiqa};
 
 const NAMES: [&str; 5] = ["I03", "I04", "I06", "I08", "I19"];
@@ -186,4 +187,31 @@ fn converted_weights_have_the_documented_layout_and_fetch_is_idempotent() {
     assert_eq!(vgg.len(), 13 * 2 + 5);
     let again = unicac_bench::lpips::fetch::fetch(&root, "/nonexistent/python").unwrap();
     assert!(again.already_present, "a second fetch must not download");
+}
+
+/// LPIPS in tiles equals one pass over the whole image: the tiles' owned features are the image's own.
+#[test]
+fn lpips_in_tiles_equals_one_pass() {
+    let Some(runtime) = support::ort_or_skip() else {
+        return;
+    };
+    let Some(root) = lpips_cache() else { return };
+    let mut lpips = unicac_bench::lpips::Lpips::load(runtime, &root, 2).unwrap();
+    for (w, h) in [(509, 389), (400, 257)] {
+        let noise = support::values(3 * w * h, 5, 0.3);
+        let reference = Planar::from_fn(w, h, 3, |c, x, y| {
+            (0.5 + 0.4 * ((x as f32 / 17.0).sin() * (y as f32 / 23.0 + c as f32).cos())).clamp(0.0, 1.0)
+        });
+        let distorted = Planar::from_fn(w, h, 3, |c, x, y| {
+            (reference.get(c, x, y) + noise[(c * h + y) * w + x]).clamp(0.0, 1.0)
+        });
+        let whole = lpips.distance_in_tiles(&distorted, &reference, 4096).unwrap();
+        for core in [64, 96, 160] {
+            let tiled = lpips.distance_in_tiles(&distorted, &reference, core).unwrap();
+            assert!(
+                (tiled - whole).abs() <= 1e-6 * whole.abs().max(1e-3),
+                "{w} x {h}, cores of {core} px: {tiled} against one pass {whole}"
+            );
+        }
+    }
 }
