@@ -46,13 +46,20 @@ fn circles(svg: &str) -> Vec<(f64, f64, f64)> {
         .collect()
 }
 
-/// The anchor (x, y) of the `<text>` element reading exactly `label`.
-fn text_anchor(svg: &str, label: &str) -> (f64, f64) {
-    let end = svg
-        .find(&format!(">{label}</text>"))
+/// The anchor (x, y) and font size of the `<text>` element reading `label` (plotters puts the text on a
+/// line of its own).
+fn text_anchor(svg: &str, label: &str) -> (f64, f64, f64) {
+    let element = svg
+        .split("<text")
+        .skip(1)
+        .map(|e| &e[..e.find("</text>").unwrap()])
+        .find(|e| e[e.find('>').unwrap() + 1..].trim() == label)
         .unwrap_or_else(|| panic!("no text {label:?}"));
-    let element = &svg[svg[..end].rfind("<text").unwrap()..end];
-    (attribute(element, "x"), attribute(element, "y"))
+    (
+        attribute(element, "x"),
+        attribute(element, "y"),
+        attribute(element, "font-size"),
+    )
 }
 
 /// Eight models whose ranks fill all four corners of the chart: rank 1 and rank 8 at the first and at
@@ -78,14 +85,14 @@ fn ranks_filling_every_corner() -> Vec<LevelSeries> {
         .collect()
 }
 
-/// Half the height and an upper bound of the width of a 13 px label: 0.62 em per character covers
-/// the widest lower-case sans-serif letters on average.
-fn label_box(x: f64, y: f64, label: &str) -> Box2 {
+/// The box of a left-anchored, vertically centred label: an upper bound of its width (0.62 em per
+/// character covers the widest lower-case sans-serif letters on average) and its font's height.
+fn label_box(x: f64, y: f64, font_size: f64, label: &str) -> Box2 {
     Box2 {
         left: x,
-        right: x + 13.0 * 0.62 * label.chars().count() as f64,
-        top: y - 8.0,
-        bottom: y + 8.0,
+        right: x + font_size * 0.62 * label.chars().count() as f64,
+        top: y - font_size * 0.6,
+        bottom: y + font_size * 0.6,
     }
 }
 
@@ -101,13 +108,13 @@ fn the_ranking_trend_legend_covers_no_marker() {
     // Each legend entry: its label and the marker drawn on the label's line just left of it.
     let mut legend: Option<Box2> = None;
     for s in &series {
-        let (x, y) = text_anchor(&svg, &s.label);
+        let (x, y, font_size) = text_anchor(&svg, &s.label);
         let at = markers
             .iter()
             .position(|&(cx, cy, _)| (cy - y).abs() < 1.0 && cx < x && x - cx < 40.0)
             .unwrap_or_else(|| panic!("no legend marker for {}", s.label));
         let (cx, cy, r) = markers.remove(at);
-        let entry = label_box(x, y, &s.label).union(&Box2 {
+        let entry = label_box(x, y, font_size, &s.label).union(&Box2 {
             left: cx - 12.0,
             right: cx + r,
             top: cy - r,
