@@ -285,9 +285,20 @@ mod tests {
         // `.` names a real folder once resolved; the root names none.
         let here = std::env::current_dir().unwrap();
         let name = here.file_name().unwrap().to_string_lossy().into_owned();
-        assert_eq!(plot_title(Path::new(".")), format!("Test lenses of {name} by ODE level"));
-        assert_eq!(plot_title(Path::new("/")), "Test lenses of the dataset by ODE level");
-        for dir in ["/work/repro-small/dataset", ".", "/", "out/reproduce-small/dataset/"] {
+        assert_eq!(
+            plot_title(Path::new(".")),
+            format!("Test lenses of {name} by ODE level")
+        );
+        assert_eq!(
+            plot_title(Path::new("/")),
+            "Test lenses of the dataset by ODE level"
+        );
+        for dir in [
+            "/work/repro-small/dataset",
+            ".",
+            "/",
+            "out/reproduce-small/dataset/",
+        ] {
             assert!(!plot_title(Path::new(dir)).contains('/'), "{dir}");
         }
     }

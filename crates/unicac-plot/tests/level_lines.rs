@@ -3,9 +3,6 @@
 //! legend hid the best ranks at levels 4-5). Checked on the SVG, which states every marker's centre and
 //! every label's position.
 
-mod common;
-
-use common::TempDir;
 use unicac_plot::{level_lines, LevelSeries};
 
 /// An axis-aligned box in picture pixels: [left, right] x [top, bottom].
@@ -19,7 +16,10 @@ struct Box2 {
 
 impl Box2 {
     fn overlaps(&self, other: &Box2) -> bool {
-        self.left < other.right && other.left < self.right && self.top < other.bottom && other.top < self.bottom
+        self.left < other.right
+            && other.left < self.right
+            && self.top < other.bottom
+            && other.top < self.bottom
     }
 
     fn union(&self, other: &Box2) -> Box2 {
@@ -99,10 +99,20 @@ fn label_box(x: f64, y: f64, font_size: f64, label: &str) -> Box2 {
 #[test]
 fn the_ranking_trend_legend_covers_no_marker() {
     let series = ranks_filling_every_corner();
-    let dir = TempDir::new("ranking-legend");
-    let path = dir.0.join("ranking_trend.svg");
-    level_lines("Ranking by O.P. across ODE levels", "rank (1 = best)", &series, true, &path).unwrap();
+    // Its own scratch folder: tests/common would bring in helpers this file does not use (dead code).
+    let dir = std::env::temp_dir().join(format!("unicac-plot-ranking-legend-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("ranking_trend.svg");
+    level_lines(
+        "Ranking by O.P. across ODE levels",
+        "rank (1 = best)",
+        &series,
+        true,
+        &path,
+    )
+    .unwrap();
     let svg = std::fs::read_to_string(&path).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
     let mut markers = circles(&svg);
 
     // Each legend entry: its label and the marker drawn on the label's line just left of it.
