@@ -250,13 +250,56 @@ pub fn plot(dir: &Path, out: &Path) -> Result<()> {
                     .collect(),
             })
             .collect();
-    // The folder's own name: a machine's path says nothing to a reader of the picture.
-    let name = dir
-        .canonicalize()
-        .ok()
-        .and_then(|d| d.file_name().map(|n| n.to_string_lossy().into_owned()))
-        .unwrap_or_else(|| "the dataset".into());
-    let title = format!("Test lenses of {name} by ODE level");
-    unicac_plot::level_histograms(&title, &names, &panels, out)
+    unicac_plot::level_histograms(&plot_title(dir), &names, &panels, out)
         .map_err(|e| DatasetError::Invalid(format!("{}: {e}", out.display())))
+}
+
+/// The level plot's title: it names the dataset by its folder's own name, never by a path (a machine's
+/// path says nothing to a reader of the picture, and a committed picture would carry it).
+pub fn plot_title(dir: &Path) -> String {
+    format!("Test lenses of {} by ODE level", folder_name(dir))
+}
+
+/// The last component of `dir`; `.`, `..` and trailing separators are resolved first, since they name
+/// no folder by themselves.
+fn folder_name(dir: &Path) -> String {
+    let resolved = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+    resolved
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "the dataset".into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::plot_title;
+    use std::path::Path;
+
+    #[test]
+    fn the_plot_title_names_the_dataset_folder_without_its_path() {
+        // A path that does not exist here (the small run's): its last component is the name.
+        assert_eq!(
+            plot_title(Path::new("/work/repro-small/dataset")),
+            "Test lenses of dataset by ODE level"
+        );
+        // `.` names a real folder once resolved; the root names none.
+        let here = std::env::current_dir().unwrap();
+        let name = here.file_name().unwrap().to_string_lossy().into_owned();
+        assert_eq!(
+            plot_title(Path::new(".")),
+            format!("Test lenses of {name} by ODE level")
+        );
+        assert_eq!(
+            plot_title(Path::new("/")),
+            "Test lenses of the dataset by ODE level"
+        );
+        for dir in [
+            "/work/repro-small/dataset",
+            ".",
+            "/",
+            "out/reproduce-small/dataset/",
+        ] {
+            assert!(!plot_title(Path::new(dir)).contains('/'), "{dir}");
+        }
+    }
 }

@@ -180,6 +180,23 @@ fn splits_are_lens_disjoint_and_levels_are_ordered_inside_their_thresholds() {
 }
 
 /// Renders a pair again from nothing but its manifest row and lens row.
+/// The level plot names the dataset by its folder, never by the path it was built at (issue 33: the
+/// small run's committed picture carried `/work/repro-small/dataset`).
+#[test]
+fn the_level_plot_is_titled_by_the_dataset_folder_name_not_its_path() {
+    let out = scratch("level-plot");
+    std::fs::create_dir_all(&out).unwrap();
+    let svg = out.join("levels.svg");
+    unicac_dataset::info::plot(reference(), &svg).unwrap();
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    let name = reference().file_name().unwrap().to_string_lossy();
+    let title = format!("Test lenses of {name} by ODE level");
+    assert!(picture.contains(&title), "no title {title:?} in the picture");
+    let parent = reference().parent().unwrap().to_string_lossy();
+    assert!(!picture.contains(parent.as_ref()), "the picture names {parent}");
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
 fn regenerate(dataset: &Dataset, pair: &PairRow) -> (Vec<u8>, Vec<u8>) {
     let lenses = dataset.lenses().unwrap();
     let lens_row = lenses.iter().find(|l| l.lens_id == pair.lens_id).unwrap();
