@@ -366,11 +366,9 @@ def _image_float(path: Path) -> np.ndarray:
     raise DatasetFolderError(f"{path}: expected an 8- or 16-bit sRGB image, got {codes.dtype}")
 
 
-# The pair checks of `pairs.jsonl` and the thresholds `unicac dataset info` flags a lens at
-# (crates/unicac-dataset/src/info.rs: MISREGISTERED_PX, MIN_BLUR_SHARE).
+# The pair checks of `pairs.jsonl`; the rule that flags a lens by their means is Rust's
+# (`_native.pair_check_flag`, the one `unicac dataset info` applies).
 PAIR_CHECK_FIELDS = ("lq_gt_psnr_db", "registration_px", "blur_share")
-MISREGISTERED_PX = 0.5
-MIN_BLUR_SHARE = 0.5
 
 
 class DatasetFolder:
@@ -461,8 +459,8 @@ class DatasetFolder:
     def pair_checks(self, split: str) -> dict[str, dict[str, Any]]:
         """The pairs' recorded checks (docs/dataset.md, "Pair checks") averaged per lens of ``split``:
         lens_id -> {pairs, checked, mean_lq_gt_psnr_db, mean_registration_px, mean_blur_share, flag}.
-        ``flag`` says why a lens's pairs are dominated by something other than blur (the thresholds of
-        ``unicac dataset info``: mean shift above MISREGISTERED_PX or blur share below MIN_BLUR_SHARE);
+        ``flag`` says why a lens's pairs are dominated by something other than blur (``unicac dataset
+        info``'s rule, from the bindings: a mean shift above 0.5 px or a blur share below 50%);
         the means are None for a dataset built before pairs carried checks."""
         by_lens: dict[str, list[dict[str, Any]]] = {}
         for row in self.pairs(split):
@@ -475,14 +473,9 @@ class DatasetFolder:
                 return sum(float(r[key]) for r in checked) / len(checked) if checked else None
 
             shift, share = mean("registration_px"), mean("blur_share")
-            reasons = []
-            if shift is not None and shift > MISREGISTERED_PX:
-                reasons.append(f"LQ and GT pixels are {shift:.2f} px apart (> {MISREGISTERED_PX})")
-            if share is not None and share < MIN_BLUR_SHARE:
-                reasons.append(f"blur explains {100 * share:.0f}% of the lens's LQ-GT error (< {100 * MIN_BLUR_SHARE:.0f}%)")
             out[lens_id] = {"pairs": len(rows), "checked": len(checked), "mean_lq_gt_psnr_db": mean("lq_gt_psnr_db"),
                             "mean_registration_px": shift, "mean_blur_share": share,
-                            "flag": "; ".join(reasons) or None}
+                            "flag": _native.pair_check_flag(shift, share)}
         return out
 
     def lenses(self) -> list[dict[str, Any]]:

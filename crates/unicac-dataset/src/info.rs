@@ -78,19 +78,6 @@ fn lens_pair_checks(lens: &LensRow, pairs: &[&PairRow]) -> LensPairChecks {
         mean(|c| c.registration_px),
         mean(|c| c.blur_share),
     );
-    let mut reasons = Vec::new();
-    if let Some(shift) = shift.filter(|&s| s > MISREGISTERED_PX) {
-        reasons.push(format!(
-            "misregistered: LQ and GT pixels are {shift:.2} px apart (> {MISREGISTERED_PX})"
-        ));
-    }
-    if let Some(share) = share.filter(|&s| s < MIN_BLUR_SHARE) {
-        reasons.push(format!(
-            "blur explains {:.0}% of the lens's LQ-GT error (< {:.0}%); the rest is distortion or shading",
-            100.0 * share,
-            100.0 * MIN_BLUR_SHARE
-        ));
-    }
     LensPairChecks {
         lens_id: lens.lens_id.clone(),
         split: lens.split.clone(),
@@ -101,8 +88,29 @@ fn lens_pair_checks(lens: &LensRow, pairs: &[&PairRow]) -> LensPairChecks {
         mean_lq_gt_psnr_db: psnr,
         mean_registration_px: shift,
         mean_blur_share: share,
-        flag: (!reasons.is_empty()).then(|| reasons.join("; ")),
+        flag: pair_check_flag(shift, share),
     }
+}
+
+/// Why a lens's pairs, with mean registration shift `shift_px` and mean blur share `blur_share`, are
+/// dominated by something other than blur (None: they are not, or carry no checks). The one rule
+/// behind `unicac dataset info`, the trainer's refusal (`unicac.dataset`, through the bindings) and
+/// docs/dataset.md "Pair checks".
+pub fn pair_check_flag(shift_px: Option<f64>, blur_share: Option<f64>) -> Option<String> {
+    let mut reasons = Vec::new();
+    if let Some(shift) = shift_px.filter(|&s| s > MISREGISTERED_PX) {
+        reasons.push(format!(
+            "misregistered: LQ and GT pixels are {shift:.2} px apart (> {MISREGISTERED_PX})"
+        ));
+    }
+    if let Some(share) = blur_share.filter(|&s| s < MIN_BLUR_SHARE) {
+        reasons.push(format!(
+            "blur explains {:.0}% of the lens's LQ-GT error (< {:.0}%); the rest is distortion or shading",
+            100.0 * share,
+            100.0 * MIN_BLUR_SHARE
+        ));
+    }
+    (!reasons.is_empty()).then(|| reasons.join("; "))
 }
 
 fn metric_of(row: &LensRow, metric: &str) -> f64 {

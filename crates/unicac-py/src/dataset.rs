@@ -179,7 +179,16 @@ pub fn wiener_restore<'py>(
     planar_out(py, &restored, false)
 }
 
+/// Why a lens's pairs are dominated by something other than blur, from their mean registration shift
+/// (px) and mean blur share (`unicac_dataset::info::pair_check_flag`); None when they are not.
+#[pyfunction]
+#[pyo3(signature = (mean_registration_px, mean_blur_share))]
+pub fn pair_check_flag(mean_registration_px: Option<f64>, mean_blur_share: Option<f64>) -> Option<String> {
+    unicac_dataset::info::pair_check_flag(mean_registration_px, mean_blur_share)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(pair_check_flag, m)?)?;
     m.add_function(wrap_pyfunction!(fov_map, m)?)?;
     m.add_function(wrap_pyfunction!(psf_features, m)?)?;
     m.add_function(wrap_pyfunction!(psf_basis, m)?)?;
