@@ -313,6 +313,11 @@ fn full_run_reports_rows_overall_analysis_and_files() {
         assert!(out.join(name).is_file(), "{name} missing");
     }
     assert!(written.len() >= 10);
+    // The tables name the dataset by its folder, never by the machine's path.
+    let tables = std::fs::read_to_string(out.join("tables.md")).unwrap();
+    let heading = tables.lines().next().unwrap();
+    let folder = dataset.file_name().unwrap().to_string_lossy().into_owned();
+    assert_eq!(heading, format!("# unicac bench: dataset `{folder}`"));
     let cost = report
         .models
         .iter()

@@ -265,12 +265,12 @@ pub fn plot(dir: &Path, out: &Path) -> Result<()> {
 /// The level plot's title: it names the dataset by its folder's own name, never by a path (a machine's
 /// path says nothing to a reader of the picture, and a committed picture would carry it).
 pub fn plot_title(dir: &Path) -> String {
-    format!("Test lenses of {} by ODE level", folder_name(dir))
+    format!("Test lenses of {} by ODE level", dataset_name(dir))
 }
 
-/// The last component of `dir`; `.`, `..` and trailing separators are resolved first, since they name
-/// no folder by themselves.
-fn folder_name(dir: &Path) -> String {
+/// A dataset's name for pictures and tables: the last component of `dir` (`.`, `..` and trailing
+/// separators resolved first, since they name no folder by themselves), never a machine's path.
+pub fn dataset_name(dir: &Path) -> String {
     let resolved = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
     resolved
         .file_name()

@@ -147,8 +147,8 @@ pub fn write_report(dir: &Path, report: &Report, pairs: &[PairScore]) -> Result<
     put("lens_op.csv", lens_op_csv(&report.results.analysis).as_bytes())?;
     let names: Vec<String> = report.models.iter().map(|m| m.name.clone()).collect();
     let mut md = format!(
-        "# unicac bench: {}\n\nsplit `{}`; metrics as pyiqa's defaults (docs/bench.md). Best **bold**, second <u>underlined</u>.\n\n",
-        report.dataset.display(),
+        "# unicac bench: dataset `{}`\n\nsplit `{}`; metrics as pyiqa's defaults (docs/bench.md). Best **bold**, second <u>underlined</u>.\n\n",
+        unicac_dataset::info::dataset_name(&report.dataset),
         report.split
     );
     md.push_str(&overall_table(report));
