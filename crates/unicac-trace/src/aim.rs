@@ -13,6 +13,7 @@
 //!
 //! Pupils come from the primary wavelength, as in Zemax; each ray is aimed at its own wavelength.
 
+use crate::aim_map::FieldAiming;
 use crate::error::{TraceError, TraceResult};
 use crate::ray::Ray;
 use crate::system::{Clipping, TraceSystem};
@@ -100,6 +101,8 @@ const CONTINUATION_STEPS: usize = 16;
 /// Aims rays of one wavelength.
 pub struct Aimer {
     unclipped: TraceSystem,
+    /// The unclipped system cut after the stop: what the batch aiming traces with the lane tracer.
+    pub(crate) to_stop: TraceSystem,
     pub first_order: FirstOrder,
     object_distance_mm: Option<f64>,
     stop_index: usize,
@@ -114,8 +117,12 @@ impl Aimer {
     }
 
     fn resolved(lens: &Lens, wavelength_um: f64, aiming: Aiming) -> TraceResult<Aimer> {
+        let unclipped = TraceSystem::new(lens, wavelength_um, Clipping::None)?;
+        let mut to_stop = unclipped.clone();
+        to_stop.surfaces.truncate(lens.stop_index + 1);
         Ok(Aimer {
-            unclipped: TraceSystem::new(lens, wavelength_um, Clipping::None)?,
+            unclipped,
+            to_stop,
             first_order: lens.first_order()?,
             object_distance_mm: lens.object_distance_mm,
             stop_index: lens.stop_index,
@@ -152,8 +159,26 @@ impl Aimer {
         Ok(ray)
     }
 
+    /// `ray_at` for many pupil points of one field, in order: what every many-ray caller should use.
+    /// Real aiming solves a few points exactly, fits an aiming map and corrects each ray from it in
+    /// lane batches (`aim_map`), holding every ray to the per-ray solve's stop tolerance; the rays agree
+    /// with `ray_at`'s to that tolerance (paraxial rays are the same, bit for bit).
+    pub fn rays_at(&self, field_deg: [f64; 2], pupil: &[[f64; 2]]) -> Vec<TraceResult<Ray>> {
+        self.for_field(field_deg, pupil.len()).rays(pupil)
+    }
+
+    /// Aiming of about `rays` rays of one field, in batches (`rays_at` for pupils that come in parts).
+    pub fn for_field(&self, field_deg: [f64; 2], rays: usize) -> FieldAiming<'_> {
+        FieldAiming::new(self, field_deg, rays)
+    }
+
+    /// `rays_at` of a field in the y-z plane.
+    pub fn rays(&self, field_deg: f64, pupil: &[[f64; 2]]) -> Vec<TraceResult<Ray>> {
+        self.rays_at([0.0, field_deg], pupil)
+    }
+
     /// The ray of field (x, y) through the point (sx, sy) of the paraxial entrance-pupil plane.
-    fn ray_through_pupil_plane(&self, field_deg: [f64; 2], sx: f64, sy: f64) -> Ray {
+    pub(crate) fn ray_through_pupil_plane(&self, field_deg: [f64; 2], sx: f64, sy: f64) -> Ray {
         let z_ep = self.first_order.entrance_pupil_z_mm;
         let [x_deg, y_deg] = field_deg;
         // Slopes dx/dz, dy/dz and the direction; an x of 0 keeps the y-z plane's own expressions.
@@ -192,18 +217,36 @@ impl Aimer {
         if !status.is_ok() {
             return None;
         }
+        Some(self.in_stop_frame(ray.position_mm))
+    }
+
+    /// A point on the stop surface, in the stop's own frame (x, y).
+    pub(crate) fn in_stop_frame(&self, point_mm: [f64; 3]) -> [f64; 2] {
         if self.unclipped.surfaces[self.stop_index].frame.is_none() {
-            return Some([ray.position_mm[0], ray.position_mm[1]]);
+            return [point_mm[0], point_mm[1]];
         }
-        let local = self.unclipped.to_surface_frame(self.stop_index, ray.position_mm);
-        Some([local[0], local[1]])
+        let local = self.unclipped.to_surface_frame(self.stop_index, point_mm);
+        [local[0], local[1]]
+    }
+
+    /// The largest stop-intercept error (mm, per axis) at which a ray counts as aimed: the same for the
+    /// per-ray solve and the batch aiming (`aim_map`).
+    pub(crate) fn stop_tolerance_mm(&self) -> f64 {
+        1e-13 * self.first_order.stop_radius_mm.max(1e-6)
     }
 
     fn real_ray(&self, field_deg: [f64; 2], px: f64, py: f64) -> TraceResult<Ray> {
+        match self.real_pupil_point(field_deg, px, py) {
+            Ok(s) => Ok(self.ray_through_pupil_plane(field_deg, s[0], s[1])),
+            Err(reason) => Err(aim_failed(field_deg, px, py, reason)),
+        }
+    }
+
+    /// The pupil-plane point of the real-aimed ray: Newton from the paraxial guess, else continuation.
+    pub(crate) fn real_pupil_point(&self, field_deg: [f64; 2], px: f64, py: f64) -> Result<[f64; 2], String> {
         let radius = self.first_order.epd_mm / 2.0;
         let guess = [px * radius, py * radius];
-        let solution = self
-            .solve_stop_point(field_deg, px, py, guess)
+        self.solve_stop_point(field_deg, px, py, guess)
             .or_else(|first_failure| {
                 // Continuation: walk the field up from the axis, each solve starting at the previous one.
                 let mut s = guess;
@@ -214,15 +257,11 @@ impl Aimer {
                         .map_err(|_| first_failure.clone())?;
                 }
                 Ok::<_, String>(s)
-            });
-        match solution {
-            Ok(s) => Ok(self.ray_through_pupil_plane(field_deg, s[0], s[1])),
-            Err(reason) => Err(aim_failed(field_deg, px, py, reason)),
-        }
+            })
     }
 
     /// Newton's method for the pupil-plane point whose ray crosses the stop at (px, py) * R_stop.
-    fn solve_stop_point(
+    pub(crate) fn solve_stop_point(
         &self,
         field_deg: [f64; 2],
         px: f64,
@@ -232,7 +271,7 @@ impl Aimer {
         let r_stop = self.first_order.stop_radius_mm;
         let target = [px * r_stop, py * r_stop];
         let scale = self.first_order.epd_mm.max(1e-9);
-        let tolerance = 1e-13 * r_stop.max(1e-6);
+        let tolerance = self.stop_tolerance_mm();
         let h = 1e-7 * scale;
         let residual = |s: [f64; 2]| {
             self.stop_intercept(field_deg, s)
@@ -284,7 +323,7 @@ impl Aimer {
 }
 
 /// `TraceError::AimFailed` for a 2D field: `field_deg` carries the y angle, the reason names an x angle.
-fn aim_failed(field_deg: [f64; 2], px: f64, py: f64, reason: String) -> TraceError {
+pub(crate) fn aim_failed(field_deg: [f64; 2], px: f64, py: f64, reason: String) -> TraceError {
     let reason = if field_deg[0] == 0.0 {
         reason
     } else {
