@@ -95,6 +95,15 @@ impl Aiming {
     }
 }
 
+/// What all rays of one field share (`Aimer::field_start`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum FieldStart {
+    /// Object at infinity: every ray has this unit direction (normalised once, as `Ray::new` would).
+    Parallel { unit_direction: [f64; 3] },
+    /// Object at a finite distance: every ray leaves this object point.
+    Point { start_mm: [f64; 3] },
+}
+
 const MAX_AIM_ITERATIONS: usize = 30;
 const CONTINUATION_STEPS: usize = 16;
 
@@ -140,23 +149,7 @@ impl Aimer {
     /// x = 0 the direction (0, sin y, cos y) of `ray`). For lenses that are not rotationally symmetric,
     /// where one azimuth does not stand for the others.
     pub fn ray_at(&self, field_deg: [f64; 2], px: f64, py: f64) -> TraceResult<Ray> {
-        let ray = match self.aiming {
-            Aiming::Paraxial => self.paraxial_ray(field_deg, px, py),
-            // `new` resolves Auto; an Aimer built otherwise aims for real.
-            Aiming::Real | Aiming::Auto => self.real_ray(field_deg, px, py)?,
-        };
-        // Extreme but finite lens data (found by fuzzing: an object 6e-314 mm away, a pupil 6e257 mm
-        // behind it) overflow the start point or the direction: such a ray is refused here rather than
-        // handed on holding NaN or infinity.
-        if !ray.is_finite() {
-            return Err(aim_failed(
-                field_deg,
-                px,
-                py,
-                "the aimed ray is not finite (the lens's dimensions overflow f64)".into(),
-            ));
-        }
-        Ok(ray)
+        self.for_field(field_deg, 1).ray(px, py)
     }
 
     /// `ray_at` for many pupil points of one field, in order: what every many-ray caller should use.
@@ -179,6 +172,11 @@ impl Aimer {
 
     /// The ray of field (x, y) through the point (sx, sy) of the paraxial entrance-pupil plane.
     pub(crate) fn ray_through_pupil_plane(&self, field_deg: [f64; 2], sx: f64, sy: f64) -> Ray {
+        self.ray_from(self.field_start(field_deg), sx, sy)
+    }
+
+    /// What every ray of field (x, y) shares, worked out once for the field.
+    pub(crate) fn field_start(&self, field_deg: [f64; 2]) -> FieldStart {
         let z_ep = self.first_order.entrance_pupil_z_mm;
         let [x_deg, y_deg] = field_deg;
         // Slopes dx/dz, dy/dz and the direction; an x of 0 keeps the y-z plane's own expressions.
@@ -190,7 +188,9 @@ impl Aimer {
             ([tan_x, tan_y], [tan_x, tan_y, 1.0])
         };
         match self.object_distance_mm {
-            None => Ray::new([sx, sy, z_ep], direction),
+            None => FieldStart::Parallel {
+                unit_direction: Ray::new([0.0; 3], direction).direction,
+            },
             Some(distance) => {
                 let object_x = if x_deg == 0.0 {
                     0.0
@@ -198,15 +198,27 @@ impl Aimer {
                     -slopes[0] * (z_ep + distance)
                 };
                 let object_y = -slopes[1] * (z_ep + distance);
-                let start = [object_x, object_y, -distance];
-                Ray::new(start, [sx - start[0], sy - start[1], z_ep - start[2]])
+                FieldStart::Point {
+                    start_mm: [object_x, object_y, -distance],
+                }
             }
         }
     }
 
-    fn paraxial_ray(&self, field_deg: [f64; 2], px: f64, py: f64) -> Ray {
-        let radius = self.first_order.epd_mm / 2.0;
-        self.ray_through_pupil_plane(field_deg, px * radius, py * radius)
+    /// The ray of a field (its `field_start`) through the point (sx, sy) of the paraxial
+    /// entrance-pupil plane.
+    #[inline]
+    pub(crate) fn ray_from(&self, field: FieldStart, sx: f64, sy: f64) -> Ray {
+        let z_ep = self.first_order.entrance_pupil_z_mm;
+        match field {
+            FieldStart::Parallel { unit_direction } => Ray {
+                position_mm: [sx, sy, z_ep],
+                direction: unit_direction,
+            },
+            FieldStart::Point { start_mm: start } => {
+                Ray::new(start, [sx - start[0], sy - start[1], z_ep - start[2]])
+            }
+        }
     }
 
     /// Where the ray through pupil-plane point s meets the stop surface, in the stop's own frame (None
@@ -235,7 +247,7 @@ impl Aimer {
         1e-13 * self.first_order.stop_radius_mm.max(1e-6)
     }
 
-    fn real_ray(&self, field_deg: [f64; 2], px: f64, py: f64) -> TraceResult<Ray> {
+    pub(crate) fn real_ray(&self, field_deg: [f64; 2], px: f64, py: f64) -> TraceResult<Ray> {
         match self.real_pupil_point(field_deg, px, py) {
             Ok(s) => Ok(self.ray_through_pupil_plane(field_deg, s[0], s[1])),
             Err(reason) => Err(aim_failed(field_deg, px, py, reason)),

@@ -17,7 +17,7 @@
 //! after `MAX_CHORD_STEPS` goes to the per-ray solve, as does every ray of a field whose map cannot be
 //! fitted, and every ray of a pupil too small for a map to pay.
 
-use crate::aim::{Aimer, Aiming};
+use crate::aim::{aim_failed, Aimer, Aiming, FieldStart};
 use crate::error::TraceResult;
 use crate::ray::{Ray, RayStatus};
 
@@ -31,11 +31,12 @@ const MAX_CHORD_STEPS: usize = 8;
 /// Rays traced to the stop together (a few lane blocks; keeps the working set in cache).
 const BATCH_RAYS: usize = 256;
 
-/// Aiming of many rays of one field (`Aimer::for_field`): for real aiming, the field's aiming map,
-/// fitted once and shared by every batch of pupil points.
+/// Aiming of rays of one field (`Aimer::for_field`): what the field's rays share, worked out once, and
+/// for real aiming of many rays the field's aiming map, shared by every batch of pupil points.
 pub struct FieldAiming<'a> {
     aimer: &'a Aimer,
     field_deg: [f64; 2],
+    start: FieldStart,
     map: Option<AimingMap>,
 }
 
@@ -50,31 +51,53 @@ impl<'a> FieldAiming<'a> {
         FieldAiming {
             aimer,
             field_deg,
+            start: aimer.field_start(field_deg),
             map,
         }
     }
 
-    /// The rays of `pupil`, in order: `Aimer::ray_at` of each point, or for real aiming the same ray
+    /// The ray through normalised pupil point (px, py), aimed on its own (`Aimer::ray_at`).
+    pub fn ray(&self, px: f64, py: f64) -> TraceResult<Ray> {
+        let aimer = self.aimer;
+        let ray = match aimer.aiming {
+            Aiming::Paraxial => {
+                let radius = aimer.first_order.epd_mm / 2.0;
+                aimer.ray_from(self.start, px * radius, py * radius)
+            }
+            // `Aimer::new` resolves Auto; an Aimer built otherwise aims for real.
+            Aiming::Real | Aiming::Auto => aimer.real_ray(self.field_deg, px, py)?,
+        };
+        // Extreme but finite lens data (found by fuzzing: an object 6e-314 mm away, a pupil 6e257 mm
+        // behind it) overflow the start point or the direction: such a ray is refused here rather than
+        // handed on holding NaN or infinity.
+        if !ray.is_finite() {
+            return Err(aim_failed(
+                self.field_deg,
+                px,
+                py,
+                "the aimed ray is not finite (the lens's dimensions overflow f64)".into(),
+            ));
+        }
+        Ok(ray)
+    }
+
+    /// The rays of `pupil`, in order: `ray` of each point, or for real aiming with a map the same ray
     /// to the stop tolerance (see the module docs).
     pub fn rays(&self, pupil: &[[f64; 2]]) -> Vec<TraceResult<Ray>> {
-        let (aimer, field_deg) = (self.aimer, self.field_deg);
         let Some(map) = &self.map else {
-            return pupil
-                .iter()
-                .map(|&[px, py]| aimer.ray_at(field_deg, px, py))
-                .collect();
+            return pupil.iter().map(|&[px, py]| self.ray(px, py)).collect();
         };
         let solved = pupil
             .chunks(BATCH_RAYS)
-            .flat_map(|batch| chord_solve(aimer, map, field_deg, batch));
+            .flat_map(|batch| chord_solve(self.aimer, map, self.start, batch));
         pupil
             .iter()
             .zip(solved)
             .map(|(&[px, py], s)| {
-                let ray = s.map(|s| aimer.ray_through_pupil_plane(field_deg, s[0], s[1]));
+                let ray = s.map(|s| self.aimer.ray_from(self.start, s[0], s[1]));
                 match ray {
                     Some(ray) if ray.is_finite() => Ok(ray),
-                    _ => aimer.ray_at(field_deg, px, py),
+                    _ => self.ray(px, py),
                 }
             })
             .collect()
@@ -86,7 +109,7 @@ impl<'a> FieldAiming<'a> {
 fn chord_solve(
     aimer: &Aimer,
     map: &AimingMap,
-    field_deg: [f64; 2],
+    field: FieldStart,
     batch: &[[f64; 2]],
 ) -> Vec<Option<[f64; 2]>> {
     let r_stop = aimer.first_order.stop_radius_mm;
@@ -115,7 +138,7 @@ fn chord_solve(
         rays.extend(
             pending
                 .iter()
-                .map(|ray| aimer.ray_through_pupil_plane(field_deg, ray.s[0], ray.s[1])),
+                .map(|ray| aimer.ray_from(field, ray.s[0], ray.s[1])),
         );
         statuses.clear();
         statuses.resize(rays.len(), RayStatus::Ok);

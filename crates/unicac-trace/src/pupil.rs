@@ -1,6 +1,7 @@
 //! Pupil sampling patterns over the unit disc (normalised pupil coordinates), and the counter-based
 //! random generator behind `random:N`.
 
+use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::PI;
 
@@ -101,6 +102,26 @@ impl PupilSampling {
         Ok(())
     }
 
+    /// How many points `points` gives, without making them.
+    pub fn point_count(&self) -> usize {
+        match *self {
+            PupilSampling::Grid { n } => {
+                let coordinate = |i: usize| -1.0 + (2 * i + 1) as f64 / n as f64;
+                (0..n)
+                    .map(|j| {
+                        (0..n)
+                            .filter(|&i| {
+                                let (x, y) = (coordinate(i), coordinate(j));
+                                x * x + y * y <= 1.0
+                            })
+                            .count()
+                    })
+                    .sum()
+            }
+            _ => self.candidate_count() as usize,
+        }
+    }
+
     /// The sample points (px, py) in the unit disc.
     pub fn points(&self) -> Vec<[f64; 2]> {
         match *self {
@@ -123,9 +144,12 @@ impl PupilSampling {
                     .filter(|[x, y]| x * x + y * y <= 1.0)
                     .collect()
             }
+            // Point i depends on i alone: generated in parallel (a million points are most of a
+            // spot's work outside the trace).
             PupilSampling::Fibonacci { n } => {
                 let golden_angle = PI * (3.0 - 5f64.sqrt());
                 (0..n)
+                    .into_par_iter()
                     .map(|i| {
                         let r = ((i as f64 + 0.5) / n as f64).sqrt();
                         let angle = i as f64 * golden_angle;
@@ -134,6 +158,7 @@ impl PupilSampling {
                     .collect()
             }
             PupilSampling::Random { n, seed } => (0..n as u64)
+                .into_par_iter()
                 .map(|i| {
                     let r = unit_interval(counter_hash(seed, 2 * i)).sqrt();
                     let angle = 2.0 * PI * unit_interval(counter_hash(seed, 2 * i + 1));
@@ -170,6 +195,21 @@ mod tests {
         assert_eq!(points.len(), 1 + 3 * 6 * 7);
         let outer = points.iter().map(|[x, y]| x.hypot(*y)).fold(0.0, f64::max);
         assert!((outer - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn point_count_is_the_number_of_points() {
+        for pattern in [
+            "hexapolar:5",
+            "grid:1",
+            "grid:16",
+            "grid:17",
+            "fibonacci:500",
+            "random:500",
+        ] {
+            let sampling = pattern.parse::<PupilSampling>().unwrap();
+            assert_eq!(sampling.point_count(), sampling.points().len(), "{pattern}");
+        }
     }
 
     #[test]
