@@ -6,7 +6,8 @@
 //! - `Real`: the ray of the same field crosses the stop surface at (px, py) * R_stop, R_stop being the
 //!   paraxial marginal-ray height at the stop. Solved by Newton's method on the entrance-pupil-plane
 //!   point with a finite-difference Jacobian, from the paraxial guess; where that fails (wide fields),
-//!   by continuation from the axis in growing field steps.
+//!   by continuation from the axis in growing field steps. Whole pupils (`rays_at`, `for_field`) start
+//!   from a fitted aiming map instead and are held to the same stop tolerance (`aim_map`).
 //!
 //! - `Auto` (the default): `Real` for lenses whose paraxial chief ray misses the stop centre by more than
 //!   `AUTO_REAL_AIMING_STOP_MISS` of R_stop at the largest field, else `Paraxial` (`AutoAiming`).
