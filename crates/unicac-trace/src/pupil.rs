@@ -122,6 +122,27 @@ impl PupilSampling {
         }
     }
 
+    /// Point i of `points()` for the patterns whose i-th point depends on i alone (Fibonacci, random),
+    /// so that parts of a pupil can be made where they are used; None for the others.
+    #[inline]
+    pub fn indexed_point(&self, i: usize) -> Option<[f64; 2]> {
+        match *self {
+            PupilSampling::Fibonacci { n } => {
+                let golden_angle = PI * (3.0 - 5f64.sqrt());
+                let r = ((i as f64 + 0.5) / n as f64).sqrt();
+                let angle = i as f64 * golden_angle;
+                Some([r * angle.cos(), r * angle.sin()])
+            }
+            PupilSampling::Random { seed, .. } => {
+                let i = i as u64;
+                let r = unit_interval(counter_hash(seed, 2 * i)).sqrt();
+                let angle = 2.0 * PI * unit_interval(counter_hash(seed, 2 * i + 1));
+                Some([r * angle.cos(), r * angle.sin()])
+            }
+            PupilSampling::Hexapolar { .. } | PupilSampling::Grid { .. } => None,
+        }
+    }
+
     /// The sample points (px, py) in the unit disc.
     pub fn points(&self) -> Vec<[f64; 2]> {
         match *self {
@@ -146,25 +167,13 @@ impl PupilSampling {
             }
             // Point i depends on i alone: generated in parallel (a million points are most of a
             // spot's work outside the trace).
-            PupilSampling::Fibonacci { n } => {
-                let golden_angle = PI * (3.0 - 5f64.sqrt());
-                (0..n)
+            PupilSampling::Fibonacci { .. } | PupilSampling::Random { .. } => {
+                let count = self.point_count();
+                (0..count)
                     .into_par_iter()
-                    .map(|i| {
-                        let r = ((i as f64 + 0.5) / n as f64).sqrt();
-                        let angle = i as f64 * golden_angle;
-                        [r * angle.cos(), r * angle.sin()]
-                    })
+                    .map(|i| self.indexed_point(i).expect("an indexed pattern"))
                     .collect()
             }
-            PupilSampling::Random { n, seed } => (0..n as u64)
-                .into_par_iter()
-                .map(|i| {
-                    let r = unit_interval(counter_hash(seed, 2 * i)).sqrt();
-                    let angle = 2.0 * PI * unit_interval(counter_hash(seed, 2 * i + 1));
-                    [r * angle.cos(), r * angle.sin()]
-                })
-                .collect(),
         }
     }
 }

@@ -71,28 +71,38 @@ impl SpotTracer {
     }
 
     pub fn spot(&self, field_deg: f64, sampling: &PupilSampling) -> Spot {
-        let pupil = sampling.points();
-        let aiming = self.aimer.for_field([0.0, field_deg], pupil.len());
+        let count = sampling.point_count();
+        let aiming = self.aimer.for_field([0.0, field_deg], count);
         // Aimed, traced and reduced to arrivals chunk by chunk on every core: the aiming runs in parallel
-        // like the tracing, and no whole-pupil ray or status buffer is ever held. Arrivals keep pupil order.
-        let parts: Vec<SpotPart> = pupil
-            .par_chunks(SPOT_CHUNK)
-            .map(|chunk| {
-                let mut rays: Vec<Ray> = aiming.rays(chunk).into_iter().filter_map(Result::ok).collect();
-                let mut statuses = vec![RayStatus::Ok; rays.len()];
-                self.system.trace_chunk(&mut rays, &mut statuses);
-                SpotPart {
-                    not_aimed: chunk.len() - rays.len(),
-                    counts: StatusCounts::from_statuses(&statuses),
-                    points_mm: rays
-                        .iter()
-                        .zip(&statuses)
-                        .filter(|(_, s)| s.is_ok())
-                        .map(|(r, _)| [r.position_mm[0], r.position_mm[1]])
-                        .collect(),
-                }
-            })
-            .collect();
+        // like the tracing, and no whole-pupil ray or status buffer is ever held (nor, for the patterns
+        // whose points are made by index, a pupil buffer). Arrivals keep pupil order.
+        let part = |chunk: &[[f64; 2]]| {
+            let mut rays: Vec<Ray> = aiming.rays(chunk).into_iter().filter_map(Result::ok).collect();
+            let mut statuses = vec![RayStatus::Ok; rays.len()];
+            self.system.trace_chunk(&mut rays, &mut statuses);
+            SpotPart {
+                not_aimed: chunk.len() - rays.len(),
+                counts: StatusCounts::from_statuses(&statuses),
+                points_mm: rays
+                    .iter()
+                    .zip(&statuses)
+                    .filter(|(_, s)| s.is_ok())
+                    .map(|(r, _)| [r.position_mm[0], r.position_mm[1]])
+                    .collect(),
+            }
+        };
+        let parts: Vec<SpotPart> = if sampling.indexed_point(0).is_some() {
+            (0..count.div_ceil(SPOT_CHUNK))
+                .into_par_iter()
+                .map(|c| {
+                    let indices = c * SPOT_CHUNK..((c + 1) * SPOT_CHUNK).min(count);
+                    let chunk: Vec<[f64; 2]> = indices.filter_map(|i| sampling.indexed_point(i)).collect();
+                    part(&chunk)
+                })
+                .collect()
+        } else {
+            sampling.points().par_chunks(SPOT_CHUNK).map(part).collect()
+        };
         let rays_not_aimed = parts.iter().map(|part| part.not_aimed).sum();
         let status_counts = parts
             .iter()
@@ -106,7 +116,7 @@ impl SpotTracer {
         Spot {
             field_deg,
             wavelength_um: self.system.wavelength_um,
-            rays_traced: pupil.len(),
+            rays_traced: count,
             rays_ok: points_mm.len(),
             rays_not_aimed,
             status_counts,
