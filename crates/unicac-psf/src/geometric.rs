@@ -221,10 +221,10 @@ impl PsfTracer {
         self.systems
             .iter()
             .map(|(system, aimer)| {
-                let mut rays: Vec<_> = self
-                    .pupil
-                    .iter()
-                    .filter_map(|[px, py]| aimer.ray_at(field_deg, *px, *py).ok())
+                let mut rays: Vec<_> = aimer
+                    .rays_at(field_deg, &self.pupil)
+                    .into_iter()
+                    .filter_map(Result::ok)
                     .collect();
                 let statuses = self.settings.backend.trace(system, &mut rays)?;
                 let mut counts = StatusCounts::from_statuses(&statuses);

@@ -435,8 +435,8 @@ impl WavePsfTracer {
             ))
         };
         // OPL from the incoming wavefront to the reference sphere, if the ray gets there.
-        let path_to_sphere = |system: &TraceSystem, px: f64, py: f64| -> (RayStatus, f64, [f64; 2]) {
-            let Ok(mut ray) = channel.aimer.ray(field_deg, px, py) else {
+        let path_to_sphere = |system: &TraceSystem, aimed: Option<Ray>| -> (RayStatus, f64, [f64; 2]) {
+            let Some(mut ray) = aimed else {
                 return (RayStatus::InvalidInput, 0.0, [0.0; 2]);
             };
             let start = object_path(&ray);
@@ -454,6 +454,13 @@ impl WavePsfTracer {
         let mut amplitude = vec![0.0; n * n];
         let mut counts = StatusCounts::default();
         let mut orientation = 0.0;
+        // The grid's points in the disc, aimed together (a real-aimed lens then pays one aiming map, not
+        // a Newton solve per point), in the order the loop below takes them.
+        let in_disc: Vec<[f64; 2]> = (0..n)
+            .flat_map(|iy| (0..n).map(move |ix| [grid_coordinate(ix, n), grid_coordinate(iy, n)]))
+            .filter(|[px, py]| px * px + py * py <= 1.0)
+            .collect();
+        let mut aimed = channel.aimer.rays(field_deg, &in_disc).into_iter();
         for iy in 0..n {
             let py = grid_coordinate(iy, n);
             for ix in 0..n {
@@ -461,7 +468,8 @@ impl WavePsfTracer {
                 if px * px + py * py > 1.0 {
                     continue;
                 }
-                let (status, path, point) = path_to_sphere(system, px, py);
+                let ray = aimed.next().and_then(Result::ok);
+                let (status, path, point) = path_to_sphere(system, ray);
                 counts.add(status);
                 if status.is_ok() && path.is_finite() {
                     raw[iy * n + ix] = path;
@@ -471,7 +479,8 @@ impl WavePsfTracer {
             }
         }
         let arrived = amplitude.iter().filter(|&&a| a > 0.0).count();
-        let (chief_status, chief_path, _) = path_to_sphere(&channel.unclipped, 0.0, 0.0);
+        let chief = channel.aimer.ray(field_deg, 0.0, 0.0).ok();
+        let (chief_status, chief_path, _) = path_to_sphere(&channel.unclipped, chief);
         let chief_ok = chief_status.is_ok() && chief_path.is_finite();
         let piston = if chief_ok {
             chief_path

@@ -6,13 +6,15 @@
 //! - `Real`: the ray of the same field crosses the stop surface at (px, py) * R_stop, R_stop being the
 //!   paraxial marginal-ray height at the stop. Solved by Newton's method on the entrance-pupil-plane
 //!   point with a finite-difference Jacobian, from the paraxial guess; where that fails (wide fields),
-//!   by continuation from the axis in growing field steps.
+//!   by continuation from the axis in growing field steps. Whole pupils (`rays_at`, `for_field`) start
+//!   from a fitted aiming map instead and are held to the same stop tolerance (`aim_map`).
 //!
 //! - `Auto` (the default): `Real` for lenses whose paraxial chief ray misses the stop centre by more than
 //!   `AUTO_REAL_AIMING_STOP_MISS` of R_stop at the largest field, else `Paraxial` (`AutoAiming`).
 //!
 //! Pupils come from the primary wavelength, as in Zemax; each ray is aimed at its own wavelength.
 
+use crate::aim_map::FieldAiming;
 use crate::error::{TraceError, TraceResult};
 use crate::ray::Ray;
 use crate::system::{Clipping, TraceSystem};
@@ -94,12 +96,23 @@ impl Aiming {
     }
 }
 
+/// What all rays of one field share (`Aimer::field_start`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum FieldStart {
+    /// Object at infinity: every ray has this unit direction (normalised once, as `Ray::new` would).
+    Parallel { unit_direction: [f64; 3] },
+    /// Object at a finite distance: every ray leaves this object point.
+    Point { start_mm: [f64; 3] },
+}
+
 const MAX_AIM_ITERATIONS: usize = 30;
 const CONTINUATION_STEPS: usize = 16;
 
 /// Aims rays of one wavelength.
 pub struct Aimer {
     unclipped: TraceSystem,
+    /// The unclipped system cut after the stop: what the batch aiming traces with the lane tracer.
+    pub(crate) to_stop: TraceSystem,
     pub first_order: FirstOrder,
     object_distance_mm: Option<f64>,
     stop_index: usize,
@@ -114,8 +127,12 @@ impl Aimer {
     }
 
     fn resolved(lens: &Lens, wavelength_um: f64, aiming: Aiming) -> TraceResult<Aimer> {
+        let unclipped = TraceSystem::new(lens, wavelength_um, Clipping::None)?;
+        let mut to_stop = unclipped.clone();
+        to_stop.surfaces.truncate(lens.stop_index + 1);
         Ok(Aimer {
-            unclipped: TraceSystem::new(lens, wavelength_um, Clipping::None)?,
+            unclipped,
+            to_stop,
             first_order: lens.first_order()?,
             object_distance_mm: lens.object_distance_mm,
             stop_index: lens.stop_index,
@@ -133,27 +150,34 @@ impl Aimer {
     /// x = 0 the direction (0, sin y, cos y) of `ray`). For lenses that are not rotationally symmetric,
     /// where one azimuth does not stand for the others.
     pub fn ray_at(&self, field_deg: [f64; 2], px: f64, py: f64) -> TraceResult<Ray> {
-        let ray = match self.aiming {
-            Aiming::Paraxial => self.paraxial_ray(field_deg, px, py),
-            // `new` resolves Auto; an Aimer built otherwise aims for real.
-            Aiming::Real | Aiming::Auto => self.real_ray(field_deg, px, py)?,
-        };
-        // Extreme but finite lens data (found by fuzzing: an object 6e-314 mm away, a pupil 6e257 mm
-        // behind it) overflow the start point or the direction: such a ray is refused here rather than
-        // handed on holding NaN or infinity.
-        if !ray.is_finite() {
-            return Err(aim_failed(
-                field_deg,
-                px,
-                py,
-                "the aimed ray is not finite (the lens's dimensions overflow f64)".into(),
-            ));
-        }
-        Ok(ray)
+        self.for_field(field_deg, 1).ray(px, py)
+    }
+
+    /// `ray_at` for many pupil points of one field, in order: what every many-ray caller should use.
+    /// Real aiming solves a few points exactly, fits an aiming map and corrects each ray from it in
+    /// lane batches (`aim_map`), holding every ray to the per-ray solve's stop tolerance; the rays agree
+    /// with `ray_at`'s to that tolerance (paraxial rays are the same, bit for bit).
+    pub fn rays_at(&self, field_deg: [f64; 2], pupil: &[[f64; 2]]) -> Vec<TraceResult<Ray>> {
+        self.for_field(field_deg, pupil.len()).rays(pupil)
+    }
+
+    /// Aiming of about `rays` rays of one field, in batches (`rays_at` for pupils that come in parts).
+    pub fn for_field(&self, field_deg: [f64; 2], rays: usize) -> FieldAiming<'_> {
+        FieldAiming::new(self, field_deg, rays)
+    }
+
+    /// `rays_at` of a field in the y-z plane.
+    pub fn rays(&self, field_deg: f64, pupil: &[[f64; 2]]) -> Vec<TraceResult<Ray>> {
+        self.rays_at([0.0, field_deg], pupil)
     }
 
     /// The ray of field (x, y) through the point (sx, sy) of the paraxial entrance-pupil plane.
-    fn ray_through_pupil_plane(&self, field_deg: [f64; 2], sx: f64, sy: f64) -> Ray {
+    pub(crate) fn ray_through_pupil_plane(&self, field_deg: [f64; 2], sx: f64, sy: f64) -> Ray {
+        self.ray_from(self.field_start(field_deg), sx, sy)
+    }
+
+    /// What every ray of field (x, y) shares, worked out once for the field.
+    pub(crate) fn field_start(&self, field_deg: [f64; 2]) -> FieldStart {
         let z_ep = self.first_order.entrance_pupil_z_mm;
         let [x_deg, y_deg] = field_deg;
         // Slopes dx/dz, dy/dz and the direction; an x of 0 keeps the y-z plane's own expressions.
@@ -165,7 +189,9 @@ impl Aimer {
             ([tan_x, tan_y], [tan_x, tan_y, 1.0])
         };
         match self.object_distance_mm {
-            None => Ray::new([sx, sy, z_ep], direction),
+            None => FieldStart::Parallel {
+                unit_direction: Ray::new([0.0; 3], direction).direction,
+            },
             Some(distance) => {
                 let object_x = if x_deg == 0.0 {
                     0.0
@@ -173,15 +199,27 @@ impl Aimer {
                     -slopes[0] * (z_ep + distance)
                 };
                 let object_y = -slopes[1] * (z_ep + distance);
-                let start = [object_x, object_y, -distance];
-                Ray::new(start, [sx - start[0], sy - start[1], z_ep - start[2]])
+                FieldStart::Point {
+                    start_mm: [object_x, object_y, -distance],
+                }
             }
         }
     }
 
-    fn paraxial_ray(&self, field_deg: [f64; 2], px: f64, py: f64) -> Ray {
-        let radius = self.first_order.epd_mm / 2.0;
-        self.ray_through_pupil_plane(field_deg, px * radius, py * radius)
+    /// The ray of a field (its `field_start`) through the point (sx, sy) of the paraxial
+    /// entrance-pupil plane.
+    #[inline]
+    pub(crate) fn ray_from(&self, field: FieldStart, sx: f64, sy: f64) -> Ray {
+        let z_ep = self.first_order.entrance_pupil_z_mm;
+        match field {
+            FieldStart::Parallel { unit_direction } => Ray {
+                position_mm: [sx, sy, z_ep],
+                direction: unit_direction,
+            },
+            FieldStart::Point { start_mm: start } => {
+                Ray::new(start, [sx - start[0], sy - start[1], z_ep - start[2]])
+            }
+        }
     }
 
     /// Where the ray through pupil-plane point s meets the stop surface, in the stop's own frame (None
@@ -192,18 +230,36 @@ impl Aimer {
         if !status.is_ok() {
             return None;
         }
-        if self.unclipped.surfaces[self.stop_index].frame.is_none() {
-            return Some([ray.position_mm[0], ray.position_mm[1]]);
-        }
-        let local = self.unclipped.to_surface_frame(self.stop_index, ray.position_mm);
-        Some([local[0], local[1]])
+        Some(self.in_stop_frame(ray.position_mm))
     }
 
-    fn real_ray(&self, field_deg: [f64; 2], px: f64, py: f64) -> TraceResult<Ray> {
+    /// A point on the stop surface, in the stop's own frame (x, y).
+    pub(crate) fn in_stop_frame(&self, point_mm: [f64; 3]) -> [f64; 2] {
+        if self.unclipped.surfaces[self.stop_index].frame.is_none() {
+            return [point_mm[0], point_mm[1]];
+        }
+        let local = self.unclipped.to_surface_frame(self.stop_index, point_mm);
+        [local[0], local[1]]
+    }
+
+    /// The largest stop-intercept error (mm, per axis) at which a ray counts as aimed: the same for the
+    /// per-ray solve and the batch aiming (`aim_map`).
+    pub(crate) fn stop_tolerance_mm(&self) -> f64 {
+        1e-13 * self.first_order.stop_radius_mm.max(1e-6)
+    }
+
+    pub(crate) fn real_ray(&self, field_deg: [f64; 2], px: f64, py: f64) -> TraceResult<Ray> {
+        match self.real_pupil_point(field_deg, px, py) {
+            Ok(s) => Ok(self.ray_through_pupil_plane(field_deg, s[0], s[1])),
+            Err(reason) => Err(aim_failed(field_deg, px, py, reason)),
+        }
+    }
+
+    /// The pupil-plane point of the real-aimed ray: Newton from the paraxial guess, else continuation.
+    pub(crate) fn real_pupil_point(&self, field_deg: [f64; 2], px: f64, py: f64) -> Result<[f64; 2], String> {
         let radius = self.first_order.epd_mm / 2.0;
         let guess = [px * radius, py * radius];
-        let solution = self
-            .solve_stop_point(field_deg, px, py, guess)
+        self.solve_stop_point(field_deg, px, py, guess)
             .or_else(|first_failure| {
                 // Continuation: walk the field up from the axis, each solve starting at the previous one.
                 let mut s = guess;
@@ -214,15 +270,11 @@ impl Aimer {
                         .map_err(|_| first_failure.clone())?;
                 }
                 Ok::<_, String>(s)
-            });
-        match solution {
-            Ok(s) => Ok(self.ray_through_pupil_plane(field_deg, s[0], s[1])),
-            Err(reason) => Err(aim_failed(field_deg, px, py, reason)),
-        }
+            })
     }
 
     /// Newton's method for the pupil-plane point whose ray crosses the stop at (px, py) * R_stop.
-    fn solve_stop_point(
+    pub(crate) fn solve_stop_point(
         &self,
         field_deg: [f64; 2],
         px: f64,
@@ -232,7 +284,7 @@ impl Aimer {
         let r_stop = self.first_order.stop_radius_mm;
         let target = [px * r_stop, py * r_stop];
         let scale = self.first_order.epd_mm.max(1e-9);
-        let tolerance = 1e-13 * r_stop.max(1e-6);
+        let tolerance = self.stop_tolerance_mm();
         let h = 1e-7 * scale;
         let residual = |s: [f64; 2]| {
             self.stop_intercept(field_deg, s)
@@ -284,7 +336,7 @@ impl Aimer {
 }
 
 /// `TraceError::AimFailed` for a 2D field: `field_deg` carries the y angle, the reason names an x angle.
-fn aim_failed(field_deg: [f64; 2], px: f64, py: f64, reason: String) -> TraceError {
+pub(crate) fn aim_failed(field_deg: [f64; 2], px: f64, py: f64, reason: String) -> TraceError {
     let reason = if field_deg[0] == 0.0 {
         reason
     } else {

@@ -8,7 +8,7 @@
 //! - `lanes`: the batch tracer, SIMD over ray lanes (AVX-512 / AVX2 / portable, chosen at run time),
 //!   bit for bit the scalar `system` step;
 //! - `batch`: many rays in parallel (rayon);
-//! - `aim`: paraxial and real ray aiming; `pupil`: pupil sampling patterns;
+//! - `aim`: paraxial and real ray aiming (`aim_map`: real aiming of many rays at once); `pupil`: pupil sampling patterns;
 //! - `spot`: spot diagrams, RMS radii, ray fans, distortion, working F/#;
 //! - `apertures`: clear semi-diameters computed from the beams.
 //!
@@ -19,6 +19,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod aim;
+mod aim_map;
 pub mod apertures;
 pub mod batch;
 pub mod error;
@@ -32,6 +33,7 @@ pub mod system;
 pub mod workload;
 
 pub use aim::{Aimer, Aiming, AutoAiming, AUTO_REAL_AIMING_STOP_MISS};
+pub use aim_map::FieldAiming;
 pub use batch::{trace_rays, trace_rays_from_start, trace_rays_serial};
 pub use error::{TraceError, TraceResult};
 pub use lanes::SimdLevel;

@@ -1,6 +1,7 @@
 //! Pupil sampling patterns over the unit disc (normalised pupil coordinates), and the counter-based
 //! random generator behind `random:N`.
 
+use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::PI;
 
@@ -101,6 +102,47 @@ impl PupilSampling {
         Ok(())
     }
 
+    /// How many points `points` gives, without making them.
+    pub fn point_count(&self) -> usize {
+        match *self {
+            PupilSampling::Grid { n } => {
+                let coordinate = |i: usize| -1.0 + (2 * i + 1) as f64 / n as f64;
+                (0..n)
+                    .map(|j| {
+                        (0..n)
+                            .filter(|&i| {
+                                let (x, y) = (coordinate(i), coordinate(j));
+                                x * x + y * y <= 1.0
+                            })
+                            .count()
+                    })
+                    .sum()
+            }
+            _ => self.candidate_count() as usize,
+        }
+    }
+
+    /// Point i of `points()` for the patterns whose i-th point depends on i alone (Fibonacci, random),
+    /// so that parts of a pupil can be made where they are used; None for the others.
+    #[inline]
+    pub fn indexed_point(&self, i: usize) -> Option<[f64; 2]> {
+        match *self {
+            PupilSampling::Fibonacci { n } => {
+                let golden_angle = PI * (3.0 - 5f64.sqrt());
+                let r = ((i as f64 + 0.5) / n as f64).sqrt();
+                let angle = i as f64 * golden_angle;
+                Some([r * angle.cos(), r * angle.sin()])
+            }
+            PupilSampling::Random { seed, .. } => {
+                let i = i as u64;
+                let r = unit_interval(counter_hash(seed, 2 * i)).sqrt();
+                let angle = 2.0 * PI * unit_interval(counter_hash(seed, 2 * i + 1));
+                Some([r * angle.cos(), r * angle.sin()])
+            }
+            PupilSampling::Hexapolar { .. } | PupilSampling::Grid { .. } => None,
+        }
+    }
+
     /// The sample points (px, py) in the unit disc.
     pub fn points(&self) -> Vec<[f64; 2]> {
         match *self {
@@ -123,23 +165,15 @@ impl PupilSampling {
                     .filter(|[x, y]| x * x + y * y <= 1.0)
                     .collect()
             }
-            PupilSampling::Fibonacci { n } => {
-                let golden_angle = PI * (3.0 - 5f64.sqrt());
-                (0..n)
-                    .map(|i| {
-                        let r = ((i as f64 + 0.5) / n as f64).sqrt();
-                        let angle = i as f64 * golden_angle;
-                        [r * angle.cos(), r * angle.sin()]
-                    })
+            // Point i depends on i alone: generated in parallel (a million points are most of a
+            // spot's work outside the trace).
+            PupilSampling::Fibonacci { .. } | PupilSampling::Random { .. } => {
+                let count = self.point_count();
+                (0..count)
+                    .into_par_iter()
+                    .map(|i| self.indexed_point(i).expect("an indexed pattern"))
                     .collect()
             }
-            PupilSampling::Random { n, seed } => (0..n as u64)
-                .map(|i| {
-                    let r = unit_interval(counter_hash(seed, 2 * i)).sqrt();
-                    let angle = 2.0 * PI * unit_interval(counter_hash(seed, 2 * i + 1));
-                    [r * angle.cos(), r * angle.sin()]
-                })
-                .collect(),
         }
     }
 }
@@ -170,6 +204,21 @@ mod tests {
         assert_eq!(points.len(), 1 + 3 * 6 * 7);
         let outer = points.iter().map(|[x, y]| x.hypot(*y)).fold(0.0, f64::max);
         assert!((outer - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn point_count_is_the_number_of_points() {
+        for pattern in [
+            "hexapolar:5",
+            "grid:1",
+            "grid:16",
+            "grid:17",
+            "fibonacci:500",
+            "random:500",
+        ] {
+            let sampling = pattern.parse::<PupilSampling>().unwrap();
+            assert_eq!(sampling.point_count(), sampling.points().len(), "{pattern}");
+        }
     }
 
     #[test]

@@ -24,7 +24,7 @@ pub fn run(args: &SpotArgs) -> Result<()> {
     let (fields, wavelengths) = fields_and_wavelengths(&lens, &args.rays)?;
     let selection = super::gpu::selection(&args.device);
     let auto_aiming = super::auto_aiming(&lens, args.rays.aim)?;
-    let rays_per_spot = args.pupil_sampling.points().len();
+    let rays_per_spot = args.pupil_sampling.point_count();
     let spots = match selection.tracer_for(rays_per_spot) {
         Some(tracer) => unicac_gpu::spot::spots(
             tracer,

@@ -1,0 +1,42 @@
+//! Pupil points made one by one (`PupilSampling::indexed_point`, what `SpotTracer::spot` makes chunk by
+//! chunk) are the points of `points()`, bit for bit, and a spot does not depend on which way it got
+//! them.
+
+use unicac_optics::examples;
+use unicac_trace::{Aiming, PupilSampling, SpotTracer};
+
+#[test]
+fn indexed_points_are_the_points_bit_for_bit() {
+    for pattern in ["fibonacci:3001", "random:3001", "random:77:12345"] {
+        let sampling: PupilSampling = pattern.parse().unwrap();
+        let points = sampling.points();
+        assert_eq!(points.len(), sampling.point_count(), "{pattern}");
+        for (i, point) in points.iter().enumerate() {
+            assert_eq!(sampling.indexed_point(i), Some(*point), "{pattern} point {i}");
+        }
+    }
+    for pattern in ["hexapolar:4", "grid:9"] {
+        let sampling: PupilSampling = pattern.parse().unwrap();
+        assert_eq!(sampling.indexed_point(0), None, "{pattern}");
+    }
+}
+
+#[test]
+fn a_spot_of_a_pupil_made_in_chunks_keeps_every_point_in_order() {
+    let lens = examples::lens("cooke_triplet").unwrap();
+    let tracer = SpotTracer::new(&lens, lens.primary_wavelength_um(), Aiming::Paraxial).unwrap();
+    // More points than one chunk, not a multiple of it.
+    let sampling = PupilSampling::Random { n: 5000, seed: 3 };
+    let spot = tracer.spot(20.0, &sampling);
+    assert_eq!(spot.rays_traced, 5000);
+    let (mut rays, not_aimed) = tracer.aimed_rays(20.0, &sampling.points());
+    assert_eq!(not_aimed, 0);
+    let statuses = unicac_trace::trace_rays(&tracer.system, &mut rays);
+    let expected: Vec<[f64; 2]> = rays
+        .iter()
+        .zip(&statuses)
+        .filter(|(_, s)| s.is_ok())
+        .map(|(r, _)| [r.position_mm[0], r.position_mm[1]])
+        .collect();
+    assert_eq!(spot.points_mm, expected);
+}
