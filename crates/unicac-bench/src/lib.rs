@@ -22,14 +22,6 @@
 //! network from its converted weights, the tiny models of the tests) and lets the contract check and the
 //! cost analysis read any model without a second ML runtime.
 
-// Style lints found by the first clippy run after the merge, left for the next pass (issue 12 note).
-#![allow(
-    clippy::manual_is_multiple_of,
-    clippy::manual_range_patterns,
-    clippy::type_complexity,
-    clippy::needless_range_loop
-)]
-
 pub mod analysis;
 pub mod clipiqa;
 pub mod compare;

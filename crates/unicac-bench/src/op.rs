@@ -35,8 +35,11 @@ pub struct OpScore {
     pub complete: bool,
 }
 
-/// The six terms: name, and the term's value for a metric value.
-const TERMS: [(&str, fn(f64) -> f64); 6] = [
+/// A term's metric name and its value for a metric value.
+type Term = (&'static str, fn(f64) -> f64);
+
+/// The six terms.
+const TERMS: [Term; 6] = [
     ("psnr", |v| 0.4 * v / 50.0),
     ("ssim", |v| 0.3 * (v - 0.5) / 0.5),
     ("lpips", |v| 0.4 * (1.0 - v) / 0.4),

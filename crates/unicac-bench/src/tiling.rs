@@ -156,9 +156,9 @@ pub fn run_tiled(
                     "tiles returned different channel counts".into(),
                 ));
             }
-            for y in 0..th {
-                for x in 0..tw {
-                    let w = wy[y] * wx[x];
+            for (y, &weight_y) in wy.iter().enumerate().take(th) {
+                for (x, &weight_x) in wx.iter().enumerate().take(tw) {
+                    let w = weight_y * weight_x;
                     let at = (y0 + y) * width + x0 + x;
                     weight_sum[at] += w;
                     for c in 0..out.channels {

@@ -260,7 +260,7 @@ impl Lpips {
     /// [`Lpips::distance`] with tile cores of `core_px` (a multiple of 16; see the module note).
     pub fn distance_in_tiles(&mut self, image: &Planar, reference: &Planar, core_px: usize) -> Result<f64> {
         assert!(
-            core_px >= 16 && core_px % 16 == 0,
+            core_px >= 16 && core_px.is_multiple_of(16),
             "tile cores are multiples of 16 px"
         );
         let (rows_full, columns_full) = (layer_lengths(image.height), layer_lengths(image.width));

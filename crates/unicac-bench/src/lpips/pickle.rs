@@ -180,7 +180,7 @@ impl<'a> Machine<'a> {
     }
 
     fn set_items(&mut self, items: Vec<Value>) -> Result<()> {
-        if items.len() % 2 != 0 {
+        if !items.len().is_multiple_of(2) {
             return self.fail("odd number of dict items");
         }
         let mut pairs = Vec::with_capacity(items.len() / 2);
@@ -343,7 +343,7 @@ impl<'a> Machine<'a> {
                     let g = self.global(&module, &name)?;
                     self.stack.push(Value::Global(g))
                 }
-                0x85 | 0x86 | 0x87 => {
+                0x85..=0x87 => {
                     let n = (opcode - 0x84) as usize;
                     if self.stack.len() < n {
                         return self.fail("stack underflow");
