@@ -381,7 +381,7 @@ def test_run_writes_logs_curves_and_checkpoints(tmp_path, dataset):
     scores = Trainer(tiny_config("nafnet-fov", dataset), run, quiet=True).train()
     assert set(scores) >= {"psnr_db", "ssim", "input_psnr_db"}
     rows = [json.loads(line) for line in (run / "log.jsonl").read_text().splitlines()]
-    assert [r["iter"] for r in rows if r["kind"] == "val"] == [3, 6]
+    assert [r["iter"] for r in rows if r["kind"] == "val"] == [0, 3, 6]  # 0: before training, the curve's start
     assert all(r["loss"] > 0 and r["it_per_s"] > 0 for r in rows if r["kind"] == "train")
     assert (run / "log.csv").read_text().startswith("iter,kind,loss")
     assert (run / "checkpoints" / "latest.pt").is_file() and not list((run / "checkpoints").glob(".*"))

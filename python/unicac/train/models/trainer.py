@@ -514,6 +514,19 @@ class Trainer:
         return self.ema.module if self.ema is not None else self.net  # type: ignore[return-value]
 
     @torch.no_grad()
+    def _log_validation(self, iteration: int, t0: float, progress: Progress) -> dict[str, float]:
+        """Validates, logs the scores as iteration `iteration`'s `val` row and reports them."""
+        scores = self.validate()
+        self.log.add(iter=iteration, kind="val", psnr_db=scores["psnr_db"], ssim=scores["ssim"],
+                     prediction_l1=scores.get("prediction_l1"), seconds=time.perf_counter() - t0)
+        predicted = (f", {self.net.predicts} L1 {scores['prediction_l1']:.4f} (zeros "
+                     f"{scores['prediction_l1_zero']:.4f})") if "prediction_l1" in scores else ""
+        progress.message(
+            f"iter {iteration}: val PSNR {scores['psnr_db']:.2f} dB, SSIM {scores['ssim']:.4f} "
+            f"(input {scores['input_psnr_db']:.2f} dB, {scores['input_ssim']:.4f}){predicted}"
+        )
+        return scores
+
     def validate(self) -> dict[str, float]:
         """Mean PSNR (dB) / SSIM of the restored and of the unrestored validation images (fixed set);
         for a blind network also the L1 error of its predicted map (`prediction_l1`) and that of
@@ -574,6 +587,10 @@ class Trainer:
         t0 = time.perf_counter()
         wall_before = self.wall_time_s
         iteration = self.start_iter
+        if self.rank == 0 and self.start_iter == 0 and total > 0:
+            # The curve's starting point: what the network does before training (for wiener-nafnet, the
+            # Wiener estimate itself), so a curve shows how much training added.
+            self._log_validation(0, t0, progress)
         for iteration, data in enumerate(loader, start=self.start_iter + 1):
             recent.append(self._step(data, iteration - 1))
             self.wall_time_s = wall_before + time.perf_counter() - t0
@@ -584,15 +601,7 @@ class Trainer:
                 recent = []
             out_of_time = iteration < total and self._budget_spent(t0)
             if self.rank == 0 and (iteration % every_val == 0 or iteration == total or out_of_time):
-                last_val = self.validate()
-                self.log.add(iter=iteration, kind="val", psnr_db=last_val["psnr_db"], ssim=last_val["ssim"],
-                             prediction_l1=last_val.get("prediction_l1"), seconds=time.perf_counter() - t0)
-                predicted = (f", {self.net.predicts} L1 {last_val['prediction_l1']:.4f} (zeros "
-                             f"{last_val['prediction_l1_zero']:.4f})") if "prediction_l1" in last_val else ""
-                progress.message(
-                    f"iter {iteration}: val PSNR {last_val['psnr_db']:.2f} dB, SSIM {last_val['ssim']:.4f} "
-                    f"(input {last_val['input_psnr_db']:.2f} dB, {last_val['input_ssim']:.4f}){predicted}"
-                )
+                last_val = self._log_validation(iteration, t0, progress)
             if stop_after is not None and iteration >= stop_after:
                 return last_val
             if iteration % every_ckpt == 0 or iteration == total or out_of_time:
