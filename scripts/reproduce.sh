@@ -104,6 +104,11 @@ case "$scale" in
   *) echo "reproduce.sh: --scale must be tiny, cpu, small, paper-test or paper, not '$scale'" >&2; exit 2 ;;
 esac
 
+# Checked before any work (design and dataset take hours at the larger scales).
+if [ -n "$models_from" ] && [ ! -d "$models_from" ]; then
+  echo "reproduce.sh: --models-from $models_from: no such folder (train the models first, e.g. --scale small)" >&2; exit 2
+fi
+
 source scripts/setup.sh
 source scripts/setup_python.sh dev   # PyTorch for training, onnxruntime for bench
 source scripts/link_python_package.sh release   # `unicac` (and unicac.train) importable in .venv
@@ -141,9 +146,6 @@ fi
 mkdir -p "$out/runs" "$out/models"
 bench_models=()
 if [ -n "$models_from" ]; then
-  if [ ! -d "$models_from" ]; then
-    echo "reproduce.sh: --models-from $models_from: no such folder (train the models first, e.g. --scale small)" >&2; exit 2
-  fi
   for model in "${models[@]}"; do
     if [ -f "$models_from/$model.onnx" ]; then
       bench_models+=(--model "$model=$models_from/$model.onnx")

@@ -6,7 +6,7 @@
 //! separate patches; a network sees an edge of the kind it was trained on, and runs a third of the pixels.
 //! Rows that do not form such a triple (a hand-made dataset) are restored one by one, as stored.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
 
 use unicac_dataset::folder::Dataset;
@@ -16,7 +16,7 @@ use unicac_image::Planar;
 
 use crate::contract::{ModelContract, ModelInput};
 use crate::error::{BenchError, Result};
-use crate::run::{read_rgb, InputMaps};
+use crate::run::{dataset_error, read_rgb, InputMaps};
 
 /// Most pixels of edge images run through a model in one batch (2^18: a 512 x 512 image's worth, so a
 /// batch needs no more memory than a test pair of that size; 2^20 doubled the small run's peak to 1.2 GB).
@@ -35,23 +35,26 @@ pub(crate) type EdgeGroup<'a> = Vec<&'a EdgeRow>;
 
 /// Groups `rows` (in order of first appearance) into the images the bench restores.
 pub(crate) fn edge_groups(rows: &[EdgeRow]) -> Vec<EdgeGroup<'_>> {
-    let key = |r: &EdgeRow| {
-        (
-            r.lens_id.clone(),
-            r.field_fraction.to_bits(),
-            r.direction.clone(),
-            r.size_px,
-        )
-    };
-    let mut order: Vec<(_, EdgeGroup)> = Vec::new();
+    // Groups in order of first appearance, found by key (borrowed: no string copies).
+    let mut index: HashMap<(&str, u64, &str, usize), usize> = HashMap::new();
+    let mut order: Vec<EdgeGroup> = Vec::new();
     for row in rows {
-        match order.iter_mut().find(|(k, _)| *k == key(row)) {
-            Some((_, group)) => group.push(row),
-            None => order.push((key(row), vec![row])),
+        let key = (
+            row.lens_id.as_str(),
+            row.field_fraction.to_bits(),
+            row.direction.as_str(),
+            row.size_px,
+        );
+        match index.get(&key) {
+            Some(&i) => order[i].push(row),
+            None => {
+                index.insert(key, order.len());
+                order.push(vec![row]);
+            }
         }
     }
     let mut groups = Vec::new();
-    for (_, group) in order {
+    for group in order {
         let mut channels: Vec<&str> = group.iter().map(|r| r.channel.as_str()).collect();
         channels.sort_unstable();
         if channels == ["B", "G", "R"] {
@@ -108,9 +111,7 @@ impl<'a> EdgePatch<'a> {
         let mut rows = Vec::with_capacity(group.len());
         let mut lq: Option<Planar> = None;
         for &row in group {
-            let path = dataset
-                .resolve(&row.lq)
-                .map_err(|e| BenchError::InvalidInput(e.to_string()))?;
+            let path = dataset.resolve(&row.lq).map_err(dataset_error)?;
             let channel = channel_index(row)?;
             let patch = read_rgb(&path)?;
             match &mut lq {

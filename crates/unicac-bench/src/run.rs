@@ -81,7 +81,7 @@ fn invalid(message: String) -> BenchError {
     BenchError::InvalidInput(message)
 }
 
-fn dataset_error(e: unicac_dataset::DatasetError) -> BenchError {
+pub(crate) fn dataset_error(e: unicac_dataset::DatasetError) -> BenchError {
     invalid(e.to_string())
 }
 
@@ -651,7 +651,8 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
         },
         method: Method::Identity,
     }];
-    if s.methods.iter().any(|m| m == "wiener") {
+    let wants_wiener = s.methods.iter().any(|m| m == "wiener");
+    if wants_wiener {
         entries.push(Entry {
             info: ModelInfo {
                 name: "wiener".into(),
@@ -732,16 +733,19 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
             .or_insert_with(|| basis.as_ref().expect("basis read").field_codes(table))
             .clone()
     };
+    // Methods or maps that read the lens's PSF table.
+    let needs_table = has_psf && (needs_psf_map || needs_code_map || !wiener_nsrs.is_empty() || wants_wiener);
+    // The edge rows by lens, and the images each lens's rows are restored as (an R, G, B triple shares one).
+    let edge_lenses: Vec<(&[unicac_dataset::EdgeRow], Vec<crate::edges::EdgeGroup>)> = edges
+        .chunk_by(|a, b| a.lens_id == b.lens_id)
+        .map(|rows| (rows, edge_groups(rows)))
+        .collect();
     let pair_px = |p: &PairRow| p.crop[2] * p.crop[3];
-    // An edge image is restored once for its rows (an R, G, B triple shares one).
-    let edge_px = |rows: &[unicac_dataset::EdgeRow]| -> usize {
-        edge_groups(rows)
-            .iter()
-            .map(|g| g[0].size_px * g[0].size_px)
-            .sum()
+    let edge_px = |groups: &[crate::edges::EdgeGroup]| -> usize {
+        groups.iter().map(|g| g[0].size_px * g[0].size_px).sum()
     };
     let pairs_px: usize = pairs.iter().map(pair_px).sum();
-    let total = pairs_px + edge_px(&edges);
+    let total = pairs_px + edge_lenses.iter().map(|(_, g)| edge_px(g)).sum::<usize>();
     let mut done = 0;
     for pair in &pairs {
         progress(done, total, &pair.pair_id);
@@ -763,12 +767,7 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
                 pair.pair_id, pair.crop, lq.width, lq.height
             )));
         }
-        let table = if has_psf
-            && (needs_psf_map
-                || needs_code_map
-                || !wiener_nsrs.is_empty()
-                || s.methods.iter().any(|m| m == "wiener"))
-        {
+        let table = if needs_table {
             Some(table_for(&pair.psf, &pair.lens_id)?)
         } else {
             None
@@ -881,13 +880,12 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
         psf: needs_psf_map,
         psf_code: needs_code_map,
     };
-    let wants_wiener = s.methods.iter().any(|m| m == "wiener");
     let half_diagonal_px = lenses_half_diagonal(&pairs);
-    for group in edges.chunk_by(|a, b| a.lens_id == b.lens_id) {
-        progress(done, total, &group[0].edge_id);
-        done += edge_px(group);
-        let lens_id = &group[0].lens_id;
-        let table = if needs_psf_map || needs_code_map || !wiener_nsrs.is_empty() || wants_wiener {
+    for (rows, groups) in &edge_lenses {
+        progress(done, total, &rows[0].edge_id);
+        done += edge_px(groups);
+        let lens_id = &rows[0].lens_id;
+        let table = if needs_table {
             let lens_pair = pairs
                 .iter()
                 .find(|p| &p.lens_id == lens_id)
@@ -900,12 +898,12 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
             (Some(t), true) => Some(codes_for(t, lens_id)),
             _ => None,
         };
-        let patches = edge_groups(group)
+        let patches = groups
             .iter()
-            .map(|rows| {
+            .map(|group| {
                 EdgePatch::load(
                     &dataset,
-                    rows,
+                    group,
                     half_diagonal_px,
                     needs,
                     table.as_ref(),

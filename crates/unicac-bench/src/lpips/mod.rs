@@ -288,8 +288,8 @@ impl Lpips {
                     let (h, w) = (map.shape[2], map.shape[3]);
                     // Owned: anchored in the core, inside the whole image's map (full index = tile
                     // index + tile start / stride).
-                    let rows = (cy0 / s).max(y0 / s)..(cy1.div_ceil(s)).min(rows_full[i]);
-                    let columns = (cx0 / s).max(x0 / s)..(cx1.div_ceil(s)).min(columns_full[i]);
+                    let rows = cy0 / s..cy1.div_ceil(s).min(rows_full[i]);
+                    let columns = cx0 / s..cx1.div_ceil(s).min(columns_full[i]);
                     for row in rows {
                         let r = row - y0 / s;
                         if r >= h {
