@@ -16,7 +16,7 @@ use unicac_image::Planar;
 
 use crate::contract::{ModelContract, ModelInput};
 use crate::error::{BenchError, Result};
-use crate::run::{dataset_error, read_rgb, InputMaps};
+use crate::inputs::{dataset_error, read_rgb, InputMaps};
 
 /// Most pixels of edge images run through a model in one batch (2^18: a 512 x 512 image's worth, so a
 /// batch needs no more memory than a test pair of that size; 2^20 doubled the small run's peak to 1.2 GB).

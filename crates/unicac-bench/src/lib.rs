@@ -15,7 +15,7 @@
 //! - [`report`]: aggregation into `results.json`, CSV, tables and pictures; the report folder's policy;
 //! - [`memory`]: the peak memory of a run, estimated and checked before any work;
 //! - [`run`]: `unicac bench` from checks to report ([`edges`]: its slanted-edge patches, batched per
-//!   lens); [`compare`]: `unicac metrics`.
+//!   lens; [`inputs`]: the images and maps a model is given); [`compare`]: `unicac metrics`.
 //!
 //! ONNX files are read and written with the crate's own `prost` declarations of the ONNX messages
 //! ([`onnx`]): one small, well-kept dependency gives exact control over the graphs we build (the LPIPS
@@ -30,6 +30,7 @@ pub mod cost;
 pub mod edges;
 pub mod error;
 pub mod fid;
+pub mod inputs;
 pub mod lpips;
 pub mod memory;
 pub mod npz;

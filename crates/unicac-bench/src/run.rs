@@ -3,11 +3,11 @@
 //! method, then the report.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use unicac_dataset::folder::Dataset;
 use unicac_dataset::{FrameCrop, PairRow, PsfTable};
-use unicac_image::io::{read_image, write_png, SampleDepth};
+use unicac_image::io::{write_png, SampleDepth};
 use unicac_image::Planar;
 
 use crate::clipiqa::ClipIqa;
@@ -15,6 +15,8 @@ use crate::contract::{load_model, ModelContract, ModelInput};
 use crate::edges::{edge_groups, EdgePatch, MapNeeds};
 use crate::error::{BenchError, Result};
 use crate::fid::FidNetwork;
+use crate::inputs::dataset_error;
+pub use crate::inputs::{read_rgb, InputMaps};
 use crate::lpips::Lpips;
 use crate::onnx::proto::ModelProto;
 use crate::ort_library::Search;
@@ -79,10 +81,6 @@ struct Entry {
 
 fn invalid(message: String) -> BenchError {
     BenchError::InvalidInput(message)
-}
-
-pub(crate) fn dataset_error(e: unicac_dataset::DatasetError) -> BenchError {
-    invalid(e.to_string())
 }
 
 fn check_settings(s: &BenchSettings) -> Result<()> {
@@ -160,14 +158,6 @@ fn wanted(s: &BenchSettings, metric: &str) -> bool {
     s.metrics.as_ref().is_none_or(|m| m.iter().any(|x| x == metric))
 }
 
-/// An RGB image in [0, 1] as stored (sRGB-encoded), named in errors.
-pub fn read_rgb(path: &Path) -> Result<Planar> {
-    let loaded = read_image(path)?;
-    loaded
-        .rgb_planes(&loaded.image)
-        .ok_or_else(|| invalid(format!("{}: expected a grey or RGB image", path.display())))
-}
-
 fn to_planar(map: unicac_dataset::ChannelMap) -> Planar {
     Planar {
         width: map.width,
@@ -186,16 +176,6 @@ fn frame_crop(pair: &PairRow) -> FrameCrop {
         w: pair.crop[2],
         h: pair.crop[3],
     }
-}
-
-/// The maps an image offers its models besides `lq` (docs/models.md), each of the image's size.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct InputMaps<'a> {
-    pub fov: Option<&'a Planar>,
-    pub psf: Option<&'a Planar>,
-    pub psf_code: Option<&'a Planar>,
-    /// The Wiener estimate with the model's own noise-to-signal ratio.
-    pub wiener: Option<&'a Planar>,
 }
 
 /// Runs an ONNX restoration model on `lq` with the maps it declares, tiled as asked.

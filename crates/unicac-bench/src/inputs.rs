@@ -1,0 +1,32 @@
+//! What the bench reads for a model: an image as RGB, and the maps it offers besides `lq`. Shared by
+//! the test pairs (`run`) and the edge patches (`edges`).
+
+use std::path::Path;
+
+use unicac_image::io::read_image;
+use unicac_image::Planar;
+
+use crate::error::{BenchError, Result};
+
+/// An RGB image in [0, 1] as stored (sRGB-encoded), named in errors.
+pub fn read_rgb(path: &Path) -> Result<Planar> {
+    let loaded = read_image(path)?;
+    loaded
+        .rgb_planes(&loaded.image)
+        .ok_or_else(|| BenchError::InvalidInput(format!("{}: expected a grey or RGB image", path.display())))
+}
+
+/// The maps an image offers its models besides `lq` (docs/models.md), each of the image's size.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct InputMaps<'a> {
+    pub fov: Option<&'a Planar>,
+    pub psf: Option<&'a Planar>,
+    pub psf_code: Option<&'a Planar>,
+    /// The Wiener estimate with the model's own noise-to-signal ratio.
+    pub wiener: Option<&'a Planar>,
+}
+
+/// A dataset error as the bench reports it (the dataset's message, which names the file).
+pub(crate) fn dataset_error(e: unicac_dataset::DatasetError) -> BenchError {
+    BenchError::InvalidInput(e.to_string())
+}
