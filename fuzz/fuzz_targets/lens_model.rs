@@ -34,7 +34,7 @@ fuzz_target!(|input: Spec| {
     if input.surfaces.len() > 24 || input.fields.len() > 8 || input.wavelengths_um.len() > 8 {
         return;
     }
-    let Some(mut spec) = unicac_optics::examples::spec("singlet").ok() else { return };
+    let Some(mut spec) = unicac_optics::builtin::spec("singlet").ok() else { return };
     spec.object_distance_mm = input.object_distance_mm;
     spec.aperture = match input.aperture.0 % 3 {
         0 => ApertureSpec::EntrancePupilDiameterMm(input.aperture.1),

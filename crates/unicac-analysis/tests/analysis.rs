@@ -4,7 +4,7 @@
 use unicac_analysis::{
     check_fields, encircled_energy, linspace, mtf, through_focus, MtfMethod, MtfSettings, Spectrum,
 };
-use unicac_optics::examples;
+use unicac_optics::builtin;
 
 fn settings(method: MtfMethod) -> MtfSettings {
     MtfSettings {
@@ -19,7 +19,7 @@ fn settings(method: MtfMethod) -> MtfSettings {
 /// weighted mean of the monochromatic ones (equal weights and, without vignetting, equal transmission).
 #[test]
 fn polychromatic_mtf_is_the_weighted_mean_of_complex_otfs() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let frequencies = linspace(0.0, 150.0, 16);
     let run = |spectrum: &Spectrum| {
         mtf(
@@ -70,7 +70,7 @@ fn polychromatic_mtf_is_the_weighted_mean_of_complex_otfs() {
 /// the diffraction limit of the same pupil.
 #[test]
 fn mtfs_stay_below_the_diffraction_limit() {
-    let lens = examples::lens("phone_asphere").unwrap();
+    let lens = builtin::lens("phone_asphere").unwrap();
     let spectrum = Spectrum::of_lens(&lens);
     let frequencies = linspace(0.0, 400.0, 21);
     for method in [MtfMethod::Diffraction, MtfMethod::Geometric] {
@@ -96,7 +96,7 @@ fn mtfs_stay_below_the_diffraction_limit() {
 
 #[test]
 fn requests_out_of_range_are_refused_with_the_parameter_named() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let spectrum = Spectrum::of_lens(&lens);
     let field = |e: unicac_analysis::AnalysisError| match e {
         unicac_analysis::AnalysisError::InvalidParameter(p) => p.field,

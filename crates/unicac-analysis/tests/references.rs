@@ -9,7 +9,7 @@ use unicac_analysis::{
     encircled_energy, field_curves, mtf, relative_illumination, through_focus, MtfMethod, MtfSettings,
     Spectrum,
 };
-use unicac_optics::{examples, Lens};
+use unicac_optics::{builtin, Lens};
 
 const LENSES: [&str; 3] = ["cooke_triplet", "double_gauss", "phone_asphere"];
 
@@ -30,7 +30,7 @@ fn floats(v: &Value) -> Vec<f64> {
 }
 
 fn lens(name: &str) -> Lens {
-    examples::lens(name).unwrap()
+    builtin::lens(name).unwrap()
 }
 
 /// Largest |a - b| over paired values.

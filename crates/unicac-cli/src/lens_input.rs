@@ -2,11 +2,11 @@
 
 use anyhow::Result;
 use std::path::Path;
-pub use unicac_optics::examples::BUILTIN_PREFIX;
-use unicac_optics::{examples, Lens, LensSpec};
+pub use unicac_optics::builtin::BUILTIN_PREFIX;
+use unicac_optics::{builtin, Lens, LensSpec};
 
 pub fn load_spec(argument: &str) -> Result<LensSpec> {
-    let loaded = examples::resolve_spec(Path::new(argument))?;
+    let loaded = builtin::resolve_spec(Path::new(argument))?;
     for warning in &loaded.warnings {
         eprintln!("warning: {argument}: {warning}");
     }

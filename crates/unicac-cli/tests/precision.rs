@@ -70,7 +70,7 @@ fn simulate_codes(input: &Planar, dir: &Path, extra: &[&str]) -> Vec<i64> {
 
 /// The same blur computed here in float: decode, `LensSimulator::apply`, encode, round to 16 bits.
 fn float_codes(input: &Planar) -> Vec<i64> {
-    let lens = unicac_optics::examples::lens("cooke_triplet").unwrap();
+    let lens = unicac_optics::builtin::lens("cooke_triplet").unwrap();
     let settings = SimulationSettings {
         distortion: false,
         illumination: false,

@@ -5,7 +5,7 @@
 //!     cargo run --release -p unicac-dataset --example dataset_speed [-- THREADS]
 
 use std::time::Instant;
-use unicac_dataset::build::{self, BuildSettings, Shard, Silent};
+use unicac_dataset::builder::{self, BuildSettings, Shard, Silent};
 
 fn main() {
     let threads: usize = std::env::args().nth(1).and_then(|t| t.parse().ok()).unwrap_or(2);
@@ -34,12 +34,12 @@ fn main() {
     settings.pairs_per_lens = 1;
     settings.crop_px = None;
     // ODE per lens, alone, on the build's sensor.
-    let sensor = build::grading::BuildSensor {
+    let sensor = builder::grading::BuildSensor {
         frame_px: [1280, 800],
         pixel_um: None,
     };
     let out = std::env::temp_dir().join(format!("unicac-dataset-speed-{}", std::process::id()));
-    let sources = build::sources::lens_sources(&lenses, &out).expect("lenses");
+    let sources = builder::sources::lens_sources(&lenses, &out).expect("lenses");
     let start = Instant::now();
     pool_for(threads).install(|| {
         for source in &sources {
@@ -51,7 +51,7 @@ fn main() {
     let pool = pool_for(threads);
     let start = Instant::now();
     let report = pool
-        .install(|| build::build(&settings, &out, Shard::ALL, &Silent))
+        .install(|| builder::build(&settings, &out, Shard::ALL, &Silent))
         .expect("build");
     let total_s = start.elapsed().as_secs_f64();
     // The same build again with the ODE and PSF caches warm, the pairs deleted: rendering alone.
@@ -62,7 +62,7 @@ fn main() {
     let _ = std::fs::remove_file(out.join("dataset.json"));
     let start = Instant::now();
     let again = pool
-        .install(|| build::build(&settings, &out, Shard::ALL, &Silent))
+        .install(|| builder::build(&settings, &out, Shard::ALL, &Silent))
         .expect("rebuild");
     let render_s = start.elapsed().as_secs_f64();
     let pairs = again.pairs_rendered as f64;

@@ -15,7 +15,7 @@
 //! - `npy`: float32 NPY files through the `npyz` crate (no ndarray needed; numpy reads them with
 //!   `allow_pickle=False`).
 
-pub mod build;
+pub mod builder;
 pub mod error;
 pub mod folder;
 pub mod fov;

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
-use unicac_dataset::build::{self, render, sources, BuildSettings, Shard, Silent};
+use unicac_dataset::builder::{self, render, sources, BuildSettings, Shard, Silent};
 use unicac_dataset::folder::Dataset;
 use unicac_dataset::manifest::PairRow;
 
@@ -43,12 +43,12 @@ fn build_with(
     settings: &BuildSettings,
     out: &Path,
     shard: Shard,
-) -> unicac_dataset::Result<build::BuildReport> {
+) -> unicac_dataset::Result<builder::BuildReport> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap()
-        .install(|| build::build(settings, out, shard, &Silent))
+        .install(|| builder::build(settings, out, shard, &Silent))
 }
 
 /// The reference build (2 threads), made once per test binary.
@@ -204,7 +204,7 @@ fn regenerate(dataset: &Dataset, pair: &PairRow) -> (Vec<u8>, Vec<u8>) {
         .unwrap()
         .remove(0);
     assert_eq!(lens_source.sha256, lens_row.lens_sha256);
-    let lens = build::grading::BuildSensor {
+    let lens = builder::grading::BuildSensor {
         frame_px: pair.frame_px,
         pixel_um: None,
     }
@@ -360,7 +360,7 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
     let mut s = settings();
     s.images = images.to_string_lossy().into_owned();
     let out = scratch("bad-image-out");
-    let error = build::build(&s, &out, Shard::ALL, &Silent)
+    let error = builder::build(&s, &out, Shard::ALL, &Silent)
         .unwrap_err()
         .to_string();
     assert!(error.contains("broken.png"), "{error}");
@@ -377,7 +377,7 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
     s.lenses
         .push(lens_dir.join("wild.json").to_string_lossy().into_owned());
     let out = scratch("bad-lens-out");
-    let error = build::build(&s, &out, Shard::ALL, &Silent)
+    let error = builder::build(&s, &out, Shard::ALL, &Silent)
         .unwrap_err()
         .to_string();
     assert!(error.contains("wild.json"), "{error}");
@@ -386,7 +386,7 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
     let mut s = settings();
     s.lenses.push("builtin:singlet".into());
     let out = scratch("big-psf-out");
-    let error = build::build(&s, &out, Shard::ALL, &Silent)
+    let error = builder::build(&s, &out, Shard::ALL, &Silent)
         .unwrap_err()
         .to_string();
     assert!(
@@ -398,7 +398,7 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
     let mut s = settings();
     s.test_lenses_per_level = 2;
     let out = scratch("small-out");
-    let error = build::build(&s, &out, Shard::ALL, &Silent)
+    let error = builder::build(&s, &out, Shard::ALL, &Silent)
         .unwrap_err()
         .to_string();
     assert!(
@@ -410,7 +410,7 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
     let before = files(reference());
     let mut s = settings();
     s.seed = 12;
-    let error = build::build(&s, reference(), Shard::ALL, &Silent)
+    let error = builder::build(&s, reference(), Shard::ALL, &Silent)
         .unwrap_err()
         .to_string();
     assert!(
@@ -422,7 +422,7 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
     let stranger = scratch("stranger");
     std::fs::create_dir_all(&stranger).unwrap();
     std::fs::write(stranger.join("notes.txt"), b"mine").unwrap();
-    let error = build::build(&settings(), &stranger, Shard::ALL, &Silent)
+    let error = builder::build(&settings(), &stranger, Shard::ALL, &Silent)
         .unwrap_err()
         .to_string();
     assert!(

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
-use unicac_dataset::build::{self, BuildSettings, PairTask, Shard, Silent};
+use unicac_dataset::builder::{self, BuildSettings, PairTask, Shard, Silent};
 use unicac_dataset::folder::Dataset;
 use unicac_dataset::info::{info, MIN_BLUR_SHARE, MISREGISTERED_PX};
 use unicac_dataset::manifest::PairRow;
@@ -44,7 +44,7 @@ fn built(task: PairTask) -> &'static Path {
     slot.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("unicac-pairs-{}-{}", task.name(), std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let report = build::build(&settings(task), &dir, Shard::ALL, &Silent).unwrap();
+        let report = builder::build(&settings(task), &dir, Shard::ALL, &Silent).unwrap();
         assert!(report.complete);
         dir
     })
@@ -185,7 +185,7 @@ fn switching_the_distortion_and_shading_off_makes_both_tasks_the_same_pairs() {
         s.illumination = false;
         let out = dir(task);
         let _ = std::fs::remove_dir_all(&out);
-        assert!(build::build(&s, &out, Shard::ALL, &Silent).unwrap().complete);
+        assert!(builder::build(&s, &out, Shard::ALL, &Silent).unwrap().complete);
         let pairs = Dataset::open(&out).unwrap().pairs().unwrap();
         assert!(pairs.iter().all(|p| !p.distortion && !p.illumination));
         pngs.push(

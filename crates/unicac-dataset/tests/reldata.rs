@@ -3,7 +3,7 @@
 //! work (no grading, no folder made). Each test failed (or panicked) before its fix.
 
 use std::path::{Path, PathBuf};
-use unicac_dataset::build::{self, claim, BuildSettings, Shard, Silent};
+use unicac_dataset::builder::{self, claim, BuildSettings, Shard, Silent};
 use unicac_dataset::DatasetError;
 
 fn settings(lenses: &[&str]) -> BuildSettings {
@@ -28,7 +28,7 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn refused(settings: &BuildSettings, out: &Path) -> DatasetError {
-    let error = build::build(settings, out, Shard::ALL, &Silent).unwrap_err();
+    let error = builder::build(settings, out, Shard::ALL, &Silent).unwrap_err();
     assert!(!out.exists(), "{error}: {} was made", out.display());
     error
 }
@@ -52,7 +52,7 @@ fn the_same_lens_under_two_names_is_refused_before_any_work() {
     bytes.push(b'\n');
     std::fs::write(&copy, bytes).unwrap();
     let zmx = dir.join("cooke.zmx");
-    let spec = unicac_optics::examples::spec("cooke_triplet").unwrap();
+    let spec = unicac_optics::builtin::spec("cooke_triplet").unwrap();
     unicac_optics::write_spec(&spec, &zmx).unwrap();
     let out = dir.join("ds");
     for other in [json.as_str(), copy.to_str().unwrap(), zmx.to_str().unwrap()] {
@@ -194,7 +194,7 @@ fn a_folder_claimed_by_other_settings_is_refused_and_the_same_settings_resume() 
         error.contains("another build with different settings holds this folder") && error.contains("seed"),
         "{error}"
     );
-    let error = build::build(&second, &out, Shard::ALL, &Silent)
+    let error = builder::build(&second, &out, Shard::ALL, &Silent)
         .unwrap_err()
         .to_string();
     assert!(
@@ -251,7 +251,7 @@ fn an_output_inside_an_input_folder_is_refused() {
     let error = refused(&s, &images.join("sub").join("ds")).to_string();
     assert!(error.contains("lies inside the input folder"), "{error}");
     // An input inside the output folder is the build's own output too.
-    let error = build::build(&s, &dir, Shard::ALL, &Silent)
+    let error = builder::build(&s, &dir, Shard::ALL, &Silent)
         .unwrap_err()
         .to_string();
     assert!(error.contains("holds the input"), "{error}");

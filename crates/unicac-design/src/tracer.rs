@@ -12,9 +12,7 @@
 use crate::scalar::Scalar;
 use crate::system::Prescription;
 
-const MAX_NEWTON_ITERATIONS: usize = 40;
-const NEWTON_STEP_TOLERANCE: f64 = 1e-9;
-const GRAZING_N: f64 = 1e-6;
+use unicac_trace::surface::{GRAZING_N, MAX_NEWTON_ITERATIONS, NEWTON_STEP_TOLERANCE};
 
 #[derive(Debug, Clone, Copy)]
 pub struct Ray<S> {

@@ -12,7 +12,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 use unicac_gpu::{GpuContext, GpuTracer, ParaxialAim, Precision, PupilSource, RaySource};
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_trace::workload::axis_and_edge_rays;
 use unicac_trace::{trace_rays, Clipping, PupilSampling, TraceSystem};
 
@@ -52,7 +52,7 @@ fn main() {
         context.adapter.name, context.adapter.driver_info
     );
     for name in ["cooke_triplet", "phone_asphere"] {
-        let lens = examples::lens(name).unwrap();
+        let lens = builtin::lens(name).unwrap();
         let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
         let surfaces = lens.surfaces.len();
         let rays = axis_and_edge_rays(&lens, RAYS, 12345).unwrap();
@@ -114,7 +114,7 @@ fn main() {
         }
     }
     // The auto threshold: host-ray batches as PsfTracer::hits sends them.
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
     let tracer = GpuTracer::new(context.clone(), Precision::F32).unwrap();
     println!("batch rays | cpu ms | gpu f32 ms (cooke triplet, host rays, everything included)");

@@ -76,4 +76,13 @@ mod tests {
         assert!(text.contains(&format!("{:e}", f32::EPSILON)));
         assert_eq!(format!("{:e}", f32::MAX).parse::<f32>().unwrap(), f32::MAX);
     }
+
+    #[test]
+    fn shader_tolerances_are_the_cpu_tracers() {
+        use unicac_trace::surface::{GRAZING_N, MAX_NEWTON_ITERATIONS};
+        let newton = format!("const MAX_NEWTON_ITERATIONS: u32 = {MAX_NEWTON_ITERATIONS}u;");
+        assert!(COMMON.contains(&newton), "common.wgsl lacks `{newton}`");
+        let grazing = format!("const GRAZING_N: Real = Real({GRAZING_N:e});");
+        assert!(COMMON.contains(&grazing), "common.wgsl lacks `{grazing}`");
+    }
 }

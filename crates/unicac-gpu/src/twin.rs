@@ -8,8 +8,9 @@
 use crate::layout::{kind, pattern, GpuRay, Params, Surface};
 use crate::real::Real;
 
-const MAX_NEWTON_ITERATIONS: u32 = 40;
-const GRAZING_N: f64 = 1e-6;
+// The shaders spell these out (WGSL has no imports from Rust); the parity tests hold them to the tracer's.
+const MAX_NEWTON_ITERATIONS: u32 = unicac_trace::surface::MAX_NEWTON_ITERATIONS as u32;
+use unicac_trace::surface::GRAZING_N;
 /// 2^44 fixed-point units per unit weight (FIXED_SCALE in psf.wgsl).
 pub const FIXED_SCALE: f64 = 17_592_186_044_416.0;
 

@@ -20,7 +20,7 @@ fn check_spots(precision: Precision, sampling: PupilSampling, aiming: Aiming) {
     };
     let mut worst_rms = 0.0f64;
     let mut worst_centroid_um = 0.0f64;
-    for name in unicac_optics::examples::names() {
+    for name in unicac_optics::builtin::names() {
         let lens = lens(name);
         let fields = lens.first_order().unwrap().field_angles_deg;
         let wavelengths = lens.wavelengths_um();
@@ -84,7 +84,7 @@ fn host_rays_match_the_cpu_ray_by_ray() {
             return;
         };
         let mut worst_mm = 0.0f64;
-        for name in unicac_optics::examples::names() {
+        for name in unicac_optics::builtin::names() {
             let lens = lens(name);
             let system = unicac_trace::TraceSystem::new(
                 &lens,

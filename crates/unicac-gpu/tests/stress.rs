@@ -58,7 +58,7 @@ fn a_million_rays_through_every_lens_in_f32_count_like_the_cpu() {
     let Some(tracer) = tracer_or_skip(Precision::F32) else {
         return;
     };
-    for name in unicac_optics::examples::names() {
+    for name in unicac_optics::builtin::names() {
         let lens = lens(name);
         let field = max_field(&lens);
         let sampling = PupilSampling::Random {
@@ -166,7 +166,7 @@ fn ten_million_rays_through_every_lens() {
     let Some(tracer) = tracer_or_skip(Precision::F32) else {
         return;
     };
-    for name in unicac_optics::examples::names() {
+    for name in unicac_optics::builtin::names() {
         let lens = lens(name);
         let field = max_field(&lens);
         let sampling = PupilSampling::Random {

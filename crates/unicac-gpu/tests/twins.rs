@@ -26,7 +26,7 @@ fn host_rays(name: &str) -> (TraceSystem, Vec<unicac_trace::Ray>) {
 fn twin_matches_cpu<R: Real>() -> (usize, f64) {
     let mut mismatched = 0;
     let mut worst = 0.0f64;
-    for name in unicac_optics::examples::names() {
+    for name in unicac_optics::builtin::names() {
         let (system, rays) = host_rays(name);
         let surfaces = layout::surfaces::<R>(&system);
         let host: Vec<_> = rays.iter().map(to_gpu::<R>).collect();
@@ -74,7 +74,7 @@ fn gpu_matches_twin<R: Real>(precision: Precision) {
     let mut worst = 0.0f64;
     let mut mismatched = 0;
     let mut undecided = 0;
-    for name in unicac_optics::examples::names() {
+    for name in unicac_optics::builtin::names() {
         let (system, rays) = host_rays(name);
         let surfaces = layout::surfaces::<R>(&system);
         let host: Vec<_> = rays.iter().map(to_gpu::<R>).collect();

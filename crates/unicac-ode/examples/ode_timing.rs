@@ -4,15 +4,15 @@
 //! Run: cargo run --release -p unicac-ode --example ode_timing [REPEATS]
 
 use unicac_ode::evaluate::{evaluate, OdeSettings, StageTimes};
-use unicac_optics::examples;
+use unicac_optics::builtin;
 
 fn main() {
     let repeats: usize = std::env::args().nth(1).and_then(|r| r.parse().ok()).unwrap_or(3);
     let settings = OdeSettings::default();
     println!("lens | kernel px | chief-ray map | PSF tracing | imaging + scoring | RMS spot | total (best of {repeats}) | ODE | OIQ");
     let mut sum = 0.0;
-    for name in examples::names() {
-        let lens = examples::lens(name).expect("a bundled lens");
+    for name in builtin::names() {
+        let lens = builtin::lens(name).expect("a bundled lens");
         let reports: Vec<_> = (0..repeats)
             .map(|_| evaluate(&lens, &settings).expect("ode"))
             .collect();
@@ -38,6 +38,6 @@ fn main() {
     }
     println!(
         "mean total {:.3} s per lens",
-        sum / examples::names().count() as f64
+        sum / builtin::names().count() as f64
     );
 }

@@ -72,7 +72,7 @@ mod tests {
 
     #[test]
     fn a_pitch_gives_the_lens_a_sensor_of_the_frame_and_none_drops_the_files_sensor() {
-        let lens = unicac_optics::examples::lens("cooke_triplet").unwrap();
+        let lens = unicac_optics::builtin::lens("cooke_triplet").unwrap();
         let pitched = FrameSensor {
             frame_px: [640, 480],
             pixel_um: Some(5.0),

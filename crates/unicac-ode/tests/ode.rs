@@ -1,7 +1,7 @@
 //! ODE on the bundled lenses: values in range, ordering that matches optical quality, reproducibility.
 
 use unicac_ode::{evaluate, OdeSettings};
-use unicac_optics::examples;
+use unicac_optics::builtin;
 
 fn quick() -> OdeSettings {
     OdeSettings {
@@ -13,7 +13,7 @@ fn quick() -> OdeSettings {
 
 #[test]
 fn ode_is_bounded_tabulated_and_reproducible() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let report = evaluate(&lens, &quick()).unwrap();
     assert_eq!(report.table.len(), 15, "5 fields x 3 channels");
     for s in &report.table {
@@ -32,7 +32,7 @@ fn ode_is_bounded_tabulated_and_reproducible() {
 #[test]
 fn a_sharper_lens_scores_higher() {
     // The same Cooke triplet stopped down from F/5 to F/10 has much smaller geometric blur.
-    let mut spec = examples::spec("cooke_triplet").unwrap();
+    let mut spec = builtin::spec("cooke_triplet").unwrap();
     let wide = unicac_optics::Lens::from_spec(&spec).unwrap();
     spec.aperture = unicac_optics::spec::ApertureSpec::EntrancePupilDiameterMm(5.0);
     let stopped = unicac_optics::Lens::from_spec(&spec).unwrap();
@@ -98,7 +98,7 @@ fn ode_falls_monotonically_as_defocus_grows() {
         previous = b.ode;
     }
     // And through a real lens: the Cooke triplet's image plane pulled away from focus; OIQ falls throughout.
-    let mut spec = examples::spec("cooke_triplet").unwrap();
+    let mut spec = builtin::spec("cooke_triplet").unwrap();
     // A fixed sensor, so pixels do not grow with the image as the plane moves.
     spec.sensor = Some(unicac_optics::spec::SensorSpec {
         width_mm: 28.0,
@@ -152,7 +152,7 @@ fn spatial_uniformity_falls_with_field_dependence_while_channel_uniformity_stays
 
 #[test]
 fn results_do_not_depend_on_the_thread_count() {
-    let lens = examples::lens("double_gauss").unwrap();
+    let lens = builtin::lens("double_gauss").unwrap();
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -167,7 +167,7 @@ fn results_do_not_depend_on_the_thread_count() {
 
 #[test]
 fn slanted_edge_and_exact_lens_mtfs_agree() {
-    let lens = examples::lens("double_gauss").unwrap();
+    let lens = builtin::lens("double_gauss").unwrap();
     let curves = unicac_ode::lens_mtf(&lens, &quick()).unwrap();
     assert_eq!(curves.len(), 5 * 3 * 2);
     let mut worst = 0.0f64;

@@ -13,8 +13,8 @@
 // `!(x >= 0.0)` and friends are deliberate: they reject NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod builtin;
 pub mod error;
-pub mod examples;
 pub mod format;
 pub mod io;
 pub mod lens;

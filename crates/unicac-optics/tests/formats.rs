@@ -3,7 +3,7 @@
 use std::path::Path;
 use unicac_optics::format::{json, zmx};
 use unicac_optics::spec::{ApertureSpec, FieldSpec, MaterialSpec, SurfaceType};
-use unicac_optics::{examples, Lens, OpticsError};
+use unicac_optics::{builtin, Lens, OpticsError};
 
 fn temp_dir() -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!(
@@ -17,8 +17,8 @@ fn temp_dir() -> std::path::PathBuf {
 
 #[test]
 fn json_to_zmx_to_json_round_trips_exactly_for_every_bundled_lens() {
-    for name in examples::names() {
-        let spec = examples::spec(name).unwrap();
+    for name in builtin::names() {
+        let spec = builtin::spec(name).unwrap();
         let zmx_text = zmx::to_string(&spec);
         let back = zmx::parse(zmx_text.as_bytes(), Path::new("x.zmx")).unwrap();
         assert!(back.warnings.is_empty(), "{name}: {:?}", back.warnings);
@@ -32,8 +32,8 @@ fn json_to_zmx_to_json_round_trips_exactly_for_every_bundled_lens() {
 
 #[test]
 fn json_text_round_trips_exactly() {
-    for name in examples::names() {
-        let spec = examples::spec(name).unwrap();
+    for name in builtin::names() {
+        let spec = builtin::spec(name).unwrap();
         let text = json::to_string(&spec);
         assert_eq!(
             json::parse(text.as_bytes(), Path::new("x.json")).unwrap(),
@@ -132,26 +132,26 @@ fn json_errors_name_file_line_and_field() {
 
 #[test]
 fn invalid_lenses_name_the_field() {
-    let mut spec = examples::spec("cooke_triplet").unwrap();
+    let mut spec = builtin::spec("cooke_triplet").unwrap();
     spec.surfaces[2].material = Some(MaterialSpec::Named("N-BK8".into()));
     let message = Lens::from_spec(&spec).unwrap_err().to_string();
     assert!(
         message.contains("unknown glass 'N-BK8'") && message.contains("N-BK7"),
         "{message}"
     );
-    let mut spec = examples::spec("cooke_triplet").unwrap();
+    let mut spec = builtin::spec("cooke_triplet").unwrap();
     spec.surfaces[1].stop = true;
     assert!(Lens::from_spec(&spec)
         .unwrap_err()
         .to_string()
         .contains("surfaces[].stop"));
-    let mut spec = examples::spec("cooke_triplet").unwrap();
+    let mut spec = builtin::spec("cooke_triplet").unwrap();
     spec.surfaces[0].semi_diameter_mm = Some(-1.0);
     assert!(Lens::from_spec(&spec)
         .unwrap_err()
         .to_string()
         .contains("surfaces[0].semi_diameter_mm"));
-    let mut spec = examples::spec("cooke_triplet").unwrap();
+    let mut spec = builtin::spec("cooke_triplet").unwrap();
     spec.wavelengths[0].wavelength_um = 12.0;
     assert!(matches!(
         Lens::from_spec(&spec).unwrap_err(),
@@ -162,7 +162,7 @@ fn invalid_lenses_name_the_field() {
 #[test]
 fn written_files_are_complete_or_absent() {
     let dir = temp_dir();
-    let spec = examples::spec("double_gauss").unwrap();
+    let spec = builtin::spec("double_gauss").unwrap();
     for file in ["a.json", "a.zmx"] {
         let path = dir.join(file);
         unicac_optics::write_spec(&spec, &path).unwrap();
@@ -186,8 +186,8 @@ fn the_json_schema_names_every_key_the_writer_emits() {
         serde_json::from_str(include_str!("../../../docs/lens-format.schema.json")).unwrap();
     let top = schema["properties"].as_object().unwrap();
     let surface = schema["$defs"]["surface"]["properties"].as_object().unwrap();
-    for name in examples::names() {
-        let value = serde_json::to_value(examples::spec(name).unwrap()).unwrap();
+    for name in builtin::names() {
+        let value = serde_json::to_value(builtin::spec(name).unwrap()).unwrap();
         for key in value.as_object().unwrap().keys() {
             assert!(
                 top.contains_key(key),

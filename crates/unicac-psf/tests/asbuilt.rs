@@ -5,7 +5,7 @@
 //! field's azimuth (the PSFs at +x and -x are mirror images for the centred lens, not for the
 //! decentred one).
 
-use unicac_optics::{examples, Lens, Placement};
+use unicac_optics::{builtin, Lens, Placement};
 use unicac_psf::geometric::{PsfSettings, PsfTracer};
 use unicac_psf::kernel::Kernel;
 use unicac_psf::spectrum::SpectralWeights;
@@ -13,7 +13,7 @@ use unicac_trace::{Aimer, Aiming, Clipping, PupilSampling, TraceSystem};
 
 /// The Cooke triplet with its middle element's front surface (surface 3) decentred by 0.2 mm in x.
 fn decentred_cooke() -> Lens {
-    let mut spec = examples::spec("cooke_triplet").unwrap();
+    let mut spec = builtin::spec("cooke_triplet").unwrap();
     spec.surfaces[2].set_placement(Placement {
         decentre_x_mm: 0.2,
         ..Placement::default()
@@ -78,7 +78,7 @@ const CENTROID_TOLERANCE_UM: f64 = 0.1;
 
 #[test]
 fn a_decentred_lens_has_an_asymmetric_psf_on_axis_matching_a_direct_trace() {
-    let nominal = examples::lens("cooke_triplet").unwrap();
+    let nominal = builtin::lens("cooke_triplet").unwrap();
     let decentred = decentred_cooke();
     assert!(!decentred.is_rotationally_symmetric());
     let centred_psf = tracer(&nominal).field_psf_at([0.0, 0.0], SIZE_PX, true).unwrap();
@@ -106,7 +106,7 @@ fn a_decentred_lens_has_an_asymmetric_psf_on_axis_matching_a_direct_trace() {
 #[test]
 fn a_decentred_lens_psf_depends_on_the_field_azimuth() {
     let field_deg = 14.0;
-    let nominal = tracer(&examples::lens("cooke_triplet").unwrap());
+    let nominal = tracer(&builtin::lens("cooke_triplet").unwrap());
     let decentred_lens = decentred_cooke();
     let decentred = tracer(&decentred_lens);
     let at = |t: &PsfTracer, x: f64| t.field_psf_at([x, 0.0], SIZE_PX, true).unwrap();
@@ -145,13 +145,13 @@ fn a_decentred_lens_psf_depends_on_the_field_azimuth() {
 fn centred_lenses_keep_their_fingerprint_and_placements_change_it() {
     // The values `unicac psf --json` wrote as `lens_sha256` before lenses had placements: PSF cache
     // keys and provenance of centred lenses are unchanged.
-    let cooke = examples::lens("cooke_triplet").unwrap();
+    let cooke = builtin::lens("cooke_triplet").unwrap();
     assert_eq!(
         unicac_psf::lens_fingerprint(&cooke),
         "8809d6202a1babc86941da764b30bb8304c12d4b35b6e6c4f95d350f323deccb"
     );
     assert_eq!(
-        unicac_psf::lens_fingerprint(&examples::lens("phone_asphere").unwrap()),
+        unicac_psf::lens_fingerprint(&builtin::lens("phone_asphere").unwrap()),
         "f36972f242fdaca6a6f205df252779398d29f3dbfe6c052226a5c6303fbf2b7a"
     );
     assert_ne!(

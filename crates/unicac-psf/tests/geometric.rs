@@ -1,11 +1,11 @@
 //! Geometric PSFs: energy, centring, convergence with ray count, agreement with spot statistics.
 
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_psf::{PsfSettings, PsfTracer, SpectralResponse, SpectralWeights};
 use unicac_trace::{spots, Aiming, PupilSampling};
 
 fn tracer(lens: &str, rays: usize, pixel_um: f64, weights: SpectralWeights) -> PsfTracer {
-    let lens = examples::lens(lens).unwrap();
+    let lens = builtin::lens(lens).unwrap();
     let mut settings = PsfSettings::new(pixel_um);
     settings.pupil_sampling = PupilSampling::Fibonacci { n: rays };
     PsfTracer::new(&lens, weights, settings).unwrap()
@@ -52,7 +52,7 @@ fn kernel_second_moment_matches_the_spot_rms() {
             m2 += k.at(x, y) as f64 * (dx * dx + dy * dy);
         }
     }
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let spot = &spots(
         &lens,
         &[field],

@@ -7,7 +7,7 @@
 //! sub = pixel / oversample: <= sub; sub-pixel centre to pixel centre: <= (pixel - sub) / 2), so by
 //! Minkowski's inequality |RMS_kernel - RMS_rays| <= sqrt(2) (pixel + sub) / 2 (0.44 um here).
 
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_psf::{check_kernel_cap, Kernel, PsfSettings, PsfTracer, SpectralWeights, KERNEL_PX_LIMIT};
 use unicac_trace::{spots, Aiming};
 
@@ -41,7 +41,7 @@ fn second_moment(kernel: &Kernel) -> f64 {
 }
 
 fn psf_kernel(settings: PsfSettings) -> (Kernel, f64) {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let tracer = PsfTracer::new(&lens, SpectralWeights::monochromatic(D_LINE_UM), settings).unwrap();
     let reference = tracer.reference_point_mm(FIELD_DEG).unwrap();
     let hits = tracer.hits(FIELD_DEG, reference).unwrap();
@@ -51,7 +51,7 @@ fn psf_kernel(settings: PsfSettings) -> (Kernel, f64) {
 }
 
 fn spot_rms_um(settings: &PsfSettings) -> f64 {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     spots(
         &lens,
         &[FIELD_DEG],

@@ -1,7 +1,7 @@
 //! Wave-optics PSFs against closed forms (Airy pattern, defocus wavefront), against the geometric PSF
 //! where aberrations dominate, FFT against MFT, and robustness. Tolerances are stated per test.
 
-use unicac_optics::{examples, Lens, LensSpec};
+use unicac_optics::{builtin, Lens, LensSpec};
 use unicac_psf::{
     Kernel, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights, Transform, WavePsfSettings,
     WavePsfTracer,
@@ -237,7 +237,7 @@ fn cooke_triplet_at_20_deg_wave_width_is_geometric_plus_diffraction() {
     // 11.28 vs 11.88 um); the gap in the squared width shrinks to 2.8 % at 75 px
     // (17.00 vs 17.25 um).
     // Tested: geometric < wave <= 1.01 predicted at every size, and below 3 % at 75 px.
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let weights = SpectralWeights::monochromatic(D_LINE);
     let pixel = 5.0;
     let mut geometric_settings = PsfSettings::new(pixel);
@@ -284,7 +284,7 @@ fn a_strongly_aberrated_field_reaches_the_geometric_limit() {
     // Petzval lens at its 7 deg field: 5 waves RMS, 30 waves PV at the d line. The default N = 128 is
     // flagged (max step 2.2 waves); N = 768 samples it (0.38 waves per step) and the wave PSF's RMS
     // width matches the geometric one within 2 % (15 % asked), in a 101 px window at 5 um.
-    let lens = examples::lens("petzval").unwrap();
+    let lens = builtin::lens("petzval").unwrap();
     let weights = SpectralWeights::monochromatic(lens.primary_wavelength_um());
     let (field, size, pixel) = (7.0, 101, 5.0);
     let mut geometric_settings = PsfSettings::new(pixel);
@@ -325,7 +325,7 @@ fn a_strongly_aberrated_field_reaches_the_geometric_limit() {
 fn fft_and_mft_agree_where_the_fft_sampling_fits() {
     // Cooke triplet at 14 deg: a pixel pitch chosen so that the sub-pixel pitch is exactly the FFT's
     // natural sampling at M = 256 = 2N (pitch = period / 256).
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let field = 14.0;
     let mut settings = WavePsfSettings::new(1.0);
     settings.oversample = 2;
@@ -400,7 +400,7 @@ fn vignetted_fields_still_give_clean_kernels() {
 
 #[test]
 fn rgb_kernels_are_normalised_and_finite() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let weights = SpectralWeights::new(
         &SpectralResponse::default_camera(),
         &unicac_psf::visible_wavelengths_um(31),

@@ -87,7 +87,7 @@ pub fn psf_basis<'py>(py: Python<'py>, dataset_dir: PathBuf) -> PyResult<Bound<'
         }
         let path = dataset_dir.join(unicac_dataset::manifest::LENSES_JSONL);
         let lenses: Vec<unicac_dataset::LensRow> = unicac_dataset::manifest::read_jsonl(&path).or_raise()?;
-        let basis = unicac_dataset::build::fit_psf_basis(&dataset_dir, &lenses).or_raise()?;
+        let basis = unicac_dataset::builder::fit_psf_basis(&dataset_dir, &lenses).or_raise()?;
         basis.write(&dir).or_raise()?;
         Ok(basis.meta)
     })?;

@@ -6,7 +6,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
-use unicac_optics::{examples, Lens, LensSpec};
+use unicac_optics::{builtin, Lens, LensSpec};
 use unicac_trace::LensSummary;
 
 /// A validated lens (from a `.json` or `.zmx` file or `builtin:NAME`). Immutable.
@@ -136,12 +136,12 @@ impl PyLens {
 #[pyo3(signature = (path))]
 pub fn load_lens(path: PathBuf) -> PyResult<PyLens> {
     let text = path.to_string_lossy().into_owned();
-    let loaded = examples::resolve_spec(&path).or_raise()?;
+    let loaded = builtin::resolve_spec(&path).or_raise()?;
     PyLens::from_spec(loaded.spec, text, loaded.warnings)
 }
 
 /// Names of the lenses bundled with unicac (load them as `load_lens("builtin:NAME")`).
 #[pyfunction]
 pub fn builtin_lenses() -> Vec<String> {
-    examples::names().map(str::to_string).collect()
+    builtin::names().map(str::to_string).collect()
 }

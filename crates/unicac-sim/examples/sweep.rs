@@ -10,7 +10,7 @@
 use std::time::Instant;
 use unicac_image::charts::dead_leaves;
 use unicac_image::Planar;
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_psf::Kernel;
 use unicac_sim::convolve::{Blend, Method};
 use unicac_sim::psf_map::RADIAL_GRID;
@@ -156,7 +156,7 @@ fn main() {
         .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
         .expect("size as WIDTHxHEIGHT");
     let only = args.next().unwrap_or_default();
-    let lens = examples::lens(&name).unwrap();
+    let lens = builtin::lens(&name).unwrap();
     let chart = dead_leaves(width, height, 7).unwrap();
     let run = |s: &SimulationSettings| {
         let start = Instant::now();

@@ -11,7 +11,7 @@
 
 use std::time::Instant;
 use unicac_image::charts::dead_leaves;
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_sim::convolve::{convolve_invariant, convolve_varying_with, half_width_holding};
 use unicac_sim::{LensSimulator, SimulationSettings};
 
@@ -23,7 +23,7 @@ fn main() {
         .split_once('x')
         .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
         .expect("size as WIDTHxHEIGHT");
-    let lens = examples::lens(&name).expect("a built-in lens");
+    let lens = builtin::lens(&name).expect("a built-in lens");
     let chart = dead_leaves(width, height, 7).expect("chart");
     let threads = rayon::current_num_threads();
     let start = Instant::now();

@@ -569,7 +569,7 @@ impl BilinearTaps {
 mod tests {
     use super::*;
     use crate::radial_table::{SHADING_BOUND, WARP_BOUND_PX};
-    use unicac_optics::examples;
+    use unicac_optics::builtin;
 
     #[test]
     fn lookups_match_the_exact_per_pixel_evaluation_within_the_stated_bound() {
@@ -584,8 +584,8 @@ mod tests {
         // The smallest frame has the largest curvature per pixel, i.e. the largest interpolation error.
         let mut checked = 0;
         for (width, height) in [(200, 150), (1000, 750)] {
-            for name in examples::names() {
-                let lens = examples::lens(name).expect("a bundled lens");
+            for name in builtin::names() {
+                let lens = builtin::lens(name).expect("a bundled lens");
                 // A lens whose PSF outgrows the small frame is refused there; it is checked at 1000 x 750.
                 let Ok(simulator) = LensSimulator::new(&lens, width, height, None, settings.clone()) else {
                     assert!(width < 1000, "{name} {width}x{height}");
@@ -620,7 +620,7 @@ mod tests {
             }
         }
         assert!(
-            checked > examples::names().count(),
+            checked > builtin::names().count(),
             "only {checked} lens-frame pairs checked"
         );
     }

@@ -2,7 +2,7 @@
 //! tracing device (the settings' ray backend) is a miss.
 
 use std::sync::Arc;
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_psf::{CpuHitTracer, HitTracer, PsfResult, RayBackend};
 use unicac_sim::{LensSimulator, PsfCache, RadialSampling, SimulationSettings};
 use unicac_trace::{PupilSampling, Ray, RayStatus, TraceSystem};
@@ -33,7 +33,7 @@ fn a_second_run_loads_the_map_and_another_device_traces_again() {
         ..Default::default()
     };
     settings.psf.pupil_sampling = PupilSampling::Fibonacci { n: 256 };
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let build =
         |settings: &SimulationSettings| LensSimulator::new(&lens, 64, 48, None, settings.clone()).unwrap();
     let first = build(&settings);

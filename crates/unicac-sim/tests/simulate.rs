@@ -1,7 +1,7 @@
 //! Image simulation: constancy, seamlessness, rotation, chief-ray mapping, clear errors.
 
 use unicac_image::Planar;
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_psf::Kernel;
 use unicac_sim::psf_map::rotate;
 use unicac_sim::{ChiefRayMap, LensSimulator, PixelWindow, RadialSampling, SimulationSettings};
@@ -23,7 +23,7 @@ fn quick_settings() -> SimulationSettings {
 
 #[test]
 fn a_constant_image_stays_constant() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let mut settings = quick_settings();
     settings.distortion = false;
     settings.illumination = false;
@@ -43,7 +43,7 @@ fn a_constant_image_stays_constant() {
 
 #[test]
 fn a_smooth_ramp_shows_no_seam_at_tile_borders() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let mut settings = quick_settings();
     settings.illumination = false;
     settings.distortion = false;
@@ -74,7 +74,7 @@ fn rotating_a_kernel_moves_plus_y_to_plus_x() {
 
 #[test]
 fn off_axis_psfs_on_the_y_axis_are_mirror_symmetric() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let sim = LensSimulator::new(&lens, 96, 64, None, quick_settings()).unwrap();
     let k = sim.radial.kernel_at(0.0, 10.0, 1);
     for row in 0..k.size {
@@ -87,7 +87,7 @@ fn off_axis_psfs_on_the_y_axis_are_mirror_symmetric() {
 
 #[test]
 fn the_chief_ray_map_interpolates_accurately() {
-    let lens = examples::lens("wide_angle").unwrap();
+    let lens = builtin::lens("wide_angle").unwrap();
     let map = ChiefRayMap::new(&lens).unwrap();
     // Against directly traced chief rays between the samples.
     let aimer =
@@ -108,7 +108,7 @@ fn the_chief_ray_map_interpolates_accurately() {
 
 #[test]
 fn bad_requests_give_clear_errors() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let too_small = LensSimulator::new(&lens, 1, 10, None, quick_settings())
         .err()
         .unwrap()
@@ -142,7 +142,7 @@ fn radial_interpolation_error_at_the_default_sampling_is_within_its_stated_bound
     // 1: disjoint); docs/performance.md has what it costs in image PSNR.
     let settings = SimulationSettings::default();
     for name in ["cooke_triplet", "phone_asphere"] {
-        let lens = examples::lens(name).unwrap();
+        let lens = builtin::lens(name).unwrap();
         let (sim, tracer) = tracer_for(&lens, &settings);
         let errors = midpoint_half_l1s(&sim, &tracer, 1..2);
         let worst = errors.iter().fold(0.0f64, |m, e| m.max(*e));
@@ -209,7 +209,7 @@ fn refinement_places_samples_where_the_psf_changes_fast_within_its_checked_bound
         },
         ..SimulationSettings::default()
     };
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let (sim, tracer) = tracer_for(&lens, &settings);
     let radii = &sim.radial.radii_mm;
     assert!(radii.len() < 33 && radii.len() > 9, "{} samples", radii.len());
@@ -235,7 +235,7 @@ fn refined_radii_come_back_exactly_from_the_cache() {
         max_samples: 33,
         tolerance: 0.02,
     };
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let (sim, _) = tracer_for(&lens, &settings);
     let corner = *sim.radial.radii_mm.last().unwrap();
     let rebuilt = unicac_sim::RadialPsfs::from_psfs(corner, &sim.chief, sim.radial.psfs.clone()).unwrap();
@@ -254,7 +254,7 @@ fn refined_radii_come_back_exactly_from_the_cache() {
 #[test]
 fn a_lens_that_vignettes_the_whole_field_is_a_clear_error_not_a_black_image() {
     // Every ray is clipped at a 1 um clear aperture on the first surface.
-    let mut spec = examples::spec("cooke_triplet").unwrap();
+    let mut spec = builtin::spec("cooke_triplet").unwrap();
     spec.surfaces[0].semi_diameter_mm = Some(1e-3);
     let lens = unicac_optics::Lens::from_spec(&spec).unwrap();
     let error = LensSimulator::new(&lens, 64, 48, None, quick_settings())
@@ -275,7 +275,7 @@ fn texture(w: usize, h: usize) -> Planar {
 
 #[test]
 fn a_window_of_the_whole_frame_is_the_frame() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let sim = LensSimulator::new(&lens, 120, 80, None, quick_settings()).unwrap();
     let image = texture(120, 80);
     let frame = PixelWindow {
@@ -292,7 +292,7 @@ fn a_window_of_the_whole_frame_is_the_frame() {
 
 #[test]
 fn a_window_renders_like_the_frame_there() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let (w, h) = (200, 136);
     for distortion in [false, true] {
         let mut settings = quick_settings();
@@ -349,7 +349,7 @@ fn a_window_renders_like_the_frame_there() {
 
 #[test]
 fn a_window_outside_the_frame_is_refused() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let sim = LensSimulator::new(&lens, 64, 48, None, quick_settings()).unwrap();
     let image = texture(64, 48);
     for window in [

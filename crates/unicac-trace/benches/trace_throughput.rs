@@ -6,14 +6,14 @@
 //! docs/performance.md has the 1M-ray figures and the peer comparison (examples/throughput.rs).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_trace::workload::axis_and_edge_rays;
 use unicac_trace::{trace_rays, Clipping, RayStatus, SimdLevel, TraceSystem};
 
 const RAYS: usize = 100_000;
 
 fn bench_lens(c: &mut Criterion, name: &str) {
-    let lens = examples::lens(name).unwrap();
+    let lens = builtin::lens(name).unwrap();
     let rays = axis_and_edge_rays(&lens, RAYS, 1).unwrap();
     let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
     let throughput = Throughput::Elements((RAYS * lens.surfaces.len()) as u64);

@@ -9,7 +9,7 @@
 
 use rayon::prelude::*;
 use std::time::Instant;
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_trace::workload::axis_and_edge_rays;
 use unicac_trace::{Clipping, Ray, RayStatus, SimdLevel, TraceSystem};
 
@@ -63,7 +63,7 @@ fn main() {
         .into_iter()
         .filter(|n| lenses.is_empty() || lenses.iter().any(|o| o == n))
     {
-        let lens = examples::lens(name).unwrap();
+        let lens = builtin::lens(name).unwrap();
         let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
         let rays = axis_and_edge_rays(&lens, RAYS, 12345).unwrap();
         let surfaces = lens.surfaces.len();

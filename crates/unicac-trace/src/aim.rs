@@ -14,7 +14,6 @@
 //!
 //! Pupils come from the primary wavelength, as in Zemax; each ray is aimed at its own wavelength.
 
-use crate::aim_map::FieldAiming;
 use crate::error::{TraceError, TraceResult};
 use crate::ray::Ray;
 use crate::system::{Clipping, TraceSystem};
@@ -159,11 +158,6 @@ impl Aimer {
     /// with `ray_at`'s to that tolerance (paraxial rays are the same, bit for bit).
     pub fn rays_at(&self, field_deg: [f64; 2], pupil: &[[f64; 2]]) -> Vec<TraceResult<Ray>> {
         self.for_field(field_deg, pupil.len()).rays(pupil)
-    }
-
-    /// Aiming of about `rays` rays of one field, in batches (`rays_at` for pupils that come in parts).
-    pub fn for_field(&self, field_deg: [f64; 2], rays: usize) -> FieldAiming<'_> {
-        FieldAiming::new(self, field_deg, rays)
     }
 
     /// `rays_at` of a field in the y-z plane.

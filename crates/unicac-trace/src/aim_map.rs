@@ -40,6 +40,14 @@ pub struct FieldAiming<'a> {
     map: Option<AimingMap>,
 }
 
+// Declared here rather than in `aim.rs` so that `aim` (the per-ray solver) does not import its batch user.
+impl Aimer {
+    /// Aiming of about `rays` rays of one field, in batches (`rays_at` for pupils that come in parts).
+    pub fn for_field(&self, field_deg: [f64; 2], rays: usize) -> FieldAiming<'_> {
+        FieldAiming::new(self, field_deg, rays)
+    }
+}
+
 impl<'a> FieldAiming<'a> {
     /// `rays` is about how many rays will be aimed: a map costs about as much as aiming its nodes one by
     /// one, so below a few times that it cannot pay and none is fitted.

@@ -31,7 +31,7 @@
 //! this file.
 
 use crate::ray::{Ray, RayStatus};
-use crate::system::{
+use crate::surface::{
     Frame, TraceSurface, GRAZING_N, LANE_BLOCK, MAX_NEWTON_ITERATIONS, NEWTON_STEP_TOLERANCE,
 };
 use pulp::{Simd, WithSimd};
@@ -724,7 +724,7 @@ fn finish_phase<S: Simd, const RECORD: bool>(simd: S, s: &LaneSurface, index: u6
             );
             let valid_direction = v.le(
                 v.abs(v.sub(length2, one)),
-                v.splat(crate::system::UNIT_DIRECTION_TOLERANCE),
+                v.splat(crate::surface::UNIT_DIRECTION_TOLERANCE),
             );
             let turned = v.and(refracted, valid_direction);
             ls[j] = v.select(turned, new_l, l);

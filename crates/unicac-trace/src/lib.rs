@@ -2,6 +2,7 @@
 //!
 //! Sequential real-ray tracing in f64, the reference path of unicac (the GPU path is checked against it).
 //!
+//! - `surface`: a surface prepared for the inner loop and the tolerances both tracers share;
 //! - `system`: a lens prepared at one wavelength and the per-surface step (cancellation-free conic
 //!   intersection, Newton for even aspheres, aperture clipping, vector Snell refraction, TIR);
 //! - `ray`: rays and per-ray outcomes (`RayStatus`, counted in `StatusCounts`; no NaN ever leaves);
@@ -29,6 +30,7 @@ pub mod pupil;
 pub mod ray;
 pub mod spot;
 pub mod summary;
+pub mod surface;
 pub mod system;
 pub mod workload;
 

@@ -8,7 +8,7 @@
 //! the bundled reverse telephoto, all aimed for real, every wavelength, fields from the axis to the edge.
 
 use std::path::Path;
-use unicac_optics::{examples, Lens};
+use unicac_optics::{builtin, Lens};
 use unicac_trace::{Aimer, Aiming, Clipping, PupilSampling, TraceSystem};
 
 const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
@@ -82,12 +82,12 @@ fn batch_aiming_meets_the_per_ray_tolerance_on_the_wide_angle_100() {
 fn batch_aiming_meets_the_per_ray_tolerance_on_classic_lenses() {
     check_lens(
         "cooke_triplet",
-        &examples::lens("cooke_triplet").unwrap(),
+        &builtin::lens("cooke_triplet").unwrap(),
         &[0.0, 14.0, 20.0],
     );
     check_lens(
         "wide_angle",
-        &examples::lens("wide_angle").unwrap(),
+        &builtin::lens("wide_angle").unwrap(),
         &[0.0, 21.0, 30.0],
     );
 }

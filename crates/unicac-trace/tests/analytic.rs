@@ -310,7 +310,7 @@ fn finite_object_images_by_the_gaussian_lens_formula() {
 #[test]
 fn f_number_and_floating_stop_apertures_give_the_same_pupil() {
     use unicac_optics::spec::ApertureSpec;
-    let base = unicac_optics::examples::spec("cooke_triplet").unwrap();
+    let base = unicac_optics::builtin::spec("cooke_triplet").unwrap();
     let reference = Lens::from_spec(&base).unwrap().first_order().unwrap();
     let mut by_f_number = base.clone();
     by_f_number.aperture = ApertureSpec::FNumber(reference.f_number);
@@ -332,7 +332,7 @@ fn f_number_and_floating_stop_apertures_give_the_same_pupil() {
 fn real_aiming_reaches_wide_fields_where_paraxial_aiming_fails() {
     // Beyond the wide-angle lens's 30 deg design field, paraxially aimed rays miss the stop badly;
     // real aiming still puts them exactly on the requested stop points.
-    let lens = unicac_optics::examples::lens("wide_angle").unwrap();
+    let lens = unicac_optics::builtin::lens("wide_angle").unwrap();
     let stop = lens.stop_index;
     let paraxial = Aimer::new(&lens, D_LINE, Aiming::Paraxial).unwrap();
     let real = Aimer::new(&lens, D_LINE, Aiming::Real).unwrap();

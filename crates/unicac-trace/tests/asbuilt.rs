@@ -10,7 +10,7 @@
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use unicac_optics::format::zmx;
-use unicac_optics::{examples, load_lens, Lens, LensSpec, Placement};
+use unicac_optics::{builtin, load_lens, Lens, LensSpec, Placement};
 use unicac_trace::pupil::{counter_hash, unit_interval};
 use unicac_trace::{Clipping, Ray, RayStatus, SimdLevel, TraceSystem};
 
@@ -225,8 +225,8 @@ fn coordinate_breaks_that_cannot_be_read_are_errors_naming_the_line() {
 
 #[test]
 fn zero_placements_trace_bit_for_bit_like_the_centred_lens() {
-    let lens = examples::lens("double_gauss").unwrap();
-    let mut spec = examples::spec("double_gauss").unwrap();
+    let lens = builtin::lens("double_gauss").unwrap();
+    let mut spec = builtin::spec("double_gauss").unwrap();
     for s in &mut spec.surfaces {
         s.set_placement(Placement::default());
     }
@@ -246,7 +246,7 @@ fn zero_placements_trace_bit_for_bit_like_the_centred_lens() {
 
 /// `name` with every surface decentred and tilted by seeded random amounts of about `scale` (mm, deg).
 fn perturbed(name: &str, seed: u64, scale: f64) -> Lens {
-    let mut spec = examples::spec(name).unwrap();
+    let mut spec = builtin::spec(name).unwrap();
     let mut counter = 0;
     let mut uniform = || {
         counter += 1;
@@ -303,7 +303,7 @@ fn same_bits(a: &Ray, b: &Ray) -> bool {
 #[test]
 fn the_lane_tracer_matches_the_scalar_step_on_perturbed_lenses() {
     let mut kinds = std::collections::BTreeMap::new();
-    for name in examples::names() {
+    for name in builtin::names() {
         for (seed, scale) in [(1, 0.05), (2, 1.0)] {
             let lens = perturbed(name, seed, scale);
             let rays = random_rays(&lens, 1500, seed);

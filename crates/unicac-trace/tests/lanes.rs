@@ -4,7 +4,7 @@
 //! ones. Tolerance: none (bit equality), because both paths perform the same correctly rounded
 //! operations in the same order.
 
-use unicac_optics::{examples, Lens};
+use unicac_optics::{builtin, Lens};
 use unicac_trace::pupil::{counter_hash, unit_interval};
 use unicac_trace::{Clipping, Ray, RayStatus, SimdLevel, StatusCounts, TraceSystem};
 
@@ -85,8 +85,8 @@ fn every_simd_level_traces_bit_for_bit_like_the_scalar_step() {
     let levels = SimdLevel::supported();
     assert!(levels.contains(&SimdLevel::Portable));
     let mut total = StatusCounts::default();
-    for name in examples::names() {
-        let lens = examples::lens(name).unwrap();
+    for name in builtin::names() {
+        let lens = builtin::lens(name).unwrap();
         let rays = random_rays(&lens, 4099, 7);
         for clipping in [Clipping::Apertures, Clipping::None] {
             for wavelength_um in [lens.primary_wavelength_um(), 0.45] {
@@ -112,7 +112,7 @@ fn every_simd_level_traces_bit_for_bit_like_the_scalar_step() {
 #[test]
 fn short_and_ragged_batches_match_the_scalar_step() {
     // Lengths around the block and vector sizes: padding lanes must never leak into results.
-    let lens = examples::lens("phone_asphere").unwrap();
+    let lens = builtin::lens("phone_asphere").unwrap();
     let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
     let rays = random_rays(&lens, 200, 11);
     for &level in &SimdLevel::supported() {
@@ -150,7 +150,7 @@ fn detected_level_is_supported_and_levels_above_it_fall_back() {
     let best = SimdLevel::detected();
     assert_eq!(SimdLevel::supported().last(), Some(&best));
     // Asking for AVX-512 on a CPU without it runs the best level it has, with the same results.
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let system = TraceSystem::new(&lens, lens.primary_wavelength_um(), Clipping::Apertures).unwrap();
     let rays = random_rays(&lens, 300, 5);
     assert_lanes_equal_scalar(&system, &rays, SimdLevel::Avx512, "forced avx512");

@@ -2,7 +2,7 @@
 //! chunk) are the points of `points()`, bit for bit, and a spot does not depend on which way it got
 //! them.
 
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_trace::{Aiming, PupilSampling, SpotTracer};
 
 #[test]
@@ -23,7 +23,7 @@ fn indexed_points_are_the_points_bit_for_bit() {
 
 #[test]
 fn a_spot_of_a_pupil_made_in_chunks_keeps_every_point_in_order() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let tracer = SpotTracer::new(&lens, lens.primary_wavelength_um(), Aiming::Paraxial).unwrap();
     // More points than one chunk, not a multiple of it.
     let sampling = PupilSampling::Random { n: 5000, seed: 3 };

@@ -8,7 +8,7 @@
 //! tests/reference/README.md), so its first-order data are held to 1e-7 relative + 2e-6 mm.
 
 use serde_json::Value;
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_trace::{spots, Aimer, Aiming, Clipping, PupilSampling, Ray, TraceSystem};
 
 const TOOLS: [&str; 2] = ["optiland", "rayoptics"];
@@ -32,8 +32,8 @@ fn close(ours: f64, theirs: f64, relative: f64, absolute: f64) -> bool {
 #[test]
 fn refractive_indices_match_the_references() {
     for tool in TOOLS {
-        for name in examples::names() {
-            let lens = examples::lens(name).unwrap();
+        for name in builtin::names() {
+            let lens = builtin::lens(name).unwrap();
             let r = reference(tool, name);
             for (w, row) in r["wavelengths_um"]
                 .as_array()
@@ -60,8 +60,8 @@ fn first_order_data_match_the_references() {
     let mut worst = 0.0f64;
     let mut failures = Vec::new();
     for tool in TOOLS {
-        for name in examples::names() {
-            let first = examples::lens(name).unwrap().first_order().unwrap();
+        for name in builtin::names() {
+            let first = builtin::lens(name).unwrap().first_order().unwrap();
             let r = &reference(tool, name)["first_order"];
             let (relative, absolute) = if tool == "rayoptics" {
                 (1e-7, 2e-6)
@@ -115,8 +115,8 @@ fn first_order_data_match_the_references() {
 fn real_ray_intercepts_match_the_references() {
     let mut worst = 0.0f64;
     for tool in TOOLS {
-        for name in examples::names() {
-            let lens = examples::lens(name).unwrap();
+        for name in builtin::names() {
+            let lens = builtin::lens(name).unwrap();
             let r = reference(tool, name);
             for ray in r["rays"].as_array().unwrap() {
                 let system = TraceSystem::new(&lens, f(&ray["wavelength_um"]), Clipping::Apertures).unwrap();
@@ -150,8 +150,8 @@ fn real_ray_intercepts_match_the_references() {
 #[test]
 fn paraxially_aimed_rays_start_where_the_references_start_them() {
     for tool in TOOLS {
-        for name in examples::names() {
-            let lens = examples::lens(name).unwrap();
+        for name in builtin::names() {
+            let lens = builtin::lens(name).unwrap();
             let r = reference(tool, name);
             for ray in r["rays"].as_array().unwrap() {
                 let aimer = Aimer::new(&lens, f(&ray["wavelength_um"]), Aiming::Paraxial).unwrap();
@@ -180,8 +180,8 @@ fn paraxially_aimed_rays_start_where_the_references_start_them() {
 fn rms_spot_radii_match_the_references() {
     let mut worst = 0.0f64;
     for tool in TOOLS {
-        for name in examples::names() {
-            let lens = examples::lens(name).unwrap();
+        for name in builtin::names() {
+            let lens = builtin::lens(name).unwrap();
             for spot in reference(tool, name)["spots"].as_array().unwrap() {
                 let ours = &spots(
                     &lens,
@@ -215,8 +215,8 @@ fn rms_spot_radii_match_the_references() {
 #[test]
 fn real_aimed_rays_match_the_references() {
     for tool in TOOLS {
-        for name in examples::names() {
-            let lens = examples::lens(name).unwrap();
+        for name in builtin::names() {
+            let lens = builtin::lens(name).unwrap();
             let r = reference(tool, name);
             let Some(rays) = r.get("real_aimed").and_then(Value::as_array) else {
                 continue;

@@ -2,7 +2,7 @@
 //! never give a ray reported `ok` with non-finite data.
 
 use unicac_optics::spec::{ApertureSpec, FieldSpec, MaterialSpec, SurfaceSpec};
-use unicac_optics::{examples, Lens, LensSpec};
+use unicac_optics::{builtin, Lens, LensSpec};
 use unicac_trace::pupil::{counter_hash, unit_interval};
 use unicac_trace::{spots, Aiming, Clipping, PupilSampling, Ray, RayStatus, StatusCounts, TraceSystem};
 
@@ -10,7 +10,7 @@ const D_LINE: f64 = 0.5875618;
 
 #[test]
 fn rays_that_never_reach_the_lens_are_missed() {
-    let lens = examples::lens("cooke_triplet").unwrap();
+    let lens = builtin::lens("cooke_triplet").unwrap();
     let system = TraceSystem::new(&lens, D_LINE, Clipping::Apertures).unwrap();
     // Pointing away from the lens (used to report `ok` with the forward ray's image point).
     let away = Ray::new([0.0, 1.0, -5.0], [0.0, 0.0, -1.0]);
@@ -72,7 +72,7 @@ fn random_lens(seed: u64) -> Option<Lens> {
         });
     }
     surfaces.push(SurfaceSpec::default());
-    let mut spec: LensSpec = examples::spec("cooke_triplet").unwrap();
+    let mut spec: LensSpec = builtin::spec("cooke_triplet").unwrap();
     spec.name = format!("random {seed}");
     spec.surfaces = surfaces;
     spec.object_distance_mm = None;
@@ -196,7 +196,7 @@ fn fuzzed_lens_spec(
     wavelengths_um: &[f64],
     surfaces: Vec<SurfaceSpec>,
 ) -> LensSpec {
-    let mut spec: LensSpec = examples::spec("singlet").unwrap();
+    let mut spec: LensSpec = builtin::spec("singlet").unwrap();
     spec.object_distance_mm = Some(object_distance_mm);
     spec.aperture = ApertureSpec::EntrancePupilDiameterMm(epd_mm);
     spec.fields = FieldSpec::ImageHeightsMm(image_heights_mm);

@@ -7,7 +7,7 @@
 
 use serde_json::Value;
 use std::path::Path;
-use unicac_optics::{examples, Lens};
+use unicac_optics::{builtin, Lens};
 use unicac_trace::{spots, Aimer, Aiming, AutoAiming, Clipping, PupilSampling, TraceSystem};
 
 const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
@@ -135,8 +135,8 @@ fn auto_aiming_switches_on_the_wide_angle_only() {
     assert_eq!(decision.aiming, Aiming::Real);
     assert!(decision.chief_ray_stop_miss.is_none_or(|m| m > 0.1));
     // The bundled classics keep paraxial aiming, so their results stay as they were, bit for bit.
-    let decisions: Vec<(&str, AutoAiming)> = examples::names()
-        .map(|name| (name, AutoAiming::decide(&examples::lens(name).unwrap()).unwrap()))
+    let decisions: Vec<(&str, AutoAiming)> = builtin::names()
+        .map(|name| (name, AutoAiming::decide(&builtin::lens(name).unwrap()).unwrap()))
         .collect();
     for (name, decision) in &decisions {
         println!("{name}: {decision:?}");

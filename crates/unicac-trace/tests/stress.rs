@@ -5,7 +5,7 @@ use proptest::prelude::*;
 use unicac_optics::spec::{
     ApertureSpec, FieldSpec, LensSpec, MaterialSpec, SurfaceSpec, SurfaceType, WavelengthSpec,
 };
-use unicac_optics::{examples, Lens};
+use unicac_optics::{builtin, Lens};
 use unicac_trace::{spots, Aiming, Clipping, PupilSampling, Ray, RayStatus, TraceSystem};
 
 const D_LINE: f64 = 0.5875618;
@@ -147,7 +147,7 @@ fn zero_air_gaps_and_cemented_surfaces() {
 
 #[test]
 fn spot_sizes_scale_linearly_with_the_lens() {
-    let base = examples::spec("cooke_triplet").unwrap();
+    let base = builtin::spec("cooke_triplet").unwrap();
     let rms = |scale: f64| {
         let mut spec = base.clone();
         for s in &mut spec.surfaces {
@@ -238,7 +238,7 @@ proptest! {
     /// A ray traced forward and then backward through the reversed lens returns to its start.
     #[test]
     fn traced_backwards_a_ray_retraces_its_path(px in -0.9f64..0.9, py in -0.9f64..0.9, field in -20.0f64..20.0) {
-        let lens = examples::lens("cooke_triplet").unwrap();
+        let lens = builtin::lens("cooke_triplet").unwrap();
         let forward = TraceSystem::new(&lens, D_LINE, Clipping::None).unwrap();
         let (s, c) = field.to_radians().sin_cos();
         let start = Ray::new([px * 5.0, py * 5.0 - 10.0 * s / c, -10.0], [0.0, s, c]);

@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::sync::Mutex;
-use unicac_dataset::build::{self, sources::parse_size, BuildSettings, PairTask, Progress, Shard};
+use unicac_dataset::builder::{self, sources::parse_size, BuildSettings, PairTask, Progress, Shard};
 
 /// A bar per stage on a terminal (pairs/s and ETA); notes only otherwise.
 struct Bar {
@@ -92,7 +92,7 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     };
     let start = std::time::Instant::now();
     let report = pool
-        .install(|| build::build(&settings, &args.out, shard, &progress))
+        .install(|| builder::build(&settings, &args.out, shard, &progress))
         .map_err(flag_error)?;
     progress.stage("", 0);
     let seconds = start.elapsed().as_secs_f64();

@@ -4,7 +4,7 @@ use super::{or_dash, print_json};
 use crate::args::{ConvertArgs, LensInfoArgs};
 use crate::lens_input::{load_lens, load_spec, BUILTIN_PREFIX};
 use anyhow::Result;
-use unicac_optics::examples;
+use unicac_optics::builtin;
 use unicac_trace::LensSummary;
 
 pub fn info(args: &LensInfoArgs) -> Result<()> {
@@ -72,8 +72,8 @@ pub fn convert(args: &ConvertArgs) -> Result<()> {
 }
 
 pub fn list() -> Result<()> {
-    for name in examples::names() {
-        let lens = examples::lens(name)?;
+    for name in builtin::names() {
+        let lens = builtin::lens(name)?;
         let f = lens.first_order()?;
         let max_field = f.field_angles_deg.iter().fold(0.0f64, |m, a| m.max(a.abs()));
         println!(

@@ -7,7 +7,7 @@ use crate::lens_input::load_lens;
 use anyhow::Result;
 use rayon::prelude::*;
 use std::fmt::Write as _;
-use unicac_dataset::build::sources::parse_size;
+use unicac_dataset::builder::sources::parse_size;
 use unicac_ode::{evaluate, FrameSensor, LensOde, OdeSettings};
 
 pub fn run(args: &OdeArgs) -> Result<()> {

@@ -46,7 +46,7 @@ pub fn tracer_or_skip(precision: Precision) -> Option<GpuTracer> {
 }
 
 pub fn lens(name: &str) -> unicac_optics::Lens {
-    unicac_optics::examples::lens(name).unwrap()
+    unicac_optics::builtin::lens(name).unwrap()
 }
 
 pub fn relative(a: f64, b: f64) -> f64 {

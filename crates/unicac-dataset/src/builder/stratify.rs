@@ -12,8 +12,8 @@
 //! and the other uniformity stay spread in every sub-level; their [min, mean, max] per level is
 //! recorded in `dataset.json` and printed by `unicac dataset info` so the balance can be checked.
 
-use crate::build::grading::Grade;
-use crate::build::sources::MAX_ITEMS;
+use crate::builder::grading::Grade;
+use crate::builder::sources::MAX_ITEMS;
 use crate::error::{DatasetError, Result};
 use crate::manifest::{LevelSummary, Stratification};
 

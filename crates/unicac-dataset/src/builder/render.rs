@@ -2,8 +2,8 @@
 //! Each is a pure function of its manifest row (and the lens), so a resumed or sharded build, or a
 //! reader checking a pair, recomputes exactly the stored bytes.
 
-use crate::build::pair_check;
-use crate::build::sources::cut;
+use crate::builder::pair_check;
+use crate::builder::sources::cut;
 use crate::error::{DatasetError, Result};
 use crate::manifest::{IspRecord, PairCheck, PairRow, PairTask};
 use crate::psf_table::{PsfTable, PsfTableMeta, TABLE_FORMAT};
@@ -218,7 +218,7 @@ mod tests {
     #[test]
     fn turning_to_plus_x_matches_the_simulators_psf_on_the_x_axis() {
         let lens =
-            unicac_optics::Lens::from_spec(&unicac_optics::examples::spec("cooke_triplet").unwrap()).unwrap();
+            unicac_optics::Lens::from_spec(&unicac_optics::builtin::spec("cooke_triplet").unwrap()).unwrap();
         let sim = simulator(&lens, [96, 64], 8.0, true, true, None).unwrap();
         let table = psf_table("cooke", &sim);
         let f = table.fields() - 1;

@@ -9,9 +9,9 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use unicac_image::Planar;
-use unicac_optics::{examples, Lens, LensSpec};
+use unicac_optics::{builtin, Lens, LensSpec};
 
-pub use unicac_optics::examples::BUILTIN_PREFIX;
+pub use unicac_optics::builtin::BUILTIN_PREFIX;
 const LENS_EXTENSIONS: [&str; 2] = ["json", "zmx"];
 const IMAGE_EXTENSIONS: [&str; 4] = ["png", "tif", "tiff", "exr"];
 /// Most lenses / scenes one build takes (a stated limit on the size of the plan held in memory).
@@ -40,12 +40,12 @@ impl LensSource {
 
 fn load_spec(location: &str) -> Result<LensSpec> {
     // A bundled name comes from the command line (`--lenses`), a file from the command line or a folder.
-    let what = if examples::is_builtin(location) {
+    let what = if builtin::is_builtin(location) {
         "--lenses"
     } else {
         "lens"
     };
-    examples::resolve_spec(Path::new(location))
+    builtin::resolve_spec(Path::new(location))
         .map(|loaded| loaded.spec)
         .map_err(|e| DatasetError::Invalid(format!("{what} {location}: {e}")))
 }
