@@ -27,6 +27,9 @@ pub enum BenchError {
     Pickle { what: String, why: String },
     #[error("{0}")]
     InvalidInput(String),
+    /// A setting out of its range, named by its library field (`threads`, `wiener_nsr`).
+    #[error(transparent)]
+    InvalidParameter(#[from] unicac_trace::InvalidParameter),
     #[error("{what}: {source}")]
     Metrics {
         what: String,

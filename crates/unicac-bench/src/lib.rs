@@ -14,6 +14,7 @@
 //! - [`cost`]: parameters, FLOPs and latency from the graph;
 //! - [`report`]: aggregation into `results.json`, CSV, tables and pictures; the report folder's policy;
 //! - [`memory`]: the peak memory of a run, estimated and checked before any work;
+//! - [`choices`]: the benchmarks, metrics, classical methods and splits a run can be asked for;
 //! - [`run`]: `unicac bench` from checks to report ([`edges`]: its slanted-edge patches, batched per
 //!   lens; [`inputs`]: the images and maps a model is given); [`compare`]: `unicac metrics`.
 //!
@@ -23,6 +24,7 @@
 //! cost analysis read any model without a second ML runtime.
 
 pub mod analysis;
+pub mod choices;
 pub mod clipiqa;
 pub mod compare;
 pub mod contract;
@@ -43,4 +45,5 @@ pub mod runtime;
 pub mod tiling;
 pub mod wiener;
 
+pub use choices::{Benchmark, ClassicalMethod, Metric, Split};
 pub use error::{BenchError, Result};

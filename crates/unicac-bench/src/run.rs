@@ -10,6 +10,7 @@ use unicac_dataset::{FrameCrop, PairRow, PsfTable};
 use unicac_image::io::{write_png, SampleDepth};
 use unicac_image::Planar;
 
+use crate::choices::{Benchmark, ClassicalMethod, Metric, Split};
 use crate::clipiqa::ClipIqa;
 use crate::contract::{load_model, ModelContract, ModelInput};
 use crate::edges::{edge_groups, EdgePatch, MapNeeds};
@@ -21,15 +22,14 @@ use crate::lpips::Lpips;
 use crate::onnx::proto::ModelProto;
 use crate::ort_library::Search;
 use crate::report::write::{write_report, ModelInfo, Report};
-use crate::report::{summarise, LensInfo, PairScore, Scores, BENCHMARKS};
+use crate::report::{summarise, LensInfo, PairScore, Scores};
 use crate::runtime::{Runtime, Session, Tensor};
 use crate::tiling::{run_tiled, Tiling};
+use unicac_trace::InvalidParameter;
 
-/// The metrics `--metrics` may name.
-pub const METRICS: [&str; 6] = ["psnr", "ssim", "lpips", "oiqe", "fid", "clipiqa"];
-/// Largest `--threads`.
+/// Largest `threads`.
 pub const MAX_THREADS: usize = 256;
-/// Largest `--wiener-nsr`: far past any useful noise-to-signal ratio (the restoration tends to zero).
+/// Largest `wiener_nsr`: far past any useful noise-to-signal ratio (the restoration tends to zero).
 pub const MAX_WIENER_NSR: f64 = 100.0;
 
 /// What `unicac bench` was asked to do.
@@ -38,13 +38,13 @@ pub struct BenchSettings {
     pub dataset: PathBuf,
     /// `NAME=MODEL.onnx` models.
     pub models: Vec<(String, PathBuf)>,
-    /// Classical methods besides the always-present `identity`: `wiener`.
-    pub methods: Vec<String>,
+    /// Classical methods besides the always-present `identity`.
+    pub methods: Vec<ClassicalMethod>,
     pub out: PathBuf,
-    pub split: String,
-    pub benchmarks: Vec<String>,
+    pub split: Split,
+    pub benchmarks: Vec<Benchmark>,
     /// Metrics asked for explicitly (`None`: all, unavailable ones reported as null).
-    pub metrics: Option<Vec<String>>,
+    pub metrics: Option<Vec<Metric>>,
     pub weights_dir: Option<PathBuf>,
     /// The cache holding `weights/lpips` (None: no LPIPS).
     pub cache_root: Option<PathBuf>,
@@ -83,44 +83,34 @@ fn invalid(message: String) -> BenchError {
     BenchError::InvalidInput(message)
 }
 
+/// A setting out of its range, named by its `BenchSettings` field (each face says it in its own words).
+fn bad_setting(field: &'static str, message: String) -> BenchError {
+    BenchError::InvalidParameter(InvalidParameter::new(field, message))
+}
+
 fn check_settings(s: &BenchSettings) -> Result<()> {
     s.tiling.check()?;
     if !(1..=MAX_THREADS).contains(&s.threads) {
-        return Err(invalid(format!(
-            "--threads {}: must be between 1 and {MAX_THREADS}",
-            s.threads
-        )));
-    }
-    for b in &s.benchmarks {
-        if !BENCHMARKS.contains(&b.as_str()) {
-            return Err(invalid(format!("--benchmarks {b}: unknown (ode, us, uc)")));
-        }
+        return Err(bad_setting(
+            "threads",
+            format!("{}: must be between 1 and {MAX_THREADS}", s.threads),
+        ));
     }
     if s.benchmarks.is_empty() {
-        return Err(invalid("--benchmarks: give at least one of ode, us, uc".into()));
-    }
-    for m in s.metrics.iter().flatten() {
-        if !METRICS.contains(&m.as_str()) {
-            return Err(invalid(format!(
-                "--metrics {m}: unknown ({})",
-                METRICS.join(", ")
-            )));
-        }
-    }
-    for m in &s.methods {
-        if m != "identity" && m != "wiener" {
-            return Err(invalid(format!("--method {m}: unknown (identity, wiener)")));
-        }
+        return Err(bad_setting(
+            "benchmarks",
+            "(none given): give at least one of ode, us, uc".into(),
+        ));
     }
     // NaN would restore every pair to NaN (each one a failure) and 0 divides by the PSF's zeros.
     if !(s.wiener_nsr > 0.0 && s.wiener_nsr <= MAX_WIENER_NSR) {
-        return Err(invalid(format!(
-            "--wiener-nsr {:?}: must lie in (0, {MAX_WIENER_NSR}]",
-            s.wiener_nsr
-        )));
+        return Err(bad_setting(
+            "wiener_nsr",
+            format!("{:?}: must lie in (0, {MAX_WIENER_NSR}]", s.wiener_nsr),
+        ));
     }
     if s.memory_limit_bytes == Some(0) {
-        return Err(invalid("--max-memory-gb: must be positive".into()));
+        return Err(bad_setting("memory_limit_bytes", "0: must be positive".into()));
     }
     let mut names: Vec<&str> = vec!["identity", "wiener"];
     for (name, _) in &s.models {
@@ -129,12 +119,13 @@ fn check_settings(s: &BenchSettings) -> Result<()> {
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c));
         if !ok {
-            return Err(invalid(format!(
-                "--model {name}=...: names use letters, digits, '-', '_' and '.'"
-            )));
+            return Err(bad_setting(
+                "models",
+                format!("{name}=...: names use letters, digits, '-', '_' and '.'"),
+            ));
         }
         if names.contains(&name.as_str()) {
-            return Err(invalid(format!("--model {name}=...: the name is taken")));
+            return Err(bad_setting("models", format!("{name}=...: the name is taken")));
         }
         names.push(name);
     }
@@ -150,12 +141,12 @@ fn check_settings(s: &BenchSettings) -> Result<()> {
     crate::report::folder::check(&s.out)
 }
 
-fn asked(s: &BenchSettings, metric: &str) -> bool {
-    s.metrics.as_ref().is_some_and(|m| m.iter().any(|x| x == metric))
+fn asked(s: &BenchSettings, metric: Metric) -> bool {
+    s.metrics.as_ref().is_some_and(|m| m.contains(&metric))
 }
 
-fn wanted(s: &BenchSettings, metric: &str) -> bool {
-    s.metrics.as_ref().is_none_or(|m| m.iter().any(|x| x == metric))
+fn wanted(s: &BenchSettings, metric: Metric) -> bool {
+    s.metrics.as_ref().is_none_or(|m| m.contains(&metric))
 }
 
 fn to_planar(map: unicac_dataset::ChannelMap) -> Planar {
@@ -335,7 +326,10 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
         let (contract, model, bytes) = load_model(path)?;
         loaded.push((name.clone(), contract, model, bytes));
     }
-    let needs_runtime = !loaded.is_empty() || asked(s, "lpips") || asked(s, "fid") || asked(s, "clipiqa");
+    let needs_runtime = !loaded.is_empty()
+        || [Metric::Lpips, Metric::Fid, Metric::ClipIqa]
+            .into_iter()
+            .any(|m| asked(s, m));
     let runtime = if needs_runtime {
         Some(Runtime::load_with(&s.onnxruntime)?)
     } else {
@@ -353,7 +347,7 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
         .pairs()
         .map_err(dataset_error)?
         .into_iter()
-        .filter(|p| p.split == s.split)
+        .filter(|p| p.split == s.split.name())
         .collect();
     if pairs.is_empty() {
         return Err(invalid(format!(
@@ -368,9 +362,13 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
         .filter(|l| pairs.iter().any(|p| p.lens_id == l.lens_id))
         .map(|l| {
             let mut levels = BTreeMap::new();
-            for (b, v) in [("ode", l.level), ("us", l.us_level), ("uc", l.uc_level)] {
+            for (b, v) in [
+                (Benchmark::Ode, l.level),
+                (Benchmark::Us, l.us_level),
+                (Benchmark::Uc, l.uc_level),
+            ] {
                 if let Some(v) = v {
-                    levels.insert(b.to_string(), v as u8);
+                    levels.insert(b, v as u8);
                 }
             }
             (
@@ -433,31 +431,33 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
     } else {
         None
     };
-    if s.methods.iter().any(|m| m == "wiener") && !has_psf {
-        return Err(invalid(format!(
-            "--method wiener needs the dataset's PSF tables; {} has none",
-            s.dataset.display()
-        )));
+    if s.methods.contains(&ClassicalMethod::Wiener) && !has_psf {
+        return Err(bad_setting(
+            "methods",
+            format!(
+                "wiener needs the dataset's PSF tables; {} has none",
+                s.dataset.display()
+            ),
+        ));
     }
     // Metrics and their weights.
-    let mut available: BTreeMap<String, bool> = BTreeMap::new();
-    let unavailable = |metric: &str, why: String, notices: &mut Vec<String>| -> Result<()> {
+    let unavailable = |metric: Metric, why: String, notices: &mut Vec<String>| -> Result<()> {
         if asked(s, metric) {
-            return Err(invalid(format!("--metrics {metric}: {why}")));
+            return Err(bad_setting("metrics", format!("{metric}: {why}")));
         }
         notices.push(format!("{metric} reported as null: {why}"));
         Ok(())
     };
     let mut lpips = None;
-    if wanted(s, "lpips") {
+    if wanted(s, Metric::Lpips) {
         match (runtime, &s.cache_root) {
             (Some(rt), Some(cache)) => match Lpips::load(rt, cache, s.threads) {
                 Ok(l) => lpips = Some(l),
-                Err(e) => unavailable("lpips", e.to_string(), &mut notices)?,
+                Err(e) => unavailable(Metric::Lpips, e.to_string(), &mut notices)?,
             },
-            (None, _) => unavailable("lpips", "onnxruntime is not available".into(), &mut notices)?,
+            (None, _) => unavailable(Metric::Lpips, "onnxruntime is not available".into(), &mut notices)?,
             (_, None) => unavailable(
-                "lpips",
+                Metric::Lpips,
                 "no cache folder (set UNICAC_CACHE_DIR)".into(),
                 &mut notices,
             )?,
@@ -466,29 +466,29 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
     let weights_dir = s.weights_dir.clone();
     let mut fid = None;
     let mut clip = None;
-    if wanted(s, "fid") {
+    if wanted(s, Metric::Fid) {
         match (runtime, &weights_dir) {
             (Some(rt), Some(dir)) => match FidNetwork::load(rt, dir, s.threads)? {
                 Some(net) => fid = Some(net),
                 None => unavailable(
-                    "fid",
+                    Metric::Fid,
                     format!("no {} in --weights-dir", crate::fid::FID_NETWORK),
                     &mut notices,
                 )?,
             },
             _ => unavailable(
-                "fid",
+                Metric::Fid,
                 "needs --weights-dir with fid/inception.onnx and onnxruntime".into(),
                 &mut notices,
             )?,
         }
     }
-    if wanted(s, "clipiqa") {
+    if wanted(s, Metric::ClipIqa) {
         match (runtime, &weights_dir) {
             (Some(rt), Some(dir)) => match ClipIqa::load(rt, dir, s.threads)? {
                 Some(c) => clip = Some(c),
                 None => unavailable(
-                    "clipiqa",
+                    Metric::ClipIqa,
                     format!(
                         "no {} and {} in --weights-dir",
                         crate::clipiqa::CLIPIQA_ENCODER,
@@ -498,13 +498,13 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
                 )?,
             },
             _ => unavailable(
-                "clipiqa",
+                Metric::ClipIqa,
                 "needs --weights-dir with clipiqa/ weights and onnxruntime".into(),
                 &mut notices,
             )?,
         }
     }
-    let edges = if wanted(s, "oiqe") {
+    let edges = if wanted(s, Metric::Oiqe) {
         let rows = if dataset.dir.join(unicac_dataset::manifest::EDGES_JSONL).is_file() {
             dataset.edges().map_err(dataset_error)?
         } else {
@@ -516,7 +516,7 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
             .collect();
         if rows.is_empty() {
             unavailable(
-                "oiqe",
+                Metric::Oiqe,
                 "the dataset has no edge patches (edges.jsonl) for these lenses".into(),
                 &mut notices,
             )?;
@@ -525,12 +525,19 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
     } else {
         Vec::new()
     };
-    available.insert("psnr".into(), true);
-    available.insert("ssim".into(), true);
-    available.insert("lpips".into(), lpips.is_some());
-    available.insert("oiqe".into(), !edges.is_empty());
-    available.insert("fid".into(), fid.is_some());
-    available.insert("clipiqa".into(), clip.is_some());
+    let available = Metric::ALL
+        .iter()
+        .map(|&m| {
+            let computed = match m {
+                Metric::Psnr | Metric::Ssim => true,
+                Metric::Lpips => lpips.is_some(),
+                Metric::Oiqe => !edges.is_empty(),
+                Metric::Fid => fid.is_some(),
+                Metric::ClipIqa => clip.is_some(),
+            };
+            (m, computed)
+        })
+        .collect();
     check_memory(s, &pairs, lpips.is_some())?;
     // Every check passed: the report folder is made (or a previous report cleared) before the work.
     let created = crate::report::folder::claim(&s.out)?;
@@ -592,7 +599,8 @@ struct Checked {
     pairs: Vec<PairRow>,
     lenses: BTreeMap<String, LensInfo>,
     has_psf: bool,
-    available: BTreeMap<String, bool>,
+    /// Whether each metric is computed (the others are reported as null).
+    available: BTreeMap<Metric, bool>,
     lpips: Option<Lpips>,
     fid: Option<FidNetwork>,
     clip: Option<ClipIqa>,
@@ -631,7 +639,7 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
         },
         method: Method::Identity,
     }];
-    let wants_wiener = s.methods.iter().any(|m| m == "wiener");
+    let wants_wiener = s.methods.contains(&ClassicalMethod::Wiener);
     if wants_wiener {
         entries.push(Entry {
             info: ModelInfo {
@@ -786,7 +794,11 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
         if let Some(f) = gt_features {
             scores.gt_features.insert(pair.pair_id.clone(), f);
         }
-        let level = lenses[&pair.lens_id].levels.get("ode").copied().unwrap_or(0);
+        let level = lenses[&pair.lens_id]
+            .levels
+            .get(&Benchmark::Ode)
+            .copied()
+            .unwrap_or(0);
         for entry in entries.iter_mut() {
             let restored = match &mut entry.method {
                 Method::Identity => Ok(lq.clone()),
@@ -937,9 +949,13 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
     let report = Report {
         unicac_version: env!("CARGO_PKG_VERSION"),
         dataset: s.dataset.clone(),
-        split: s.split.clone(),
+        split: s.split,
         benchmarks: s.benchmarks.clone(),
-        metrics: available,
+        // Keyed by name in the report, so the file lists them in the order of their names.
+        metrics: available
+            .into_iter()
+            .map(|(m, on)| (m.name().to_string(), on))
+            .collect(),
         notices,
         onnxruntime: runtime.map(|r| r.located().clone()),
         models: entries.into_iter().map(|e| e.info).collect(),

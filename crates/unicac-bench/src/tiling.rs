@@ -13,6 +13,7 @@
 use unicac_image::Planar;
 
 use crate::error::{BenchError, Result};
+use unicac_trace::InvalidParameter;
 
 /// Largest tile side (px): a stated limit.
 pub const MAX_TILE_PX: usize = 8192;
@@ -39,14 +40,15 @@ impl Tiling {
     pub fn check(&self) -> Result<()> {
         if let Some(tile) = self.tile_px {
             if !(MIN_TILE_PX..=MAX_TILE_PX).contains(&tile) {
-                return Err(BenchError::InvalidInput(format!(
-                    "--tile {tile}: must be between {MIN_TILE_PX} and {MAX_TILE_PX} px"
+                return Err(BenchError::InvalidParameter(InvalidParameter::new(
+                    "tile_px",
+                    format!("{tile}: must be between {MIN_TILE_PX} and {MAX_TILE_PX} px"),
                 )));
             }
             if self.overlap_px >= tile / 2 {
-                return Err(BenchError::InvalidInput(format!(
-                    "--tile-overlap {}: must be less than half the tile ({tile} px)",
-                    self.overlap_px
+                return Err(BenchError::InvalidParameter(InvalidParameter::new(
+                    "overlap_px",
+                    format!("{}: must be less than half the tile ({tile} px)", self.overlap_px),
                 )));
             }
         }

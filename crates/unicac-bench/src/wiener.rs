@@ -175,8 +175,9 @@ pub fn wiener_restore(
     nsr: f64,
 ) -> Result<Planar> {
     if !(nsr.is_finite() && nsr > 0.0) {
-        return Err(BenchError::InvalidInput(format!(
-            "--wiener-nsr {nsr}: must be positive"
+        return Err(BenchError::InvalidParameter(unicac_trace::InvalidParameter::new(
+            "wiener_nsr",
+            format!("{nsr}: must be positive"),
         )));
     }
     if lq.channels != 3 {

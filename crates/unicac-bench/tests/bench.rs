@@ -11,7 +11,7 @@ use unicac_bench::run::{
     read_rgb, run_bench, run_onnx, run_onnx_batch, run_onnx_with, BenchSettings, InputMaps,
 };
 use unicac_bench::tiling::Tiling;
-use unicac_bench::BenchError;
+use unicac_bench::{BenchError, Benchmark, ClassicalMethod, Metric, Split};
 use unicac_dataset::FrameCrop;
 use unicac_image::Planar;
 use unicac_metrics::{psnr_pyiqa, ssim_pyiqa, PYIQA_PSNR_CAP_DB};
@@ -28,8 +28,8 @@ fn settings(dataset: &Path, out: &Path) -> BenchSettings {
         models: Vec::new(),
         methods: Vec::new(),
         out: out.to_path_buf(),
-        split: "test".into(),
-        benchmarks: vec!["ode".into(), "us".into(), "uc".into()],
+        split: Split::Test,
+        benchmarks: Benchmark::ALL.to_vec(),
         metrics: None,
         weights_dir: None,
         cache_root: None,
@@ -86,10 +86,11 @@ fn bad_inputs_are_refused_before_any_work() {
         tile_px: Some(32),
         overlap_px: 20,
     };
-    assert!(run_bench(&s, &mut quiet())
-        .unwrap_err()
-        .to_string()
-        .contains("--tile-overlap"));
+    // The library names the setting in its own words; the CLI says `--tile-overlap`.
+    match run_bench(&s, &mut quiet()).unwrap_err() {
+        BenchError::InvalidParameter(p) => assert_eq!(p.field, "overlap_px", "{p}"),
+        other => panic!("expected a parameter error, got {other}"),
+    }
 }
 
 #[test]
@@ -212,7 +213,7 @@ fn full_run_reports_rows_overall_analysis_and_files() {
             write_model(&dir, "conv.onnx", &support::conv_model(true)),
         ),
     ];
-    s.methods = vec!["wiener".into()];
+    s.methods = vec![ClassicalMethod::Wiener];
     s.save_images = true;
     let (report, written) = run_bench(&s, &mut quiet()).unwrap();
     let json = read_json(&out.join("results.json"));
@@ -389,8 +390,8 @@ fn a_contract_2_model_gets_the_wiener_estimate_and_the_code_of_its_basis() {
     let basis = unicac_dataset::psf_basis::read_dataset_basis(&dataset).unwrap();
     let out = dir.join("report");
     let mut s = settings(&dataset, &out);
-    s.metrics = Some(vec!["psnr".into(), "ssim".into()]);
-    s.methods = vec!["wiener".into()];
+    s.metrics = Some(vec![Metric::Psnr, Metric::Ssim]);
+    s.methods = vec![ClassicalMethod::Wiener];
     // A version-1 model next to it still benchmarks.
     s.models = vec![
         (

@@ -2,8 +2,22 @@
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
+use unicac_bench::{Benchmark, ClassicalMethod, Metric, Split};
 use unicac_design::StopPosition;
 use unicac_trace::{Aiming, PupilSampling};
+
+/// A parser for one of a library's named choices: clap lists the names in --help and in its errors.
+fn named<T: Copy + Send + Sync + 'static>(
+    all: &'static [T],
+    name: fn(T) -> &'static str,
+) -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(all.iter().map(|&v| name(v))).map(move |text| {
+        *all.iter()
+            .find(|&&v| name(v) == text)
+            .expect("clap accepts only listed names")
+    })
+}
 
 #[derive(Parser)]
 #[command(
@@ -148,20 +162,20 @@ pub struct BenchArgs {
     #[arg(long = "model", value_parser = parse_model)]
     pub models: Vec<(String, PathBuf)>,
     /// A classical method: identity (always reported) or wiener (PSF-table Wiener deconvolution).
-    #[arg(long = "method", value_parser = ["identity", "wiener"])]
-    pub methods: Vec<String>,
+    #[arg(long = "method", value_parser = named(ClassicalMethod::ALL, ClassicalMethod::name))]
+    pub methods: Vec<ClassicalMethod>,
     /// The report folder (results.json, pairs.csv, tables, pictures).
     #[arg(long)]
     pub out: PathBuf,
-    #[arg(long, default_value = "test", value_parser = ["test", "val"])]
-    pub split: String,
+    #[arg(long, default_value = "test", value_parser = named(Split::ALL, Split::name))]
+    pub split: Split,
     /// Benchmarks to report: ode (main levels), us, uc (uniformity sub-benchmarks).
-    #[arg(long, value_delimiter = ',', default_value = "ode,us,uc")]
-    pub benchmarks: Vec<String>,
+    #[arg(long, value_delimiter = ',', default_value = "ode,us,uc", value_parser = named(Benchmark::ALL, Benchmark::name))]
+    pub benchmarks: Vec<Benchmark>,
     /// Metrics to compute (psnr, ssim, lpips, oiqe, fid, clipiqa); a named metric that cannot be computed
     /// is an error. Default: all, the unavailable ones reported as null with a notice.
-    #[arg(long, value_delimiter = ',')]
-    pub metrics: Option<Vec<String>>,
+    #[arg(long, value_delimiter = ',', value_parser = named(Metric::ALL, Metric::name))]
+    pub metrics: Option<Vec<Metric>>,
     /// Folder of user-supplied metric networks: fid/inception.onnx, clipiqa/image_encoder.onnx + prompts.npy.
     #[arg(long)]
     pub weights_dir: Option<PathBuf>,

@@ -144,3 +144,37 @@ fn bench_refuses_a_report_folder_that_is_the_dataset_or_a_model() {
     assert_eq!(names, ["keep.txt"]);
     assert_eq!(std::fs::read(&model).unwrap(), b"not a model");
 }
+
+#[test]
+fn bench_settings_out_of_range_are_named_by_their_flags() {
+    let dir = scratch("flags");
+    let base = |extra: &[&str]| {
+        let mut args = vec![
+            "bench".to_string(),
+            "--dataset".into(),
+            dir.join("nowhere").display().to_string(),
+            "--out".into(),
+            dir.join("report").display().to_string(),
+        ];
+        args.extend(extra.iter().map(|a| a.to_string()));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = unicac(&args, &dir.join("cache"));
+        assert!(!out.status.success());
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    // The library names BenchSettings fields (overlap_px, models, threads); the CLI says the flags.
+    let cases: [(&[&str], &str); 4] = [
+        (&["--threads", "0"], "--threads 0: must be between 1 and"),
+        (
+            &["--tile", "32", "--tile-overlap", "20"],
+            "--tile-overlap 20: must be less than half",
+        ),
+        (&["--model", "a b=x.onnx"], "--model a b=...: names use"),
+        (&["--metrics", "mse"], "invalid value 'mse' for '--metrics"),
+    ];
+    for (extra, expected) in cases {
+        let stderr = base(extra);
+        assert!(stderr.contains(expected), "{extra:?}: {stderr}");
+    }
+    assert!(!dir.join("report").exists());
+}

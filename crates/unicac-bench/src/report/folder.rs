@@ -52,7 +52,7 @@ fn foreign_entry(dir: &Path) -> Result<Option<PathBuf>> {
     };
     for (name, path, kind) in entries(dir)? {
         let ok = if kind.is_dir() && name == TABLES {
-            let tex = |n: &str| crate::report::BENCHMARKS.iter().any(|b| n == format!("{b}.tex"));
+            let tex = |n: &str| crate::Benchmark::ALL.iter().any(|b| n == format!("{b}.tex"));
             entries(&path)?.iter().all(|(n, _, k)| owned_file(n, k, &tex))
         } else if kind.is_dir() && name == IMAGES {
             let mut ok = true;

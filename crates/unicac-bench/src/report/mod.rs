@@ -28,11 +28,10 @@ use std::collections::{BTreeMap, BTreeSet};
 use serde::Serialize;
 
 use crate::analysis::BOOTSTRAP_RESAMPLES;
+use crate::choices::Benchmark;
 use crate::fid::{frechet_distance, Gaussian};
 use crate::op::{overall_performance, OpInputs};
 
-/// The benchmarks: the main ODE levels and the two uniformity sub-benchmarks.
-pub const BENCHMARKS: [&str; 3] = ["ode", "us", "uc"];
 /// The levels of every benchmark.
 pub const LEVELS: u8 = 5;
 
@@ -56,8 +55,8 @@ pub struct PairScore {
 #[derive(Debug, Clone, Serialize)]
 pub struct LensInfo {
     pub lens_id: String,
-    /// Levels by benchmark: `ode`, `us`, `uc`.
-    pub levels: BTreeMap<String, u8>,
+    /// The lens's level in each benchmark that grades it.
+    pub levels: BTreeMap<Benchmark, u8>,
     pub ode: f64,
     pub rms_radius_um: f64,
 }
@@ -66,7 +65,7 @@ pub struct LensInfo {
 #[derive(Debug, Clone, Serialize)]
 pub struct ResultRow {
     pub model: String,
-    pub benchmark: String,
+    pub benchmark: Benchmark,
     pub level: u8,
     pub pairs: usize,
     pub psnr_db: Option<f64>,
@@ -148,7 +147,7 @@ fn mean_opt(values: impl Iterator<Item = Option<f64>>) -> Option<f64> {
 
 impl Scores {
     /// The row of `model` over `pairs`.
-    fn row(&self, model: &str, benchmark: &str, level: u8, pairs: &[&PairScore]) -> ResultRow {
+    fn row(&self, model: &str, benchmark: Benchmark, level: u8, pairs: &[&PairScore]) -> ResultRow {
         let lenses: BTreeSet<&str> = pairs.iter().map(|p| p.lens_id.as_str()).collect();
         let oiqe = mean_opt(
             lenses
@@ -167,7 +166,7 @@ impl Scores {
         let op = overall_performance(&metrics);
         ResultRow {
             model: model.to_string(),
-            benchmark: benchmark.to_string(),
+            benchmark,
             level,
             pairs: pairs.len(),
             psnr_db: metrics.psnr_db,
@@ -210,17 +209,17 @@ pub fn summarise(
     models: &[String],
     learned: &[String],
     lenses: &BTreeMap<String, LensInfo>,
-    benchmarks: &[String],
+    benchmarks: &[Benchmark],
 ) -> Results {
     let mut rows = Vec::new();
     for model in models {
         let of_model: Vec<&PairScore> = scores.pairs.iter().filter(|p| &p.model == model).collect();
-        for benchmark in benchmarks {
+        for &benchmark in benchmarks {
             for level in 1..=LEVELS {
                 let pairs: Vec<&PairScore> = of_model
                     .iter()
                     .copied()
-                    .filter(|p| lenses.get(&p.lens_id).and_then(|l| l.levels.get(benchmark)) == Some(&level))
+                    .filter(|p| lenses.get(&p.lens_id).and_then(|l| l.levels.get(&benchmark)) == Some(&level))
                     .collect();
                 if !pairs.is_empty() {
                     rows.push(scores.row(model, benchmark, level, &pairs));
@@ -233,7 +232,7 @@ pub fn summarise(
         .map(|model| {
             let pairs: Vec<&PairScore> = scores.pairs.iter().filter(|p| &p.model == model).collect();
             OverallRow {
-                row: scores.row(model, "ode", 0, &pairs),
+                row: scores.row(model, Benchmark::Ode, 0, &pairs),
                 rank: None,
             }
         })
@@ -344,7 +343,7 @@ mod tests {
     fn a_method_without_a_scored_pair_is_not_ranked() {
         let lens = LensInfo {
             lens_id: "l".into(),
-            levels: BTreeMap::from([("ode".to_string(), 1)]),
+            levels: BTreeMap::from([(Benchmark::Ode, 1)]),
             ode: 0.5,
             rms_radius_um: 3.0,
         };
@@ -370,7 +369,7 @@ mod tests {
             &models,
             &["model".to_string()],
             &lenses,
-            &["ode".to_string()],
+            &[Benchmark::Ode],
         );
         let ranks: Vec<(&str, Option<usize>)> = results
             .overall

@@ -15,6 +15,7 @@ use serde::Serialize;
 
 use super::{LensInfo, PairScore, Scores};
 use crate::analysis::BOOTSTRAP_SEED;
+use crate::choices::Benchmark;
 use crate::op::{overall_performance, OpInputs};
 
 /// Resamples of the rank bootstrap (seeded): a share is known to about +-0.016 (one standard error at
@@ -160,7 +161,7 @@ pub fn rank_stability(
         // The level's lenses and, per lens, its pairs (any model's: pairs are shared test images).
         let mut pairs_of: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
         for p in &scores.pairs {
-            let at_level = lenses.get(&p.lens_id).and_then(|l| l.levels.get("ode")) == Some(&level);
+            let at_level = lenses.get(&p.lens_id).and_then(|l| l.levels.get(&Benchmark::Ode)) == Some(&level);
             if at_level {
                 let ids = pairs_of.entry(p.lens_id.as_str()).or_default();
                 if !ids.contains(&p.pair_id.as_str()) {
@@ -247,7 +248,7 @@ mod tests {
     }
 
     fn lens_at_level_1(id: &str) -> (String, LensInfo) {
-        let levels = BTreeMap::from([("ode".to_string(), 1u8)]);
+        let levels = BTreeMap::from([(Benchmark::Ode, 1u8)]);
         (
             id.to_string(),
             LensInfo {

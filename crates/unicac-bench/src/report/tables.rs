@@ -3,6 +3,7 @@
 //! best underlined (higher is better except for LPIPS). Missing values print as "-".
 
 use super::ResultRow;
+use crate::Benchmark;
 
 /// The table columns: header, value, higher is better, decimals.
 type Column = (&'static str, fn(&ResultRow) -> Option<f64>, bool, usize);
@@ -22,7 +23,7 @@ enum Mark {
 }
 
 /// The cells of one benchmark's table: models x (levels x columns), with their marks.
-fn cells(rows: &[ResultRow], models: &[String], benchmark: &str) -> (Vec<u8>, Vec<Vec<(String, Mark)>>) {
+fn cells(rows: &[ResultRow], models: &[String], benchmark: Benchmark) -> (Vec<u8>, Vec<Vec<(String, Mark)>>) {
     let levels: Vec<u8> = (1..=super::LEVELS)
         .filter(|l| rows.iter().any(|r| r.benchmark == benchmark && r.level == *l))
         .collect();
@@ -59,7 +60,7 @@ fn cells(rows: &[ResultRow], models: &[String], benchmark: &str) -> (Vec<u8>, Ve
 }
 
 /// The Markdown table of `benchmark`.
-pub fn markdown(rows: &[ResultRow], models: &[String], benchmark: &str) -> String {
+pub fn markdown(rows: &[ResultRow], models: &[String], benchmark: Benchmark) -> String {
     let (levels, table) = cells(rows, models, benchmark);
     let mut out = format!("### Benchmark `{benchmark}`\n\n| model |");
     for level in &levels {
@@ -94,7 +95,7 @@ fn latex_escape(text: &str) -> String {
 }
 
 /// The LaTeX table (booktabs) of `benchmark`.
-pub fn latex(rows: &[ResultRow], models: &[String], benchmark: &str) -> String {
+pub fn latex(rows: &[ResultRow], models: &[String], benchmark: Benchmark) -> String {
     let (levels, table) = cells(rows, models, benchmark);
     let columns = levels.len() * COLUMNS.len();
     let mut out = format!(
@@ -137,7 +138,7 @@ mod tests {
     fn row(model: &str, level: u8, psnr: f64, lpips: f64) -> ResultRow {
         ResultRow {
             model: model.into(),
-            benchmark: "ode".into(),
+            benchmark: Benchmark::Ode,
             level,
             pairs: 1,
             psnr_db: Some(psnr),
@@ -160,11 +161,11 @@ mod tests {
             row("c", 1, 22.0, 0.2),
         ];
         let models: Vec<String> = ["a", "b", "c"].iter().map(|s| s.to_string()).collect();
-        let md = markdown(&rows, &models, "ode");
+        let md = markdown(&rows, &models, Benchmark::Ode);
         assert!(md.contains("| b | **25.00** |"), "{md}");
         assert!(md.contains("| c | <u>22.00</u> |"), "{md}");
         assert!(md.contains("**0.1000**") && md.contains("<u>0.2000</u>"), "{md}");
-        let tex = latex(&rows, &models, "ode");
+        let tex = latex(&rows, &models, Benchmark::Ode);
         assert!(
             tex.contains("\\textbf{25.00}") && tex.contains("\\underline{22.00}"),
             "{tex}"

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::{tables, PairScore, ResultRow, Results};
+use crate::choices::{Benchmark, Split};
 use crate::cost::ModelCost;
 use crate::error::Result;
 use crate::npz::write_atomically;
@@ -32,8 +33,8 @@ pub struct ModelInfo {
 pub struct Report {
     pub unicac_version: &'static str,
     pub dataset: PathBuf,
-    pub split: String,
-    pub benchmarks: Vec<String>,
+    pub split: Split,
+    pub benchmarks: Vec<Benchmark>,
     /// Metric name -> available (false: reported as null, see `notices`).
     pub metrics: std::collections::BTreeMap<String, bool>,
     pub notices: Vec<String>,
@@ -153,10 +154,10 @@ pub fn write_report(dir: &Path, report: &Report, pairs: &[PairScore]) -> Result<
     );
     md.push_str(&overall_table(report));
     md.push('\n');
-    for benchmark in &report.benchmarks {
+    for &benchmark in &report.benchmarks {
         // A dataset built without --sub-benchmarks has no U_s / U_c levels: say so rather than print an
         // empty table.
-        if !report.results.rows.iter().any(|r| &r.benchmark == benchmark) {
+        if !report.results.rows.iter().any(|r| r.benchmark == benchmark) {
             md.push_str(&format!(
                 "### Benchmark `{benchmark}`\n\nNo test lens has a `{benchmark}` level in this dataset (sub-benchmarks are built by `unicac dataset build --sub-benchmarks`).\n\n"
             ));
@@ -204,7 +205,7 @@ fn level_series(
             values: (1..=super::LEVELS)
                 .map(|l| {
                     rows.iter()
-                        .find(|r| &r.model == m && r.benchmark == "ode" && r.level == l)
+                        .find(|r| &r.model == m && r.benchmark == Benchmark::Ode && r.level == l)
                         .and_then(&value)
                 })
                 .collect(),
@@ -216,7 +217,7 @@ fn plots(dir: &Path, report: &Report) -> Result<Vec<PathBuf>> {
     let rows = &report.results.rows;
     let models: Vec<String> = report.models.iter().map(|m| m.name.clone()).collect();
     let mut written = Vec::new();
-    if !rows.iter().any(|r| r.benchmark == "ode") {
+    if !rows.iter().any(|r| r.benchmark == Benchmark::Ode) {
         return Ok(written);
     }
     // Rank by O.P. at each level, 1 = best.

@@ -30,7 +30,7 @@ pub fn run(args: &BenchArgs, host: &Host) -> Result<()> {
         models: args.models.clone(),
         methods: args.methods.clone(),
         out: args.out.clone(),
-        split: args.split.clone(),
+        split: args.split,
         benchmarks: args.benchmarks.clone(),
         metrics: args.metrics.clone(),
         weights_dir: args.weights_dir.clone(),
@@ -70,7 +70,7 @@ pub fn run(args: &BenchArgs, host: &Host) -> Result<()> {
             last_line = std::time::Instant::now();
         }
     };
-    let (report, written) = run_bench(&settings, &mut progress)?;
+    let (report, written) = run_bench(&settings, &mut progress).map_err(bench_error)?;
     bar.finish_and_clear();
     for notice in &report.notices {
         eprintln!("notice: {notice}");
@@ -89,6 +89,22 @@ pub fn run(args: &BenchArgs, host: &Host) -> Result<()> {
     println!("{tables}");
     eprintln!("wrote {} files into {}", written.len(), args.out.display());
     Ok(())
+}
+
+/// A bench error in this face's words: a setting named by its `BenchSettings` field becomes its flag.
+fn bench_error(error: unicac_bench::BenchError) -> anyhow::Error {
+    let unicac_bench::BenchError::InvalidParameter(parameter) = error else {
+        return error.into();
+    };
+    let flag = match parameter.field {
+        "methods" => "--method",
+        "models" => "--model",
+        "tile_px" => "--tile",
+        "overlap_px" => "--tile-overlap",
+        "memory_limit_bytes" => "--max-memory-gb",
+        _ => return super::flag_error(parameter),
+    };
+    super::named_flag_error(flag, parameter)
 }
 
 /// `unicac metrics --json`: the scores and, when LPIPS ran, the onnxruntime library it ran on.

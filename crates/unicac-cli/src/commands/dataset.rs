@@ -75,7 +75,7 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     settings.iso = args.iso;
     settings.bit_depth = args.bit_depth;
     let shard = match &args.shard {
-        Some(text) => Shard::parse(text)?,
+        Some(text) => Shard::parse(text).map_err(flag_error)?,
         None => Shard::ALL,
     };
     let threads = args.threads.unwrap_or(0);

@@ -110,7 +110,13 @@ pub(crate) fn fields_and_wavelengths(
 /// A library's parameter error in this face's words: the flag (`--field-deg`) for the library's name
 /// of the parameter (`field_deg`).
 pub(crate) fn flag_error(parameter: unicac_trace::InvalidParameter) -> anyhow::Error {
-    anyhow::anyhow!("--{} {}", parameter.field.replace('_', "-"), parameter.message)
+    let flag = format!("--{}", parameter.field.replace('_', "-"));
+    named_flag_error(&flag, parameter)
+}
+
+/// A library's parameter error said with the flag that sets it, where the names differ.
+pub(crate) fn named_flag_error(flag: &str, parameter: unicac_trace::InvalidParameter) -> anyhow::Error {
+    anyhow::anyhow!("{flag} {}", parameter.message)
 }
 
 /// A progress bar on stderr for `count` items (hidden when stderr is not a terminal).

@@ -20,10 +20,10 @@ pub fn refuse_duplicate_models(sources: &[LensSource], lenses: &[Lens], sensor: 
             } else {
                 (&source.source, &first.source)
             };
-            return Err(DatasetError::Invalid(format!(
-                "--lenses: {} and {} are the same lens (the same optical model on the build's sensor, in files of different bytes or names): it would be graded twice and could land in two splits; give it once",
-                a, b
-            )));
+            return Err(DatasetError::setting(
+                "lenses",
+                format!("{a} and {b} are the same lens (the same optical model on the build's sensor, in files of different bytes or names): it would be graded twice and could land in two splits; give it once"),
+            ));
         }
     }
     Ok(())

@@ -225,9 +225,10 @@ impl Shard {
     /// "I/N" with 1 <= I <= N <= MAX_SHARDS.
     pub fn parse(text: &str) -> Result<Shard> {
         let bad = || {
-            DatasetError::Invalid(format!(
-                "--shard {text}: expected I/N with 1 <= I <= N <= {MAX_SHARDS}"
-            ))
+            DatasetError::setting(
+                "shard",
+                format!("{text}: expected I/N with 1 <= I <= N <= {MAX_SHARDS}"),
+            )
         };
         let (i, n) = text.split_once('/').ok_or_else(bad)?;
         let (index, count) = (

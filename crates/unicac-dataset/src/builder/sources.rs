@@ -39,15 +39,13 @@ impl LensSource {
 }
 
 fn load_spec(location: &str) -> Result<LensSpec> {
-    // A bundled name comes from the command line (`--lenses`), a file from the command line or a folder.
-    let what = if builtin::is_builtin(location) {
-        "--lenses"
-    } else {
-        "lens"
-    };
+    // A bundled name is one of the `lenses` settings; a file may also come from a folder or a library.
     builtin::resolve_spec(Path::new(location))
         .map(|loaded| loaded.spec)
-        .map_err(|e| DatasetError::Invalid(format!("{what} {location}: {e}")))
+        .map_err(|e| match builtin::is_builtin(location) {
+            true => DatasetError::setting("lenses", format!("{location}: {e}")),
+            false => DatasetError::Invalid(format!("lens {location}: {e}")),
+        })
 }
 
 /// Expands every `lenses` argument; ids sorted, duplicates (same id) listed once. Folders are scanned
@@ -75,15 +73,19 @@ pub fn lens_sources(arguments: &[String], out: &Path) -> Result<Vec<LensSource>>
             found.push(file_source(path, &recorded(argument))?);
         }
         if found.len() > MAX_ITEMS {
-            return Err(DatasetError::Invalid(format!(
-                "--lenses: more than {MAX_ITEMS} lenses"
-            )));
+            return Err(DatasetError::setting(
+                "lenses",
+                format!("more than {MAX_ITEMS} lenses"),
+            ));
         }
     }
     found.sort_by(|a, b| a.lens_id.cmp(&b.lens_id));
     found.dedup_by(|a, b| a.lens_id == b.lens_id);
     if found.is_empty() {
-        return Err(DatasetError::Invalid("--lenses: no lens files found".into()));
+        return Err(DatasetError::setting(
+            "lenses",
+            format!("{}: no lens files found", arguments.join(", ")),
+        ));
     }
     Ok(found)
 }
@@ -438,10 +440,13 @@ impl Scene {
     /// image when it is smaller than the frame.
     pub fn frame_crop(&self, width: usize, height: usize, frame: [usize; 2]) -> Result<[usize; 4]> {
         if width < frame[0] || height < frame[1] {
-            return Err(DatasetError::Invalid(format!(
-                "image {}: {width} x {height} px is smaller than the {} x {} frame (--frame)",
-                self.source, frame[0], frame[1]
-            )));
+            return Err(DatasetError::setting(
+                "frame_px",
+                format!(
+                    "{}x{}: larger than image {} ({width} x {height} px)",
+                    frame[0], frame[1], self.source
+                ),
+            ));
         }
         Ok([
             (width - frame[0]) / 2,
