@@ -1,28 +1,20 @@
 //! Hashes and derived seeds: every random draw of a build is a pure function of `--seed` and the
 //! names of what it is for (a pair id, a chart index), so any part can be rebuilt alone.
 
-use sha2::{Digest, Sha256};
+use unicac_io::digest::Digest;
 
 /// Hex SHA-256 over the parts, each length-prefixed (no two part lists collide).
 pub fn sha256_hex(parts: &[&[u8]]) -> String {
-    let mut hasher = Sha256::new();
-    for part in parts {
-        hasher.update((part.len() as u64).to_le_bytes());
-        hasher.update(part);
-    }
-    hasher.finalize().iter().map(|b| format!("{b:02x}")).collect()
+    Digest::new().parts(parts).hex()
 }
 
 /// A seed for the stream named by `parts` under `seed`: the first 8 bytes of a SHA-256.
 pub fn derive_seed(seed: u64, parts: &[&[u8]]) -> u64 {
-    let mut hasher = Sha256::new();
-    hasher.update(b"unicac-dataset-seed");
-    hasher.update(seed.to_le_bytes());
-    for part in parts {
-        hasher.update((part.len() as u64).to_le_bytes());
-        hasher.update(part);
-    }
-    let digest = hasher.finalize();
+    let digest = Digest::new()
+        .raw(b"unicac-dataset-seed")
+        .raw(&seed.to_le_bytes())
+        .parts(parts)
+        .bytes();
     u64::from_le_bytes(digest[..8].try_into().expect("8 bytes"))
 }
 

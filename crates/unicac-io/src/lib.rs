@@ -15,9 +15,13 @@
 //! - [`read_capped`]: an input read whole is a regular file within a stated size (never a device, a
 //!   FIFO or a folder, which could block or never end).
 //!
-//! std only, so that every crate (optics, image, plot, sim, dataset, bench) can depend on it.
+//! - [`digest`]: the one SHA-256 (file hashes, cache keys, derived seeds).
+//!
+//! std, thiserror and sha2 only, so that every crate (optics, image, plot, sim, dataset, bench) can
+//! depend on it.
 
 mod atomic;
+pub mod digest;
 mod plan;
 mod read;
 

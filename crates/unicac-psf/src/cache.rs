@@ -15,8 +15,8 @@
 //! is a miss, never an error and never a silently different PSF: the next store replaces it.
 
 use crate::geometric::FieldPsf;
-use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
+use unicac_io::digest::{sha256, sha256_hex, Digest};
 use unicac_optics::Lens;
 
 const MAGIC: &[u8] = b"unicac-psf-cache 2\n";
@@ -32,11 +32,7 @@ pub struct PsfCache {
 
 /// A hex SHA-256 of the lens model (see the module docs); also written into PSF metadata as provenance.
 pub fn lens_fingerprint(lens: &Lens) -> String {
-    hex(&Sha256::digest(format!("{lens:?}").as_bytes()))
-}
-
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
+    sha256_hex(format!("{lens:?}").as_bytes())
 }
 
 /// unicac's cache folder (PSFs, converted metric weights): `$UNICAC_CACHE_DIR`, else
@@ -64,14 +60,11 @@ impl PsfCache {
 
     /// The key of a PSF set: each part is length-prefixed so that no two part lists collide.
     pub fn key(parts: &[&[u8]]) -> String {
-        let mut hasher = Sha256::new();
-        hasher.update(MAGIC);
-        hasher.update(env!("CARGO_PKG_VERSION").as_bytes());
-        for part in parts {
-            hasher.update((part.len() as u64).to_le_bytes());
-            hasher.update(part);
-        }
-        hex(&hasher.finalize())
+        Digest::new()
+            .raw(MAGIC)
+            .raw(env!("CARGO_PKG_VERSION").as_bytes())
+            .parts(parts)
+            .hex()
     }
 
     fn path(&self, key: &str) -> PathBuf {
@@ -112,14 +105,14 @@ fn encode(psfs: &[FieldPsf]) -> Vec<u8> {
     for kernel in psfs.iter().flat_map(|p| &p.kernels) {
         bytes.extend(kernel.data.iter().flat_map(|v| v.to_le_bytes()));
     }
-    let checksum = Sha256::digest(&bytes);
+    let checksum = sha256(&bytes);
     bytes.extend(checksum);
     bytes
 }
 
 fn decode(bytes: &[u8]) -> Option<Vec<FieldPsf>> {
     let (content, checksum) = bytes.split_at_checked(bytes.len().checked_sub(CHECKSUM_BYTES)?)?;
-    if Sha256::digest(content).as_slice() != checksum {
+    if sha256(content).as_slice() != checksum {
         return None;
     }
     let rest = content.strip_prefix(MAGIC)?;

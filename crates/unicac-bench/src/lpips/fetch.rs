@@ -23,7 +23,7 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
-use sha2::{Digest, Sha256};
+use unicac_io::digest::sha256_hex;
 
 use super::pickle::{load_arrays, Array};
 use crate::error::{BenchError, Result};
@@ -83,10 +83,6 @@ pub struct FetchReport {
     pub files: BTreeMap<String, String>,
     pub source: String,
     pub source_sha256: String,
-}
-
-fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// The record of a conversion, next to the files: the source's hash and each output's hash. A file is
