@@ -1,4 +1,4 @@
-//! The helpers of the issue-28 reliability tests (`rel-bench.rs`, `reldata.rs`): the real binary in a
+//! The helpers of the reliability tests (`bench_reliability.rs`, `dataset_reliability.rs`): the real binary in a
 //! scratch folder of its own test binary, refusals checked for exit code, speed and message, and one small
 //! dataset shared by the tests of a file.
 #![allow(dead_code)] // each test file uses its own subset

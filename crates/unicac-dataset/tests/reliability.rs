@@ -20,7 +20,7 @@ fn settings(lenses: &[&str]) -> BuildSettings {
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir()
-        .join(format!("unicac-dataset-reldata-{}", std::process::id()))
+        .join(format!("unicac-dataset-reliability-{}", std::process::id()))
         .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
