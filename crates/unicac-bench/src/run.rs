@@ -376,8 +376,8 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
                 LensInfo {
                     lens_id: l.lens_id.clone(),
                     levels,
-                    ode: l.ode,
-                    rms_radius_um: l.rms_radius_um,
+                    ode: l.scores.ode,
+                    rms_radius_um: l.scores.rms_radius_um,
                 },
             )
         })

@@ -82,7 +82,7 @@ fn lens_pair_checks(lens: &LensRow, pairs: &[&PairRow]) -> LensPairChecks {
         lens_id: lens.lens_id.clone(),
         split: lens.split.clone(),
         level: lens.level,
-        ode: lens.ode,
+        ode: lens.scores.ode,
         pairs: pairs.len(),
         checked: checks.len(),
         mean_lq_gt_psnr_db: psnr,
@@ -115,10 +115,10 @@ pub fn pair_check_flag(shift_px: Option<f64>, blur_share: Option<f64>) -> Option
 
 fn metric_of(row: &LensRow, metric: &str) -> f64 {
     match metric {
-        "u_s" => row.u_s,
-        "u_c" => row.u_c,
-        "oiq" => row.oiq,
-        _ => row.ode,
+        "u_s" => row.scores.u_s,
+        "u_c" => row.scores.u_c,
+        "oiq" => row.scores.oiq,
+        _ => row.scores.ode,
     }
 }
 
@@ -175,7 +175,7 @@ pub fn info(dir: &Path) -> Result<DatasetInfo> {
                 lower: summary.lower,
                 upper: summary.upper,
                 range: range(members.iter().map(|l| metric_of(l, metric))),
-                ode_range: range(members.iter().map(|l| l.ode)),
+                ode_range: range(members.iter().map(|l| l.scores.ode)),
             });
         }
     }

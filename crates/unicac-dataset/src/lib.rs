@@ -33,6 +33,8 @@ pub use fov::fov_map;
 pub use manifest::{DatasetManifest, EdgeRow, LensRow, PairRow, FORMAT_NAME, FORMAT_VERSION};
 pub use psf_basis::{psf_code_map, FieldCodes, PsfBasis, PSF_CODE_CHANNELS};
 pub use psf_table::{psf_feature_map, PsfTable, PsfTableMeta, PSF_FEATURES};
+/// The scores in each lens row (declared by the ODE, flattened into `LensRow`).
+pub use unicac_ode::OdeScores;
 
 /// A float32 map of `channels` planes of `height` x `width` pixels, channel-major ([C, H, W]).
 #[derive(Debug, Clone, PartialEq)]

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::Path;
+use unicac_ode::OdeScores;
 
 /// `dataset.json`'s `format`.
 pub const FORMAT_NAME: &str = "unicac-dataset";
@@ -32,14 +33,8 @@ pub struct LensRow {
     pub source: String,
     /// SHA-256 of the lens file's bytes.
     pub lens_sha256: String,
-    pub ode: f64,
-    pub oiq: f64,
-    pub u_s: f64,
-    pub u_c: f64,
-    pub oiqe: f64,
-    pub psnr_db: f64,
-    pub ssim: f64,
-    pub rms_radius_um: f64,
+    #[serde(flatten)]
+    pub scores: OdeScores,
     /// `train`, `val`, `test` or `unused`.
     pub split: String,
     /// ODE level of a test lens: 1 = mildest (highest ODE) .. `levels` = most severe.
@@ -317,25 +312,20 @@ pub fn lenses_csv(rows: &[LensRow]) -> Vec<u8> {
     let mut out = Vec::new();
     writeln!(
         out,
-        "lens_id,source,lens_sha256,ode,oiq,u_s,u_c,oiqe,psnr_db,ssim,rms_radius_um,split,level,us_level,uc_level,pixel_pitch_um,psf"
+        "lens_id,source,lens_sha256,{},split,level,us_level,uc_level,pixel_pitch_um,psf",
+        OdeScores::NAMES.join(",")
     )
     .expect("in memory");
     let level = |l: Option<u32>| l.map(|v| v.to_string()).unwrap_or_default();
     for r in rows {
+        let scores: Vec<String> = r.scores.values().iter().map(f64::to_string).collect();
         writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{}",
             r.lens_id,
             csv_field(&r.source),
             r.lens_sha256,
-            r.ode,
-            r.oiq,
-            r.u_s,
-            r.u_c,
-            r.oiqe,
-            r.psnr_db,
-            r.ssim,
-            r.rms_radius_um,
+            scores.join(","),
             r.split,
             level(r.level),
             level(r.us_level),

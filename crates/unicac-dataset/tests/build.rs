@@ -141,14 +141,14 @@ fn splits_are_lens_disjoint_and_levels_are_ordered_inside_their_thresholds() {
         let summary = &ode.levels[level as usize - 1];
         for l in &members {
             assert!(
-                l.ode <= summary.upper && l.ode >= summary.lower,
+                l.scores.ode <= summary.upper && l.scores.ode >= summary.lower,
                 "level {level}: {} not in [{}, {}]",
-                l.ode,
+                l.scores.ode,
                 summary.lower,
                 summary.upper
             );
-            assert!(l.ode <= previous);
-            previous = l.ode;
+            assert!(l.scores.ode <= previous);
+            previous = l.scores.ode;
         }
     }
     // Sub-benchmarks cover the test lenses once each.

@@ -32,8 +32,8 @@ fn main() {
             t.imaging_and_scoring_s,
             t.rms_spot_s,
             total(t),
-            best.ode,
-            best.oiq
+            best.scores.ode,
+            best.scores.oiq
         );
     }
     println!(

@@ -1,7 +1,7 @@
 //! ODE of one lens (docs/ode.md).
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use unicac_image::{charts, color, quantise, Planar};
 use unicac_metrics::{
     ode_from_oiq_grid, oiq, oiqe, psnr, slanted_edge_mtf, ssim, EdgeMtf, FullReferenceOptions, MtfSummary,
@@ -97,17 +97,54 @@ pub struct FieldChannelScore {
     pub mtf50_tangential_cy_per_px: f64,
 }
 
-#[derive(Debug, Clone, Serialize)]
-pub struct OdeReport {
+/// The scores of one lens: the ODE and its parts, the image-quality means behind them and the RMS spot
+/// radius. Declared once and flattened (serde) into the ODE report, the dataset's grades and its lens
+/// rows, so every file names them alike; `NAMES` is their order there (CSV headers).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OdeScores {
     pub ode: f64,
     pub oiq: f64,
     pub u_s: f64,
     pub u_c: f64,
+    /// Means over the evaluated fields and channels.
     pub oiqe: f64,
     pub psnr_db: f64,
     pub ssim: f64,
     /// Mean RMS spot radius (about the centroid) over the evaluated fields and the lens's wavelengths.
     pub rms_radius_um: f64,
+}
+
+impl OdeScores {
+    pub const NAMES: [&'static str; 8] = [
+        "ode",
+        "oiq",
+        "u_s",
+        "u_c",
+        "oiqe",
+        "psnr_db",
+        "ssim",
+        "rms_radius_um",
+    ];
+
+    /// The values in `NAMES` order.
+    pub fn values(&self) -> [f64; 8] {
+        [
+            self.ode,
+            self.oiq,
+            self.u_s,
+            self.u_c,
+            self.oiqe,
+            self.psnr_db,
+            self.ssim,
+            self.rms_radius_um,
+        ]
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct OdeReport {
+    #[serde(flatten)]
+    pub scores: OdeScores,
     pub pixel_um: f64,
     pub half_diagonal_mm: f64,
     pub kernel_px: usize,
@@ -234,14 +271,16 @@ pub fn evaluate(lens: &Lens, settings: &OdeSettings) -> Result<OdeReport, OdeErr
     let rms_radius_by_field_um = rms_by_field(lens, &angles)?;
     times.rms_spot_s = lap(&mut since);
     Ok(OdeReport {
-        ode: breakdown.ode,
-        oiq: breakdown.oiq,
-        u_s: breakdown.u_s,
-        u_c: breakdown.u_c,
-        oiqe: mean(|s| s.oiqe),
-        psnr_db: mean(|s| s.psnr_db),
-        ssim: mean(|s| s.ssim),
-        rms_radius_um: rms_radius_by_field_um.iter().sum::<f64>() / rms_radius_by_field_um.len() as f64,
+        scores: OdeScores {
+            ode: breakdown.ode,
+            oiq: breakdown.oiq,
+            u_s: breakdown.u_s,
+            u_c: breakdown.u_c,
+            oiqe: mean(|s| s.oiqe),
+            psnr_db: mean(|s| s.psnr_db),
+            ssim: mean(|s| s.ssim),
+            rms_radius_um: rms_radius_by_field_um.iter().sum::<f64>() / rms_radius_by_field_um.len() as f64,
+        },
         pixel_um,
         half_diagonal_mm,
         kernel_px,

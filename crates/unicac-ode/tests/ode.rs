@@ -23,10 +23,19 @@ fn ode_is_bounded_tabulated_and_reproducible() {
             "{s:?}"
         );
     }
-    assert!(report.ode > 0.0 && report.ode <= 1.01, "{}", report.ode);
-    assert!(report.u_s > 0.0 && report.u_s <= 1.0 && report.u_c > 0.0 && report.u_c <= 1.0);
+    assert!(
+        report.scores.ode > 0.0 && report.scores.ode <= 1.01,
+        "{}",
+        report.scores.ode
+    );
+    assert!(
+        report.scores.u_s > 0.0
+            && report.scores.u_s <= 1.0
+            && report.scores.u_c > 0.0
+            && report.scores.u_c <= 1.0
+    );
     let again = evaluate(&lens, &quick()).unwrap();
-    assert_eq!(report.ode, again.ode);
+    assert_eq!(report.scores.ode, again.scores.ode);
 }
 
 #[test]
@@ -40,9 +49,14 @@ fn a_sharper_lens_scores_higher() {
         evaluate(&wide, &quick()).unwrap(),
         evaluate(&stopped, &quick()).unwrap(),
     );
-    assert!(b.rms_radius_um < a.rms_radius_um);
-    assert!(b.ode > a.ode, "F/10 {} vs F/5 {}", b.ode, a.ode);
-    assert!(b.oiqe > a.oiqe);
+    assert!(b.scores.rms_radius_um < a.scores.rms_radius_um);
+    assert!(
+        b.scores.ode > a.scores.ode,
+        "F/10 {} vs F/5 {}",
+        b.scores.ode,
+        a.scores.ode
+    );
+    assert!(b.scores.oiqe > a.scores.oiqe);
 }
 
 use unicac_ode::{score_fields, FieldKernels};
@@ -112,22 +126,22 @@ fn ode_falls_monotonically_as_defocus_grows() {
         spec.surfaces[image_gap].thickness_mm = nominal + defocus_mm;
         let report = evaluate(&unicac_optics::Lens::from_spec(&spec).unwrap(), &quick()).unwrap();
         assert!(
-            report.oiq < previous_oiq,
+            report.scores.oiq < previous_oiq,
             "defocus {defocus_mm}: OIQ {} !< {previous_oiq}",
-            report.oiq
+            report.scores.oiq
         );
         // ODE also weighs uniformity: by 4 mm the blur is almost the same over the whole field, U_s rises
         // and ODE with it (a property of the published formula, not of the measurement), so its
         // monotonicity is checked while the blur is still field-dependent.
         if defocus_mm <= 2.0 {
             assert!(
-                report.ode < previous_ode,
+                report.scores.ode < previous_ode,
                 "defocus {defocus_mm}: ODE {} !< {previous_ode}",
-                report.ode
+                report.scores.ode
             );
         }
-        previous_oiq = report.oiq;
-        previous_ode = report.ode;
+        previous_oiq = report.scores.oiq;
+        previous_ode = report.scores.ode;
     }
 }
 
@@ -161,8 +175,11 @@ fn results_do_not_depend_on_the_thread_count() {
             .install(|| evaluate(&lens, &quick()).unwrap())
     };
     let (one, two) = (run(1), run(2));
-    assert_eq!(one.ode.to_bits(), two.ode.to_bits());
-    assert_eq!(one.rms_radius_um.to_bits(), two.rms_radius_um.to_bits());
+    assert_eq!(one.scores.ode.to_bits(), two.scores.ode.to_bits());
+    assert_eq!(
+        one.scores.rms_radius_um.to_bits(),
+        two.scores.rms_radius_um.to_bits()
+    );
 }
 
 #[test]

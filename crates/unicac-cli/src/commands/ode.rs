@@ -58,8 +58,8 @@ pub fn run(args: &OdeArgs) -> Result<()> {
     }
     if let Some(path) = &args.plot {
         let names = plot_labels(&lenses.iter().map(|l| l.lens.as_str()).collect::<Vec<_>>());
-        let ode: Vec<f64> = lenses.iter().map(|l| l.report.ode).collect();
-        let rms: Vec<f64> = lenses.iter().map(|l| l.report.rms_radius_um).collect();
+        let ode: Vec<f64> = lenses.iter().map(|l| l.report.scores.ode).collect();
+        let rms: Vec<f64> = lenses.iter().map(|l| l.report.scores.rms_radius_um).collect();
         unicac_plot::ode_bars(&names, &ode, &rms, path)?;
         eprintln!("wrote {}", path.display());
     }
@@ -74,7 +74,15 @@ pub fn run(args: &OdeArgs) -> Result<()> {
         let r = &l.report;
         println!(
             "{:<32} {:>7.4} {:>7.4} {:>7.4} {:>7.4} {:>7.4} {:>8.2} {:>7.4} {:>9.3}",
-            l.lens, r.ode, r.oiq, r.u_s, r.u_c, r.oiqe, r.psnr_db, r.ssim, r.rms_radius_um
+            l.lens,
+            r.scores.ode,
+            r.scores.oiq,
+            r.scores.u_s,
+            r.scores.u_c,
+            r.scores.oiqe,
+            r.scores.psnr_db,
+            r.scores.ssim,
+            r.scores.rms_radius_um
         );
     }
     Ok(())
@@ -100,7 +108,16 @@ fn csv(lenses: &[LensOde]) -> String {
         let _ = writeln!(
             text,
             "{},{},{},{},{},{},{},{},{},{}",
-            l.lens, r.ode, r.oiq, r.u_s, r.u_c, r.oiqe, r.psnr_db, r.ssim, r.rms_radius_um, r.pixel_um
+            l.lens,
+            r.scores.ode,
+            r.scores.oiq,
+            r.scores.u_s,
+            r.scores.u_c,
+            r.scores.oiqe,
+            r.scores.psnr_db,
+            r.scores.ssim,
+            r.scores.rms_radius_um,
+            r.pixel_um
         );
     }
     text

@@ -5,20 +5,14 @@ use crate::error::{DatasetError, Result};
 use crate::seeds::sha256_hex;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use unicac_ode::{OdeReport, OdeSettings};
+use unicac_ode::{OdeReport, OdeScores, OdeSettings};
 use unicac_optics::Lens;
 
 /// The scores of a lens that the dataset records (the ODE report without its timings and tables).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Grade {
-    pub ode: f64,
-    pub oiq: f64,
-    pub u_s: f64,
-    pub u_c: f64,
-    pub oiqe: f64,
-    pub psnr_db: f64,
-    pub ssim: f64,
-    pub rms_radius_um: f64,
+    #[serde(flatten)]
+    pub scores: OdeScores,
     pub pixel_um: f64,
     pub half_diagonal_mm: f64,
     pub kernel_px: usize,
@@ -27,14 +21,7 @@ pub struct Grade {
 impl From<&OdeReport> for Grade {
     fn from(r: &OdeReport) -> Grade {
         Grade {
-            ode: r.ode,
-            oiq: r.oiq,
-            u_s: r.u_s,
-            u_c: r.u_c,
-            oiqe: r.oiqe,
-            psnr_db: r.psnr_db,
-            ssim: r.ssim,
-            rms_radius_um: r.rms_radius_um,
+            scores: r.scores,
             pixel_um: r.pixel_um,
             half_diagonal_mm: r.half_diagonal_mm,
             kernel_px: r.kernel_px,
@@ -89,10 +76,10 @@ impl GradeCache {
             .map_err(|e| DatasetError::Invalid(format!("lens {what}: the ODE failed: {e}")))?;
         let grade = Grade::from(&report);
         for (name, value) in [
-            ("ode", grade.ode),
-            ("oiq", grade.oiq),
-            ("u_s", grade.u_s),
-            ("u_c", grade.u_c),
+            ("ode", grade.scores.ode),
+            ("oiq", grade.scores.oiq),
+            ("u_s", grade.scores.u_s),
+            ("u_c", grade.scores.u_c),
         ] {
             if !value.is_finite() {
                 return Err(DatasetError::Invalid(format!(

@@ -103,7 +103,7 @@ pub fn assign(ids: &[String], grades: &[Grade], counts: LevelCounts) -> Result<A
         order
     };
     let everyone: Vec<usize> = (0..n).collect();
-    let ranked = by_metric(|g| g.ode, &everyone);
+    let ranked = by_metric(|g| g.scores.ode, &everyone);
     let mut split = vec!["train"; n];
     let mut level = vec![None; n];
     let groups = rank_groups(n, levels);
@@ -129,7 +129,7 @@ pub fn assign(ids: &[String], grades: &[Grade], counts: LevelCounts) -> Result<A
     let mut stratifications = vec![stratification(
         "ode",
         "quantile groups of the ODE ranking of every lens; per_level test lenses at evenly spaced ranks in each group",
-        |g| g.ode,
+        |g| g.scores.ode,
         grades,
         &group_members,
         &(0..levels).map(test_of).collect::<Vec<_>>(),
@@ -138,8 +138,12 @@ pub fn assign(ids: &[String], grades: &[Grade], counts: LevelCounts) -> Result<A
     if sub_benchmarks {
         let test: Vec<usize> = (0..n).filter(|&i| split[i] == "test").collect();
         for (metric_name, metric, target) in [
-            ("u_s", (|g: &Grade| g.u_s) as fn(&Grade) -> f64, &mut us_level),
-            ("u_c", |g: &Grade| g.u_c, &mut uc_level),
+            (
+                "u_s",
+                (|g: &Grade| g.scores.u_s) as fn(&Grade) -> f64,
+                &mut us_level,
+            ),
+            ("u_c", |g: &Grade| g.scores.u_c, &mut uc_level),
         ] {
             let ranked_test = by_metric(metric, &test);
             let groups: Vec<Vec<usize>> = rank_groups(test.len(), levels)
@@ -220,10 +224,10 @@ fn stratification(
                 lenses: of.len(),
                 lower: thresholds[k + 1],
                 upper: thresholds[k],
-                ode: spread(of, |g| g.ode),
-                oiq: spread(of, |g| g.oiq),
-                u_s: spread(of, |g| g.u_s),
-                u_c: spread(of, |g| g.u_c),
+                ode: spread(of, |g| g.scores.ode),
+                oiq: spread(of, |g| g.scores.oiq),
+                u_s: spread(of, |g| g.scores.u_s),
+                u_c: spread(of, |g| g.scores.u_c),
             })
             .collect(),
         thresholds,
@@ -236,14 +240,16 @@ mod tests {
 
     fn grade(ode: f64, u_s: f64, u_c: f64) -> Grade {
         Grade {
-            ode,
-            oiq: ode,
-            u_s,
-            u_c,
-            oiqe: 0.5,
-            psnr_db: 30.0,
-            ssim: 0.9,
-            rms_radius_um: 2.0,
+            scores: unicac_ode::OdeScores {
+                ode,
+                oiq: ode,
+                u_s,
+                u_c,
+                oiqe: 0.5,
+                psnr_db: 30.0,
+                ssim: 0.9,
+                rms_radius_um: 2.0,
+            },
             pixel_um: 1.0,
             half_diagonal_mm: 1.0,
             kernel_px: 5,
@@ -276,7 +282,7 @@ mod tests {
             assert_eq!(members.len(), 1, "level {k}");
             let level = &ode.levels[k as usize - 1];
             for &i in &members {
-                assert!(grades[i].ode <= level.upper && grades[i].ode >= level.lower);
+                assert!(grades[i].scores.ode <= level.upper && grades[i].scores.ode >= level.lower);
             }
         }
         assert!(
