@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::Path;
+use unicac_image::isp::SensorNoise;
 use unicac_ode::OdeScores;
 
 /// `dataset.json`'s `format`.
@@ -70,12 +71,9 @@ pub struct IspRecord {
     pub noise_seed: Option<u64>,
     pub isp: bool,
     pub noise: bool,
-    pub bit_depth: u8,
-    pub black_level_dn: f32,
-    pub iso: f32,
-    pub iso_base: f32,
-    pub dn_per_electron_at_base_iso: f32,
-    pub read_noise_dn_at_base_iso: f32,
+    /// The sensor the pair was read out with.
+    #[serde(flatten)]
+    pub sensor: SensorNoise,
 }
 
 /// What a pair asks a model to undo (docs/dataset.md, "What a pair teaches").

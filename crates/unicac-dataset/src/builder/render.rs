@@ -7,7 +7,7 @@ use crate::builder::sources::cut;
 use crate::error::{DatasetError, Result};
 use crate::manifest::{IspRecord, PairCheck, PairRow, PairTask};
 use crate::psf_table::{PsfTable, PsfTableMeta, TABLE_FORMAT};
-use unicac_image::isp::{IspDraw, Pipeline, SensorNoise};
+use unicac_image::isp::{IspDraw, Pipeline};
 use unicac_image::Planar;
 use unicac_psf::{visible_wavelengths_um, Kernel, SpectralWeights};
 use unicac_sim::{LensSimulator, PsfCache, SimulationSettings};
@@ -34,14 +34,7 @@ pub fn simulator(
 pub fn pipeline(record: &IspRecord, white_balance_jitter: f32) -> Pipeline {
     Pipeline {
         white_balance_jitter,
-        sensor: SensorNoise {
-            bit_depth: record.bit_depth,
-            black_level_dn: record.black_level_dn,
-            iso: record.iso,
-            iso_base: record.iso_base,
-            dn_per_electron_at_base_iso: record.dn_per_electron_at_base_iso,
-            read_noise_dn_at_base_iso: record.read_noise_dn_at_base_iso,
-        },
+        sensor: record.sensor,
         no_isp: !record.isp,
         no_noise: !record.noise,
         ..Pipeline::default()
@@ -50,19 +43,13 @@ pub fn pipeline(record: &IspRecord, white_balance_jitter: f32) -> Pipeline {
 
 /// What a row records of a pipeline and its draw for `seed`.
 pub fn isp_record(pipeline: &Pipeline, draw: &IspDraw) -> IspRecord {
-    let s = &pipeline.sensor;
     IspRecord {
         white_balance_gains: [draw.gains.red, draw.gains.green, draw.gains.blue],
         white_balance_jitter: pipeline.white_balance_jitter,
         noise_seed: draw.noise_seed,
         isp: !pipeline.no_isp,
         noise: !pipeline.no_noise,
-        bit_depth: s.bit_depth,
-        black_level_dn: s.black_level_dn,
-        iso: s.iso,
-        iso_base: s.iso_base,
-        dn_per_electron_at_base_iso: s.dn_per_electron_at_base_iso,
-        read_noise_dn_at_base_iso: s.read_noise_dn_at_base_iso,
+        sensor: pipeline.sensor,
     }
 }
 

@@ -28,7 +28,8 @@ pub const DEFAULT_BIT_DEPTH: u8 = 10;
 pub const MIN_DEFAULT_SENSOR_BITS: u8 = 7;
 
 /// Sensor read-out parameters. `Default` gives DeepLens' default sensor (prior-art.md section 1.4).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Serialised by field name (a dataset records it with every pair).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SensorNoise {
     /// Bits per raw sample (1..=16): white level 2^bits - 1 DN. Default 10.
     pub bit_depth: u8,
