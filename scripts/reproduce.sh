@@ -7,6 +7,9 @@
 # Usage: scripts/reproduce.sh [--scale tiny|cpu|small|paper-test|paper] [--out DIR] [--ray WORKERS]
 #        [--images DIR --test-images DIR] [--models-from DIR]
 #        [--time-budget-s S]   (per model and session: training stops cleanly and exports what it reached)
+#        [--psf-basis-from DATASET]   (with --models-from: the dataset the models were trained on, whose PSF
+#        basis the new dataset adopts so that psf_code models read codes they know; default: the dataset
+#        folder beside the models folder)
 # --scale paper-test: the paper's test-set shape (5 ODE levels x 24 test lenses, 75 validation lenses) on
 # a library of its own, benchmarked with models trained elsewhere (--models-from, default the `small`
 # scale's out/reproduce-small/models): every test lens is one the models never saw, which is what a
@@ -23,7 +26,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-scale=tiny out= ray_workers= images= test_images= budget= models_from=
+scale=tiny out= ray_workers= images= test_images= budget= models_from= basis_from=
 while [ $# -gt 0 ]; do
   case "$1" in
     --scale) scale=${2:?--scale needs a value}; shift 2 ;;
@@ -33,6 +36,7 @@ while [ $# -gt 0 ]; do
     --test-images) test_images=${2:?--test-images needs a value}; shift 2 ;;
     --time-budget-s) budget=${2:?--time-budget-s needs a value}; shift 2 ;;
     --models-from) models_from=${2:?--models-from needs a value}; shift 2 ;;
+    --psf-basis-from) basis_from=${2:?--psf-basis-from needs a value}; shift 2 ;;
     *) echo "reproduce.sh: unknown argument '$1' (see the usage at the top of scripts/reproduce.sh)" >&2; exit 2 ;;
   esac
 done
@@ -108,6 +112,14 @@ esac
 if [ -n "$models_from" ] && [ ! -d "$models_from" ]; then
   echo "reproduce.sh: --models-from $models_from: no such folder (train the models first, e.g. --scale small)" >&2; exit 2
 fi
+# Models trained elsewhere read their psf_code input in their training dataset's PSF basis: the new
+# dataset adopts that basis rather than fitting its own.
+if [ -n "$models_from" ]; then
+  basis_from=${basis_from:-$(dirname "$models_from")/dataset}
+  if [ ! -f "$basis_from/psf/basis/basis.json" ]; then
+    echo "reproduce.sh: --psf-basis-from $basis_from: no PSF basis (psf/basis/basis.json); name the dataset the models were trained on" >&2; exit 2
+  fi
+fi
 
 source scripts/setup.sh
 source scripts/setup_python.sh dev   # PyTorch for training, onnxruntime for bench
@@ -132,6 +144,7 @@ design_args=(--grid "${grid[@]}" --count "$design_count" --aspheric --first-acce
 dataset_args=(--lenses "$out/library" --images "$images" --test-images "$test_images" --frame "$frame"
   --levels "$levels" --test-lenses-per-level "$per_level" --val-lenses "$val_lenses" --sub-benchmarks
   --pairs-per-lens "$pairs_per_lens" --crop "$crop" --seed 1 --out "$out/dataset")
+if [ -n "$basis_from" ]; then dataset_args+=(--psf-basis-from "$basis_from"); fi
 if [ -n "$ray_workers" ]; then
   stage design "$py" -m unicac.scale.cli design "${design_args[@]}" --workers "$ray_workers"
   stage dataset "$py" -m unicac.scale.cli dataset build "${dataset_args[@]}" --workers "$ray_workers"

@@ -98,6 +98,10 @@ pub struct DatasetBuildArgs {
     pub test_images: String,
     #[arg(long)]
     pub out: PathBuf,
+    /// Adopt the PSF basis of this dataset instead of fitting one (a held-out test set for models
+    /// trained on DIR: their `psf_code` input must be in DIR's basis).
+    #[arg(long, value_name = "DIR")]
+    pub psf_basis_from: Option<PathBuf>,
     /// Sensor frame WxH (px); default: the first test image's size. Larger scenes are centre-cropped.
     #[arg(long)]
     pub frame: Option<String>,

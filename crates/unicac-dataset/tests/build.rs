@@ -433,3 +433,23 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
         let _ = std::fs::remove_dir_all(dir);
     }
 }
+
+#[test]
+fn a_dataset_can_adopt_another_datasets_psf_basis() {
+    let dir = scratch("adopted-basis");
+    let mut s = settings();
+    s.seed = 12;
+    s.psf_basis_from = Some(reference().to_path_buf());
+    assert!(build_with(2, &s, &dir, Shard::ALL).unwrap().complete);
+    let read = unicac_dataset::psf_basis::read_dataset_basis;
+    assert_eq!(read(&dir).unwrap(), read(reference()).unwrap());
+    // A folder without a basis is refused before any work, naming the setting.
+    let missing = scratch("adopted-basis-missing");
+    s.psf_basis_from = Some(missing.join("nowhere"));
+    let error = build_with(2, &s, &scratch("adopted-basis-refused"), Shard::ALL).unwrap_err();
+    assert!(
+        matches!(&error, unicac_dataset::DatasetError::Setting { field, .. } if field == "psf_basis_from"),
+        "{error}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -74,6 +74,7 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     settings.white_balance_jitter = args.wb_jitter;
     settings.iso = args.iso;
     settings.bit_depth = args.bit_depth;
+    settings.psf_basis_from = args.psf_basis_from.clone();
     let shard = match &args.shard {
         Some(text) => Shard::parse(text).map_err(flag_error)?,
         None => Shard::ALL,

@@ -76,6 +76,12 @@ pub struct BuildSettings {
     pub task: PairTask,
     /// 8 or 16 (PNG sample depth of the pairs).
     pub bit_depth: u8,
+    /// A dataset whose PSF basis this one adopts instead of fitting its own: a held-out test set
+    /// scored by models trained on that dataset must express its `psf_code` in their basis. `None`:
+    /// fitted on this dataset's training lenses. Left out of the record when `None` (older records
+    /// stay valid).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub psf_basis_from: Option<std::path::PathBuf>,
 }
 
 /// Largest `pairs_per_lens`.
@@ -115,6 +121,7 @@ impl BuildSettings {
             illumination: true,
             task: PairTask::Aligned,
             bit_depth: 8,
+            psf_basis_from: None,
         }
     }
 
@@ -310,6 +317,13 @@ pub fn build(
     // inputs (lenses, scenes, frame, the library's size), and only then the claim and the grading.
     settings.check()?;
     placement::check_output_placement(settings, out)?;
+    let adopted_basis = match &settings.psf_basis_from {
+        Some(dir) => Some(
+            crate::psf_basis::read_dataset_basis(dir)
+                .map_err(|e| DatasetError::setting("psf_basis_from", format!("{}: {e}", dir.display())))?,
+        ),
+        None => None,
+    };
     let settings_json = serde_json::to_value(settings).expect("settings serialise");
     claim::check_output(
         out,
@@ -549,9 +563,14 @@ pub fn build(
         // (a pure function of the tables: every shard would write the same bytes).
         let basis_dir = out.join(crate::psf_basis::BASIS_RELATIVE);
         if !basis_dir.join(crate::psf_basis::BASIS_JSON).exists() {
-            progress.stage("fitting the PSF basis", 1);
-            fit_psf_basis(out, &plan.lenses)?.write(&basis_dir)?;
-            progress.advance(1);
+            match adopted_basis {
+                Some(basis) => basis.write(&basis_dir)?,
+                None => {
+                    progress.stage("fitting the PSF basis", 1);
+                    fit_psf_basis(out, &plan.lenses)?.write(&basis_dir)?;
+                    progress.advance(1);
+                }
+            }
         }
         // pairs.jsonl with every pair's checks (the manifests this run wrote at its start lacked the
         // pairs it rendered).
