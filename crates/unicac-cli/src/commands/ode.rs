@@ -102,23 +102,10 @@ fn frame_sensor(args: &OdeArgs) -> Result<Option<FrameSensor>> {
 }
 
 fn csv(lenses: &[LensOde]) -> String {
-    let mut text = String::from("lens,ode,oiq,u_s,u_c,oiqe,psnr_db,ssim,rms_radius_um,pixel_um\n");
+    let mut text = format!("lens,{},pixel_um\n", unicac_ode::OdeScores::NAMES.join(","));
     for l in lenses {
-        let r = &l.report;
-        let _ = writeln!(
-            text,
-            "{},{},{},{},{},{},{},{},{},{}",
-            l.lens,
-            r.scores.ode,
-            r.scores.oiq,
-            r.scores.u_s,
-            r.scores.u_c,
-            r.scores.oiqe,
-            r.scores.psnr_db,
-            r.scores.ssim,
-            r.scores.rms_radius_um,
-            r.pixel_um
-        );
+        let scores: Vec<String> = l.report.scores.values().iter().map(f64::to_string).collect();
+        let _ = writeln!(text, "{},{},{}", l.lens, scores.join(","), l.report.pixel_um);
     }
     text
 }
