@@ -318,10 +318,14 @@ pub fn build(
     settings.check()?;
     placement::check_output_placement(settings, out)?;
     let adopted_basis = match &settings.psf_basis_from {
-        Some(dir) => Some(
-            crate::psf_basis::read_dataset_basis(dir)
-                .map_err(|e| DatasetError::setting("psf_basis_from", format!("{}: {e}", dir.display())))?,
-        ),
+        Some(dir) => {
+            let bad =
+                |why: String| DatasetError::setting("psf_basis_from", format!("{}: {why}", dir.display()));
+            if !dir.join(DATASET_JSON).is_file() {
+                return Err(bad("not a finished unicac dataset (no dataset.json)".into()));
+            }
+            Some(crate::psf_basis::read_dataset_basis(dir).map_err(|e| bad(e.to_string()))?)
+        }
         None => None,
     };
     let settings_json = serde_json::to_value(settings).expect("settings serialise");
