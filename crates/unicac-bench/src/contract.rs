@@ -105,6 +105,13 @@ impl ModelContract {
     pub fn wants(&self, input: ModelInput) -> bool {
         self.inputs.contains(&input)
     }
+
+    /// The noise-to-signal ratio of the Wiener estimate this model takes as its `wiener` input (its
+    /// `wiener_nsr`, else the bench default); `None` when it takes none.
+    pub fn wiener_input_nsr(&self) -> Option<f64> {
+        self.wants(ModelInput::Wiener)
+            .then(|| self.wiener_nsr.unwrap_or(crate::wiener::DEFAULT_NSR))
+    }
 }
 
 /// Largest ONNX file read (2 GiB, protobuf's own limit on one message): a regular file, refused from

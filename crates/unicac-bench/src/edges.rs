@@ -6,7 +6,7 @@
 //! separate patches; a network sees an edge of the kind it was trained on, and runs a third of the pixels.
 //! Rows that do not form such a triple (a hand-made dataset) are restored one by one, as stored.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::PathBuf;
 
 use unicac_dataset::folder::Dataset;
@@ -14,9 +14,9 @@ use unicac_dataset::psf_basis::FieldCodes;
 use unicac_dataset::{EdgeRow, PsfTable};
 use unicac_image::Planar;
 
-use crate::contract::{ModelContract, ModelInput};
+use crate::contract::ModelContract;
 use crate::error::{BenchError, Result};
-use crate::inputs::{dataset_error, read_rgb, InputMaps};
+use crate::inputs::{dataset_error, read_rgb, wiener_at, wiener_input, InputMaps, WienerEstimates};
 
 /// Most pixels of edge images run through a model in one batch (2^18: a 512 x 512 image's worth, so a
 /// batch needs no more memory than a test pair of that size; 2^20 doubled the small run's peak to 1.2 GB).
@@ -91,8 +91,8 @@ pub(crate) struct EdgePatch<'a> {
     fov: Option<Planar>,
     psf: Option<Planar>,
     psf_code: Option<Planar>,
-    /// Wiener estimates keyed by the bits of their noise-to-signal ratio.
-    wiener: BTreeMap<u64, Planar>,
+    /// The Wiener estimates the models take as input.
+    wiener: WienerEstimates,
 }
 
 impl<'a> EdgePatch<'a> {
@@ -143,7 +143,7 @@ impl<'a> EdgePatch<'a> {
             fov: None,
             psf: None,
             psf_code: None,
-            wiener: BTreeMap::new(),
+            wiener: WienerEstimates::new(),
         };
         if needs.fov {
             patch.fov = Some(patch.map(|x, y| [x as f32, y as f32]));
@@ -178,19 +178,18 @@ impl<'a> EdgePatch<'a> {
         crate::wiener::wiener_restore(&self.lq, table, &|r, c| self.position(r, c), nsr)
     }
 
+    /// [`EdgePatch::wiener_restore`], taken from the models' input estimates when one has this ratio.
+    pub fn wiener_restoration(&self, table: &PsfTable, nsr: f64) -> Result<Planar> {
+        wiener_at(&self.wiener, nsr, || self.wiener_restore(table, nsr))
+    }
+
     /// The maps `contract` may take (those not computed are `None`).
     pub fn maps(&self, contract: &ModelContract) -> InputMaps<'_> {
         InputMaps {
             fov: self.fov.as_ref(),
             psf: self.psf.as_ref(),
             psf_code: self.psf_code.as_ref(),
-            wiener: contract
-                .wants(ModelInput::Wiener)
-                .then(|| {
-                    let nsr = contract.wiener_nsr.unwrap_or(crate::wiener::DEFAULT_NSR);
-                    self.wiener.get(&nsr.to_bits())
-                })
-                .flatten(),
+            wiener: wiener_input(contract, &self.wiener),
         }
     }
 

@@ -16,7 +16,7 @@ use crate::contract::{load_model, ModelContract, ModelInput};
 use crate::edges::{edge_groups, EdgePatch, MapNeeds};
 use crate::error::{BenchError, Result};
 use crate::fid::FidNetwork;
-use crate::inputs::dataset_error;
+use crate::inputs::{dataset_error, wiener_at, wiener_input, WienerEstimates};
 pub use crate::inputs::{read_rgb, InputMaps};
 use crate::lpips::Lpips;
 use crate::onnx::proto::ModelProto;
@@ -706,9 +706,7 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
     let mut wiener_nsrs: Vec<f64> = entries
         .iter()
         .filter_map(|e| match &e.method {
-            Method::Onnx { contract, .. } if contract.wants(ModelInput::Wiener) => {
-                Some(contract.wiener_nsr.unwrap_or(crate::wiener::DEFAULT_NSR))
-            }
+            Method::Onnx { contract, .. } => contract.wiener_input_nsr(),
             _ => None,
         })
         .collect();
@@ -786,7 +784,7 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
                     crate::wiener::wiener_restore(&lq, t, &|r, c| crop.normalised(r, c), nsr)?,
                 ))
             })
-            .collect::<Result<BTreeMap<u64, Planar>>>()?;
+            .collect::<Result<WienerEstimates>>()?;
         let gt_features = match fid.as_mut() {
             Some(net) => Some(net.features(&gt)?),
             None => None,
@@ -802,12 +800,14 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
         for entry in entries.iter_mut() {
             let restored = match &mut entry.method {
                 Method::Identity => Ok(lq.clone()),
-                Method::Wiener { nsr } => crate::wiener::wiener_restore(
-                    &lq,
-                    table.as_ref().expect("PSF table loaded"),
-                    &|r, c| crop.normalised(r, c),
-                    *nsr,
-                ),
+                Method::Wiener { nsr } => wiener_at(&wiener_inputs, *nsr, || {
+                    crate::wiener::wiener_restore(
+                        &lq,
+                        table.as_ref().expect("PSF table loaded"),
+                        &|r, c| crop.normalised(r, c),
+                        *nsr,
+                    )
+                }),
                 Method::Onnx { contract, session } => {
                     let maps = InputMaps {
                         fov: fov.as_ref(),
@@ -965,12 +965,6 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
     Ok((report, written))
 }
 
-/// The Wiener estimate computed with `contract`'s noise-to-signal ratio, if it takes one.
-fn wiener_input<'a>(contract: &ModelContract, estimates: &'a BTreeMap<u64, Planar>) -> Option<&'a Planar> {
-    let nsr = contract.wiener_nsr.unwrap_or(crate::wiener::DEFAULT_NSR);
-    estimates.get(&nsr.to_bits())
-}
-
 /// The half-diagonal (px) of the frames the pairs were rendered at.
 fn lenses_half_diagonal(pairs: &[PairRow]) -> f64 {
     let [w, h] = pairs[0].frame_px;
@@ -990,7 +984,7 @@ fn restore_patches(
         Method::Identity => patches.iter().map(|p| Ok(p.lq.clone())).collect(),
         Method::Wiener { nsr } => patches
             .iter()
-            .map(|p| p.wiener_restore(table.expect("PSF table loaded"), *nsr))
+            .map(|p| p.wiener_restoration(table.expect("PSF table loaded"), *nsr))
             .collect(),
         Method::Onnx { contract, session } => {
             let one_by_one = |session: &mut Session, batch: &[EdgePatch]| -> Vec<Result<Planar>> {
