@@ -303,6 +303,13 @@ def test_validation_is_deterministic(tmp_path, dataset):
     trainer = Trainer(tiny_config("nafnet", dataset), tmp_path / "run", quiet=True)
     first, second = trainer.validate(), trainer.validate()
     assert first == second
+    # Validation builds no autograd graph (the network runs under no_grad), whoever calls it.
+    grad_during_forward = []
+    first_conv = next(m for m in trainer.evaluated.modules() if isinstance(m, torch.nn.Conv2d))
+    hook = first_conv.register_forward_hook(lambda *_: grad_during_forward.append(torch.is_grad_enabled()))
+    trainer.validate()
+    hook.remove()
+    assert grad_during_forward and not any(grad_during_forward)
     a, b = trainer.val_set[0], trainer.val_set[0]
     assert torch.equal(a["lq"], b["lq"])
     # On-the-fly validation draws its noise and positions from fixed per-index seeds as well.

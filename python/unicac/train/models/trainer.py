@@ -513,7 +513,6 @@ class Trainer:
         """The network validation and export use: the EMA weights when the run keeps them."""
         return self.ema.module if self.ema is not None else self.net  # type: ignore[return-value]
 
-    @torch.no_grad()
     def _log_validation(self, iteration: int, t0: float, progress: Progress) -> dict[str, float]:
         """Validates, logs the scores as iteration `iteration`'s `val` row and reports them."""
         scores = self.validate()
@@ -527,6 +526,7 @@ class Trainer:
         )
         return scores
 
+    @torch.no_grad()
     def validate(self) -> dict[str, float]:
         """Mean PSNR (dB) / SSIM of the restored and of the unrestored validation images (fixed set);
         for a blind network also the L1 error of its predicted map (`prediction_l1`) and that of
