@@ -15,11 +15,28 @@ if [ ! -x "$VENV/bin/python" ]; then
   "$PYTHON" -m venv "$VENV"
 fi
 stamp="$VENV/.requirements-$requirements_kind.sha256"
-wanted=$(cat "python/requirements-$requirements_kind.txt" python/requirements-runtime.txt | sha256sum | cut -d' ' -f1)
+wanted=$(cat "python/requirements-$requirements_kind.txt" python/requirements-runtime.txt python/requirements-dev-cuda.txt \
+  | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$stamp" 2>/dev/null)" != "$wanted" ]; then
-  echo "setup: installing python/requirements-$requirements_kind.txt into $VENV (pip)"
-  "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check --no-cache-dir \
-    -r "python/requirements-$requirements_kind.txt"
+  # pip unpacks into TMPDIR; /tmp may be a small RAM disk, so its scratch lives beside the venv.
+  pip_scratch="$VENV/.pip-scratch"
+  rm -rf "$pip_scratch" && mkdir -p "$pip_scratch"
+  free_gb=$(df -Pk "$VENV" | awk 'NR == 2 { printf "%.1f", $4 / 1048576 }')
+  echo "setup: installing python/requirements-$requirements_kind.txt into $VENV (pip; $free_gb GB free there)"
+  pip_install() {
+    TMPDIR="$pip_scratch" "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check \
+      --no-cache-dir "$@"
+  }
+  if [ "$requirements_kind" = dev ]; then
+    # PyTorch's CUDA wheels one at a time: installed they take ~3 GB, and a single pip call would also
+    # hold all of them downloaded until it ends.
+    while read -r pin; do
+      case "$pin" in '' | '#'*) continue ;; esac
+      pip_install --no-deps "$pin"
+    done < python/requirements-dev-cuda.txt
+  fi
+  pip_install -r "python/requirements-$requirements_kind.txt"
+  rm -rf "$pip_scratch"
   echo "$wanted" > "$stamp"
 fi
 UNICAC_PYTHON="$(cd "$VENV" && pwd)/bin/python"
