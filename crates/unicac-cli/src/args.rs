@@ -102,6 +102,10 @@ pub struct DatasetBuildArgs {
     /// trained on DIR: their `psf_code` input must be in DIR's basis).
     #[arg(long, value_name = "DIR")]
     pub psf_basis_from: Option<PathBuf>,
+    /// Refuse any lens that is a training or validation lens of this dataset (a test set for models
+    /// trained on DIR; lenses matched by the hash of their file).
+    #[arg(long, value_name = "DIR")]
+    pub unseen_by: Option<PathBuf>,
     /// Sensor frame WxH (px); default: the first test image's size. Larger scenes are centre-cropped.
     #[arg(long)]
     pub frame: Option<String>,

@@ -453,3 +453,35 @@ fn a_dataset_can_adopt_another_datasets_psf_basis() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_test_set_for_models_trained_elsewhere_refuses_their_lenses() {
+    let dir = scratch("unseen-by");
+    let mut s = settings();
+    s.unseen_by = Some(reference().to_path_buf());
+    // The reference's own lenses: its training and validation ones are named, before any work.
+    let error = build_with(2, &s, &dir, Shard::ALL).unwrap_err();
+    let unicac_dataset::DatasetError::Setting { field, message } = &error else {
+        panic!("{error}")
+    };
+    assert_eq!(field, "unseen_by");
+    let lenses = unicac_dataset::folder::Dataset::open(reference())
+        .unwrap()
+        .lenses()
+        .unwrap();
+    let seen = lenses.iter().filter(|row| row.split != "test").count();
+    assert!(
+        message.contains(&format!("{seen} of the {} lenses given", LENSES.len())),
+        "{message}"
+    );
+    assert!(!dir.exists(), "nothing is written before the refusal");
+    // Its test lenses alone are unseen: they make a test set.
+    s.lenses = lenses
+        .iter()
+        .filter(|row| row.split == "test")
+        .map(|row| row.source.clone())
+        .collect();
+    (s.levels, s.test_lenses_per_level, s.val_lenses, s.sub_benchmarks) = (1, 1, 0, false);
+    assert!(build_with(2, &s, &dir, Shard::ALL).unwrap().complete);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -22,6 +22,7 @@ mod placement;
 pub mod render;
 pub mod sources;
 pub mod stratify;
+mod unseen;
 
 use crate::error::{DatasetError, Result};
 use crate::manifest::{
@@ -82,6 +83,11 @@ pub struct BuildSettings {
     /// stay valid).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub psf_basis_from: Option<std::path::PathBuf>,
+    /// The dataset of the models this build is a test set for: none of its training or validation
+    /// lenses may be among this build's lenses (refused before any work, builder/unseen.rs). A check
+    /// that changes no byte, so it is not part of the build's record: a folder resumes with or without it.
+    #[serde(skip)]
+    pub unseen_by: Option<std::path::PathBuf>,
 }
 
 /// Largest `pairs_per_lens`.
@@ -122,6 +128,7 @@ impl BuildSettings {
             task: PairTask::Aligned,
             bit_depth: 8,
             psf_basis_from: None,
+            unseen_by: None,
         }
     }
 
@@ -337,6 +344,9 @@ pub fn build(
         },
     )?;
     let sources = sources::lens_sources(&settings.lenses, out)?;
+    if let Some(seen_by) = &settings.unseen_by {
+        unseen::refuse_seen_lenses(&sources, seen_by)?;
+    }
     settings.level_counts().check(sources.len())?;
     let lenses: Vec<Lens> = sources.iter().map(|s| s.load()).collect::<Result<_>>()?;
     let test_first = sources::scenes(

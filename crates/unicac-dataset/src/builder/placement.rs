@@ -1,5 +1,5 @@
 //! Where the output folder may lie: never inside an input folder (`images`, `test_images`, lens
-//! folders), where a rerun would scan the dataset it wrote as scenes or lenses, and never around an
+//! folders, the datasets of `psf_basis_from` and `unseen_by`), where a rerun would scan the dataset it wrote as scenes or lenses, and never around an
 //! input (the build would read its own output). Checked with unicac-io's `OutputPlan`, as bench
 //! checks its report folder, before any work.
 
@@ -18,7 +18,11 @@ fn input_paths(settings: &BuildSettings) -> Vec<PathBuf> {
         .lenses
         .iter()
         .filter(|argument| !argument.starts_with(BUILTIN_PREFIX));
-    scenes.chain(lenses).map(PathBuf::from).collect()
+    let datasets = [&settings.psf_basis_from, &settings.unseen_by]
+        .into_iter()
+        .flatten()
+        .cloned();
+    scenes.chain(lenses).map(PathBuf::from).chain(datasets).collect()
 }
 
 /// Refuses an `out` inside an input folder, equal to an input, or holding an input.
