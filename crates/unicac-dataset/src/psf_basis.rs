@@ -316,7 +316,7 @@ impl PsfBasis {
             }
         }
         let floats = |values: &[f32]| values.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>();
-        crate::seeds::sha256_hex(&[&header, &floats(&self.mean), &floats(&self.components)])
+        crate::seeds::parts_sha256_hex(&[&header, &floats(&self.mean), &floats(&self.components)])
     }
 
     /// Checks shapes and values (a basis read from disk or about to be written).

@@ -3,8 +3,9 @@
 
 use unicac_io::digest::Digest;
 
-/// Hex SHA-256 over the parts, each length-prefixed (no two part lists collide).
-pub fn sha256_hex(parts: &[&[u8]]) -> String {
+/// Hex SHA-256 over the parts, each length-prefixed (no two part lists collide). Not `sha256sum`
+/// of one part: a lens file's `lens_sha256` is this of its bytes alone (the ids of every dataset).
+pub fn parts_sha256_hex(parts: &[&[u8]]) -> String {
     Digest::new().parts(parts).hex()
 }
 
@@ -34,6 +35,6 @@ mod tests {
         assert_ne!(a, derive_seed(8, &[b"pair", b"x"]));
         assert_ne!(derive_seed(7, &[b"pa", b"irx"]), a);
         // Pinned: a change here changes every dataset built with this seed.
-        assert_eq!(sha256_hex(&[b"abc"]).len(), 64);
+        assert_eq!(parts_sha256_hex(&[b"abc"]).len(), 64);
     }
 }

@@ -33,10 +33,8 @@ fn is_finite<R: Real>(v: R) -> bool {
     v.abs() <= R::MAX
 }
 
-/// SplitMix64 finaliser: `counter_hash` of common.wgsl (u32 pairs there, native u64 here).
-pub fn counter_hash(seed: u64, counter: u64) -> u64 {
-    unicac_trace::pupil::counter_hash(seed, counter)
-}
+/// `counter_hash` of common.wgsl (u32 pairs there, native u64 here).
+pub use unicac_trace::pupil::counter_hash;
 
 /// `unit_fraction`: the top 53 bits of a 64-bit fraction, as two exact partial products.
 pub fn unit_fraction<R: Real>(bits: u64) -> R {

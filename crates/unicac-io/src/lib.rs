@@ -15,12 +15,14 @@
 //! - [`read_capped`]: an input read whole is a regular file within a stated size (never a device, a
 //!   FIFO or a folder, which could block or never end).
 //!
-//! - [`digest`]: the one SHA-256 (file hashes, cache keys, derived seeds).
+//! - [`digest`]: the one SHA-256 (file hashes, cache keys, derived seeds);
+//! - [`counter_random`]: the one counter-based random source (SplitMix64; CPU and GPU alike).
 //!
 //! std, thiserror and sha2 only, so that every crate (optics, image, plot, sim, dataset, bench) can
 //! depend on it.
 
 mod atomic;
+pub mod counter_random;
 pub mod digest;
 mod plan;
 mod read;

@@ -178,21 +178,8 @@ impl PupilSampling {
     }
 }
 
-/// SplitMix64 finaliser applied to (seed, counter): the n-th number depends only on (seed, n), so
-/// results do not depend on thread scheduling, and a GPU kernel can reproduce them with the same
-/// integer arithmetic. Hand-written for that reason (general-purpose RNG crates are stream-based).
-pub fn counter_hash(seed: u64, counter: u64) -> u64 {
-    let mut z = seed ^ counter.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// Top 53 bits as a uniform f64 in [0, 1).
-pub fn unit_interval(bits: u64) -> f64 {
-    (bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-}
+/// Counter-based randomness (one home: unicac-io), re-exported for the tracer's users.
+pub use unicac_io::counter_random::{counter_hash, unit_interval};
 
 #[cfg(test)]
 mod tests {

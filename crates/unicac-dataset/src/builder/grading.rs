@@ -2,7 +2,7 @@
 //! cached on disk by content: the lens model, the sensor and the ODE settings.
 
 use crate::error::{DatasetError, Result};
-use crate::seeds::sha256_hex;
+use crate::seeds::parts_sha256_hex;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use unicac_ode::{OdeReport, OdeScores, OdeSettings};
@@ -50,7 +50,7 @@ pub fn model_fingerprint(lens: &Lens) -> String {
 
 impl GradeCache {
     fn key(lens: &Lens, settings: &OdeSettings) -> String {
-        sha256_hex(&[
+        parts_sha256_hex(&[
             b"unicac-dataset-ode 2",
             env!("CARGO_PKG_VERSION").as_bytes(),
             model_fingerprint(lens).as_bytes(),

@@ -3,7 +3,7 @@
 //! content hash.
 
 use crate::error::{DatasetError, Result};
-use crate::seeds::{derive_seed, sha256_hex};
+use crate::seeds::{derive_seed, parts_sha256_hex};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -26,7 +26,8 @@ pub struct LensSource {
     pub source: String,
     /// Where to read it (`builtin:NAME` for built-in lenses).
     pub location: String,
-    /// SHA-256 of the file's bytes (of the spec's JSON for a built-in lens).
+    /// SHA-256 of the file's bytes, length-prefixed (`seeds::parts_sha256_hex`; of the spec's JSON for
+    /// a built-in lens).
     pub sha256: String,
 }
 
@@ -120,7 +121,7 @@ fn file_source(path: &Path, source: &str) -> Result<LensSource> {
 }
 
 fn source_for(stem: &str, source: String, location: String, bytes: &[u8]) -> LensSource {
-    let sha256 = sha256_hex(&[bytes]);
+    let sha256 = parts_sha256_hex(&[bytes]);
     LensSource {
         lens_id: format!("{}-{}", sanitise(stem), &sha256[..12]),
         source,
@@ -291,7 +292,7 @@ pub fn scenes(
         .iter()
         .map(|file| {
             let bytes = std::fs::read(file).map_err(|e| DatasetError::io(file, e))?;
-            let sha256 = sha256_hex(&[&bytes]);
+            let sha256 = parts_sha256_hex(&[&bytes]);
             let stem = file
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())

@@ -23,6 +23,7 @@ use crate::error::{check_layout, ImageError, Result};
 use crate::io::Encoding;
 use crate::quantise::quantise;
 use crate::Planar;
+use unicac_io::counter_random::derive_seed;
 
 /// Sensor/ISP configuration. `Default` is DeepLens' sensor with its augmentation spread.
 #[derive(Debug, Clone, PartialEq)]
@@ -159,15 +160,6 @@ impl Pipeline {
             None => Ok(rgb),
         }
     }
-}
-
-/// Independent seed for sub-stream `stream` of `seed`: the SplitMix64 finaliser (Steele, Lea & Flood,
-/// "Fast splittable pseudorandom number generators", OOPSLA 2014) applied to `seed + stream * golden gamma`.
-fn derive_seed(seed: u64, stream: u64) -> u64 {
-    let mut z = seed.wrapping_add(stream.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 #[cfg(test)]
