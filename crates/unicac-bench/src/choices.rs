@@ -11,7 +11,7 @@ pub struct UnknownName {
 }
 
 /// An enum of named unit variants: `ALL` in the order reports list them, `name()`, `Display`, `FromStr`
-/// and serde as the name.
+/// and serde as the name. Used across the crate (`#[macro_use]` in lib.rs; e.g. contract's `ModelInput`).
 macro_rules! named_choice {
     ($(#[$doc:meta])* $ty:ident { $($(#[$vdoc:meta])* $variant:ident = $text:literal),+ $(,)? }) => {
         $(#[$doc])*
@@ -38,10 +38,10 @@ macro_rules! named_choice {
         }
 
         impl std::str::FromStr for $ty {
-            type Err = UnknownName;
+            type Err = $crate::choices::UnknownName;
 
-            fn from_str(text: &str) -> Result<$ty, UnknownName> {
-                $ty::ALL.iter().copied().find(|v| v.name() == text).ok_or_else(|| UnknownName {
+            fn from_str(text: &str) -> std::result::Result<$ty, $crate::choices::UnknownName> {
+                $ty::ALL.iter().copied().find(|v| v.name() == text).ok_or_else(|| $crate::choices::UnknownName {
                     given: text.to_string(),
                     known: $ty::ALL.iter().map(|v| v.name()).collect(),
                 })

@@ -25,33 +25,23 @@ pub const CONTRACT_VERSION: u32 = 2;
 /// The lowest default-domain opset the contract allows.
 pub const MIN_OPSET: i64 = 17;
 
-/// A model input the contract defines.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ModelInput {
-    /// The degraded image, N x 3 x H x W.
-    Lq,
-    /// The field-of-view map, N x 2 x H x W.
-    Fov,
-    /// The PSF-feature map, N x 15 x H x W.
-    Psf,
-    /// The dense PSF code (the dataset's PCA basis), N x 50 x H x W (contract 2).
-    PsfCode,
-    /// The field-varying Wiener estimate of `lq`, N x 3 x H x W (contract 2).
-    Wiener,
+named_choice! {
+    /// A model input the contract defines.
+    ModelInput {
+        /// The degraded image, N x 3 x H x W.
+        Lq = "lq",
+        /// The field-of-view map, N x 2 x H x W.
+        Fov = "fov",
+        /// The PSF-feature map, N x 15 x H x W.
+        Psf = "psf",
+        /// The dense PSF code (the dataset's PCA basis), N x 50 x H x W (contract 2).
+        PsfCode = "psf_code",
+        /// The field-varying Wiener estimate of `lq`, N x 3 x H x W (contract 2).
+        Wiener = "wiener",
+    }
 }
 
 impl ModelInput {
-    pub fn name(self) -> &'static str {
-        match self {
-            ModelInput::Lq => "lq",
-            ModelInput::Fov => "fov",
-            ModelInput::Psf => "psf",
-            ModelInput::PsfCode => "psf_code",
-            ModelInput::Wiener => "wiener",
-        }
-    }
-
     pub fn channels(self) -> usize {
         match self {
             ModelInput::Lq => 3,
@@ -67,17 +57,6 @@ impl ModelInput {
         match self {
             ModelInput::Lq | ModelInput::Fov | ModelInput::Psf => 1,
             ModelInput::PsfCode | ModelInput::Wiener => 2,
-        }
-    }
-
-    fn from_name(name: &str) -> Option<ModelInput> {
-        match name {
-            "lq" => Some(ModelInput::Lq),
-            "fov" => Some(ModelInput::Fov),
-            "psf" => Some(ModelInput::Psf),
-            "psf_code" => Some(ModelInput::PsfCode),
-            "wiener" => Some(ModelInput::Wiener),
-            _ => None,
         }
     }
 }
@@ -178,10 +157,12 @@ pub fn check(path: &Path, model: &ModelProto) -> Result<ModelContract> {
         .iter()
         .filter(|v| !initializers.contains(&v.name.as_str()))
     {
-        let input = ModelInput::from_name(&value.name).ok_or_else(|| {
+        let input: ModelInput = value.name.parse().map_err(|_| {
+            let allowed: Vec<&str> = ModelInput::ALL.iter().map(|i| i.name()).collect();
             refuse(format!(
-                "input `{}` is not in the contract (allowed: lq, fov, psf, psf_code, wiener)",
-                value.name
+                "input `{}` is not in the contract (allowed: {})",
+                value.name,
+                allowed.join(", ")
             ))
         })?;
         if inputs.contains(&input) {

@@ -24,6 +24,7 @@
 //! cost analysis read any model without a second ML runtime.
 
 pub mod analysis;
+#[macro_use]
 pub mod choices;
 pub mod clipiqa;
 pub mod compare;

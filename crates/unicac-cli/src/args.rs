@@ -377,7 +377,7 @@ pub struct ChartArgs {
     #[arg(value_enum)]
     pub kind: ChartKind,
     /// WIDTHxHEIGHT in pixels.
-    #[arg(long, value_parser = parse_size)]
+    #[arg(long, value_parser = unicac_dataset::builder::sources::parse_size)]
     pub size: [usize; 2],
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -682,17 +682,6 @@ fn parse_ray(text: &str) -> Result<[f64; 6], String> {
 
 fn parse_pupil(text: &str) -> Result<[f64; 2], String> {
     parse_numbers::<2>(text, "PX,PY")
-}
-
-fn parse_size(text: &str) -> Result<[usize; 2], String> {
-    let (w, h) = text
-        .split_once('x')
-        .ok_or_else(|| format!("'{text}': expected WIDTHxHEIGHT, e.g. 640x480"))?;
-    let parse = |v: &str| v.trim().parse::<usize>().ok().filter(|n| *n > 0);
-    match (parse(w), parse(h)) {
-        (Some(w), Some(h)) => Ok([w, h]),
-        _ => Err(format!("'{text}': width and height must be positive integers")),
-    }
 }
 
 fn parse_kernel_px(text: &str) -> Result<usize, String> {
