@@ -377,7 +377,7 @@ pub struct ChartArgs {
     #[arg(value_enum)]
     pub kind: ChartKind,
     /// WIDTHxHEIGHT in pixels.
-    #[arg(long, value_parser = unicac_dataset::builder::sources::parse_size)]
+    #[arg(long, value_parser = unicac_image::size::parse_wxh)]
     pub size: [usize; 2],
     #[arg(long, default_value_t = 0)]
     pub seed: u64,

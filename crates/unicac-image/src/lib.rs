@@ -33,6 +33,7 @@ pub mod error;
 pub mod io;
 pub mod isp;
 pub mod quantise;
+pub mod size;
 
 pub use buffer::Planar;
 pub use error::{ImageError, Result};

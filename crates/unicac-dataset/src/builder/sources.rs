@@ -327,24 +327,16 @@ pub fn scene_hashes<'a>(
         .collect()
 }
 
-/// "WxH" with both sides positive.
+/// "WxH" (unicac-image's one parser) with each side at most `MAX_FRAME_SIDE_PX`.
 pub fn parse_size(text: &str) -> std::result::Result<[usize; 2], String> {
-    let (w, h) = text
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("size {text:?} is not WxH"))?;
-    let side = |s: &str| {
-        s.trim()
-            .parse::<usize>()
-            .ok()
-            .filter(|&v| (1..=crate::MAX_FRAME_SIDE_PX).contains(&v))
-    };
-    match (side(w), side(h)) {
-        (Some(w), Some(h)) => Ok([w, h]),
-        _ => Err(format!(
-            "size {text:?}: each side must be an integer from 1 to {}",
+    let size = unicac_image::size::parse_wxh(text)?;
+    if size.iter().any(|&side| side > crate::MAX_FRAME_SIDE_PX) {
+        return Err(format!(
+            "size {text:?}: each side must be at most {} px (MAX_FRAME_SIDE_PX)",
             crate::MAX_FRAME_SIDE_PX
-        )),
+        ));
     }
+    Ok(size)
 }
 
 /// Bytes of decoded scenes a build keeps between lenses (a stated limit: 1 GiB, about 85 MP of linear RGB).
