@@ -730,7 +730,7 @@ pub struct DesignArgs {
     pub focal_length_mm: Option<f64>,
     /// Sensor size WIDTHxHEIGHT in mm (e.g. 36x24): the full field fills its half diagonal.
     #[arg(long)]
-    pub sensor: Option<String>,
+    pub sensor: Option<unicac_design::SensorSize>,
     /// Also make an aspheric version of each design (conic + r^4..r^10 on two surfaces).
     #[arg(long)]
     pub aspheric: bool,
@@ -758,8 +758,8 @@ pub struct DesignArgs {
     #[arg(long)]
     pub max_rms_um: Option<f64>,
     /// Gradients of the local refinement: exact (dual numbers) or fd (central differences, the baseline).
-    #[arg(long, default_value = "exact", value_parser = ["exact", "fd"])]
-    pub gradient: String,
+    #[arg(long, default_value = "exact")]
+    pub gradient: unicac_design::local::Gradient,
     /// Run the specification grid (elements 1-6 x half field 20/30/40 x F/2,3,4 x stop front/middle/back);
     /// the --grid-* options narrow it.
     #[arg(long)]

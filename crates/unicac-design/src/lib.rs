@@ -44,4 +44,4 @@ pub mod tracer;
 pub mod verify;
 
 pub use error::{DesignError, Result};
-pub use spec::{Constraints, DesignSpec, StopPosition};
+pub use spec::{Constraints, DesignSpec, FocalLength, Grid, SensorSize, StopPosition};

@@ -21,6 +21,19 @@ pub enum Gradient {
     FiniteDifference,
 }
 
+impl std::str::FromStr for Gradient {
+    type Err = String;
+
+    /// `exact` (dual numbers) or `fd` (central differences, the baseline).
+    fn from_str(text: &str) -> std::result::Result<Gradient, String> {
+        match text {
+            "exact" => Ok(Gradient::Exact),
+            "fd" => Ok(Gradient::FiniteDifference),
+            other => Err(format!("{other:?}: expected exact or fd")),
+        }
+    }
+}
+
 /// Step of the finite-difference baseline (normalised units), as OptiFusion's 1e-6.
 pub const FD_STEP: f64 = 1e-6;
 

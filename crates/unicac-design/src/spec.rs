@@ -302,6 +302,93 @@ pub fn paper_grid(
     Ok(specs)
 }
 
+/// A sensor's size (mm), as the faces write it: `WIDTHxHEIGHT` (e.g. `36x24`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorSize {
+    pub width_mm: f64,
+    pub height_mm: f64,
+}
+
+impl std::str::FromStr for SensorSize {
+    type Err = String;
+
+    fn from_str(text: &str) -> std::result::Result<SensorSize, String> {
+        let expected = || format!("{text:?}: expected WIDTHxHEIGHT in mm, e.g. 36x24");
+        let (w, h) = text.split_once(['x', 'X']).ok_or_else(expected)?;
+        let side = |v: &str| v.trim().parse::<f64>().map_err(|_| expected());
+        let (width_mm, height_mm) = (side(w)?, side(h)?);
+        if !(width_mm > 0.0 && height_mm > 0.0 && width_mm.is_finite() && height_mm.is_finite()) {
+            return Err(format!(
+                "{text:?}: width and height must be positive, finite millimetres"
+            ));
+        }
+        Ok(SensorSize { width_mm, height_mm })
+    }
+}
+
+/// How each specification's focal length is chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FocalLength {
+    /// The same for every specification.
+    Fixed { focal_length_mm: f64 },
+    /// So that the full field fills the sensor's half diagonal (it follows each half field).
+    FillsSensor(SensorSize),
+}
+
+impl FocalLength {
+    /// 50 mm, the paper's.
+    pub const DEFAULT: FocalLength = FocalLength::Fixed {
+        focal_length_mm: 50.0,
+    };
+
+    pub fn for_half_fov_deg(self, half_fov_deg: f64) -> f64 {
+        match self {
+            FocalLength::Fixed { focal_length_mm } => focal_length_mm,
+            FocalLength::FillsSensor(sensor) => {
+                focal_length_for_sensor(0.5 * sensor.width_mm.hypot(sensor.height_mm), half_fov_deg)
+            }
+        }
+    }
+}
+
+/// A specification grid: the values of each axis (an empty axis takes the paper's, `GRID_*`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Grid {
+    pub elements: Vec<usize>,
+    pub half_fovs_deg: Vec<f64>,
+    pub f_numbers: Vec<f64>,
+    pub stops: Vec<StopPosition>,
+}
+
+impl Grid {
+    /// Every specification of the grid, in the order a run designs them: by element count, then half
+    /// field, f-number and stop.
+    pub fn specs(&self, focal: FocalLength, aspheric: bool) -> Result<Vec<DesignSpec>> {
+        fn or<T: Clone>(given: &[T], paper: &[T]) -> Vec<T> {
+            if given.is_empty() { paper } else { given }.to_vec()
+        }
+        let (elements, f_numbers, stops) = (
+            or(&self.elements, &GRID_ELEMENTS),
+            or(&self.f_numbers, &GRID_F_NUMBERS),
+            or(&self.stops, &GRID_STOPS),
+        );
+        let mut all = Vec::new();
+        for h in or(&self.half_fovs_deg, &GRID_HALF_FOV_DEG) {
+            let focal_length_mm = focal.for_half_fov_deg(h);
+            all.extend(paper_grid(
+                &elements,
+                &[h],
+                &f_numbers,
+                &stops,
+                focal_length_mm,
+                aspheric,
+            )?);
+        }
+        all.sort_by_key(|s| s.elements);
+        Ok(all)
+    }
+}
+
 pub const GRID_ELEMENTS: [usize; 6] = [1, 2, 3, 4, 5, 6];
 pub const GRID_HALF_FOV_DEG: [f64; 3] = [20.0, 30.0, 40.0];
 pub const GRID_F_NUMBERS: [f64; 3] = [2.0, 3.0, 4.0];
@@ -310,6 +397,29 @@ pub const GRID_STOPS: [StopPosition; 3] = [StopPosition::Front, StopPosition::Mi
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_grid_runs_by_elements_and_a_sensor_sets_each_focal_length() {
+        let grid = Grid {
+            elements: vec![2, 1],
+            half_fovs_deg: vec![20.0, 40.0],
+            f_numbers: vec![4.0],
+            stops: vec![StopPosition::Front],
+        };
+        let sensor: SensorSize = "36x24".parse().unwrap();
+        let specs = grid.specs(FocalLength::FillsSensor(sensor), false).unwrap();
+        let order: Vec<(usize, f64)> = specs.iter().map(|s| (s.elements, s.half_fov_deg)).collect();
+        assert_eq!(order, [(1, 20.0), (1, 40.0), (2, 20.0), (2, 40.0)]);
+        let half_diagonal_mm = 0.5 * 36f64.hypot(24.0);
+        for spec in &specs {
+            let image_height_mm = spec.focal_length_mm * spec.half_fov_deg.to_radians().tan();
+            assert!((image_height_mm - half_diagonal_mm).abs() < 1e-9);
+        }
+        assert_eq!(Grid::default().specs(FocalLength::DEFAULT, false).unwrap().len(), 6 * 3 * 3 * 3 - 9);
+        for bad in ["36", "0x24", "infx24", "ax24"] {
+            assert!(bad.parse::<SensorSize>().unwrap_err().contains(&format!("{bad:?}")), "{bad}");
+        }
+    }
 
     #[test]
     fn paper_grid_has_every_combination_but_a_singlet_middle_stop() {

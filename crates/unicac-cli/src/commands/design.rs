@@ -4,80 +4,37 @@ use crate::args::DesignArgs;
 use anyhow::{bail, Result};
 use std::sync::Mutex;
 use unicac_design::library::Library;
-use unicac_design::local::Gradient;
 use unicac_design::run::{run_specs, Event, RunSettings, StopReason};
-use unicac_design::spec::{
-    focal_length_for_sensor, paper_grid, GRID_ELEMENTS, GRID_F_NUMBERS, GRID_HALF_FOV_DEG, GRID_STOPS,
-};
-use unicac_design::{DesignError, DesignSpec};
+use unicac_design::{DesignError, DesignSpec, FocalLength, Grid};
 
-fn focal_length(args: &DesignArgs, half_fov_deg: f64) -> Result<f64> {
-    match (&args.sensor, args.focal_length_mm) {
-        (Some(sensor), _) => {
-            let parts: Vec<f64> = sensor
-                .split('x')
-                .map(|p| p.trim().parse::<f64>())
-                .collect::<std::result::Result<_, _>>()
-                .map_err(|_| anyhow::anyhow!("--sensor {sensor}: expected WIDTHxHEIGHT in mm, e.g. 36x24"))?;
-            let [w, h] = parts[..] else {
-                bail!("--sensor {sensor}: expected WIDTHxHEIGHT in mm, e.g. 36x24");
-            };
-            if !(w > 0.0 && h > 0.0) {
-                bail!("--sensor {sensor}: width and height must be positive");
-            }
-            Ok(focal_length_for_sensor(0.5 * w.hypot(h), half_fov_deg))
-        }
-        (None, Some(f)) => Ok(f),
-        (None, None) => Ok(50.0),
+fn focal_length(args: &DesignArgs) -> FocalLength {
+    match (args.sensor, args.focal_length_mm) {
+        (Some(sensor), _) => FocalLength::FillsSensor(sensor),
+        (None, Some(focal_length_mm)) => FocalLength::Fixed { focal_length_mm },
+        (None, None) => FocalLength::DEFAULT,
     }
 }
 
 fn specs(args: &DesignArgs) -> Result<Vec<DesignSpec>> {
     if args.grid {
-        let or = |given: &Vec<f64>, default: &[f64]| {
-            if given.is_empty() {
-                default.to_vec()
-            } else {
-                given.clone()
-            }
+        let grid = Grid {
+            elements: args.grid_elements.clone(),
+            half_fovs_deg: args.grid_half_fov_deg.clone(),
+            f_numbers: args.grid_f_numbers.clone(),
+            stops: args.grid_stops.clone(),
         };
-        let elements = if args.grid_elements.is_empty() {
-            GRID_ELEMENTS.to_vec()
-        } else {
-            args.grid_elements.clone()
-        };
-        let stops = if args.grid_stops.is_empty() {
-            GRID_STOPS.to_vec()
-        } else {
-            args.grid_stops.clone()
-        };
-        let mut all = Vec::new();
-        // With --sensor the focal length follows each half field.
-        for h in or(&args.grid_half_fov_deg, &GRID_HALF_FOV_DEG) {
-            all.extend(paper_grid(
-                &elements,
-                &[h],
-                &or(&args.grid_f_numbers, &GRID_F_NUMBERS),
-                &stops,
-                focal_length(args, h)?,
-                args.aspheric,
-            )?);
-        }
-        all.sort_by_key(|s| s.elements);
-        return Ok(all);
+        return grid
+            .specs(focal_length(args), args.aspheric)
+            .map_err(|e| flag_error(e, args));
     }
     let (Some(elements), Some(half_fov_deg), Some(f_number), Some(stop)) =
         (args.elements, args.half_fov_deg, args.f_number, args.stop)
     else {
         bail!("give --elements, --half-fov-deg, --f-number and --stop (or --grid)");
     };
-    let mut spec = DesignSpec::new(
-        elements,
-        half_fov_deg,
-        f_number,
-        stop,
-        focal_length(args, half_fov_deg)?,
-    )?;
+    let focal_length_mm = focal_length(args).for_half_fov_deg(half_fov_deg);
+    let mut spec = DesignSpec::new(elements, half_fov_deg, f_number, stop, focal_length_mm)
+        .map_err(|e| flag_error(e, args))?;
     spec.aspheric = args.aspheric;
     Ok(vec![spec])
 }
@@ -133,11 +90,7 @@ fn settings(args: &DesignArgs) -> Result<RunSettings> {
     settings.first_acceptable = args.first_acceptable;
     settings.time_budget_s = args.time_budget_s;
     settings.max_rms_um = args.max_rms_um;
-    settings.gradient = if args.gradient == "fd" {
-        Gradient::FiniteDifference
-    } else {
-        Gradient::Exact
-    };
+    settings.gradient = args.gradient;
     if args.time_budget_s.is_some() {
         // With a budget, keep searching (new rounds) until the lenses are found or time is up.
         settings.rounds = usize::MAX;
