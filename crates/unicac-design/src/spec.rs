@@ -415,9 +415,17 @@ mod tests {
             let image_height_mm = spec.focal_length_mm * spec.half_fov_deg.to_radians().tan();
             assert!((image_height_mm - half_diagonal_mm).abs() < 1e-9);
         }
-        assert_eq!(Grid::default().specs(FocalLength::DEFAULT, false).unwrap().len(), 6 * 3 * 3 * 3 - 9);
+        assert_eq!(
+            Grid::default().specs(FocalLength::DEFAULT, false).unwrap().len(),
+            6 * 3 * 3 * 3 - 9
+        );
         for bad in ["36", "0x24", "infx24", "ax24"] {
-            assert!(bad.parse::<SensorSize>().unwrap_err().contains(&format!("{bad:?}")), "{bad}");
+            assert!(
+                bad.parse::<SensorSize>()
+                    .unwrap_err()
+                    .contains(&format!("{bad:?}")),
+                "{bad}"
+            );
         }
     }
 

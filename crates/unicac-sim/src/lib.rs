@@ -13,12 +13,14 @@ pub mod error;
 pub mod geometry;
 pub mod psf_map;
 pub mod radial_table;
+pub mod sequence;
 pub mod simulate;
 
 pub use chief::ChiefRayMap;
 pub use error::{SimError, SimResult};
 pub use geometry::SensorGrid;
 pub use psf_map::{RadialPsfs, RadialSampling};
+pub use sequence::{image_seed, SimulatorSequence};
 pub use simulate::{crop, LensSimulator, PixelWindow, SimulationSettings, MAX_SIMULATE_PIXELS};
 /// The PSF cache lives with the PSFs it caches (unicac-psf); re-exported for the simulator's users.
 pub use unicac_psf::cache as psf_cache;

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use unicac_image::io::{read_image, FileFormat, LoadedImage, SampleDepth};
 use unicac_image::isp::{Pipeline, SensorNoise};
 use unicac_image::Planar;
-use unicac_sim::{LensSimulator, SimulationSettings};
+use unicac_sim::{image_seed, LensSimulator, SimulationSettings, SimulatorSequence};
 
 pub fn run(args: &SimulateArgs) -> Result<()> {
     let outputs = plan_outputs(args)?;
@@ -38,7 +38,18 @@ fn simulate_all(
     backend: &unicac_psf::RayBackend,
 ) -> Result<()> {
     let bar = progress(args.images.len(), "simulate");
-    let mut simulator: Option<LensSimulator> = None;
+    let mut settings = SimulationSettings {
+        distortion: !args.no_distortion,
+        illumination: !args.no_illumination,
+        cache: if args.no_cache {
+            None
+        } else {
+            unicac_sim::PsfCache::default_location()
+        },
+        ..Default::default()
+    };
+    settings.psf.backend = backend.clone();
+    let mut simulators = SimulatorSequence::new(lens, args.pixel_um, settings);
     for (index, (path, (out, format))) in args.images.iter().zip(outputs).enumerate() {
         let loaded = read_image(path)?;
         if let Some((channel, x, y, value)) = loaded.image.first_non_finite() {
@@ -49,31 +60,7 @@ fn simulate_all(
             );
         }
         let image = rgb(&loaded, path)?;
-        // PSF maps depend on the image size: reuse while it stays the same.
-        if simulator
-            .as_ref()
-            .is_none_or(|s| (s.grid.width_px, s.grid.height_px) != (image.width, image.height))
-        {
-            let mut settings = SimulationSettings {
-                distortion: !args.no_distortion,
-                illumination: !args.no_illumination,
-                cache: if args.no_cache {
-                    None
-                } else {
-                    unicac_sim::PsfCache::default_location()
-                },
-                ..Default::default()
-            };
-            settings.psf.backend = backend.clone();
-            simulator = Some(LensSimulator::new(
-                lens,
-                image.width,
-                image.height,
-                args.pixel_um,
-                settings,
-            )?);
-        }
-        let sim = simulator.as_ref().expect("prepared above");
+        let sim = simulators.for_size(image.width, image.height)?;
         if index == 0 {
             bar.suspend(|| report_psf_map(sim));
         }
@@ -93,8 +80,7 @@ fn simulate_all(
         if index == 0 {
             bar.suspend(|| report_read_out(&pipeline));
         }
-        let seed = args.seed.wrapping_add(index as u64);
-        let degraded = sim.degrade(&pipeline, &image, seed)?;
+        let degraded = sim.degrade(&pipeline, &image, image_seed(args.seed, index))?;
         write_encoded(&degraded, out, *format, loaded.bit_depth)?;
         if let (0, Some(crops)) = (index, &args.crops) {
             let sharp = unicac_image::color::linear_to_srgb(&image);
