@@ -153,6 +153,26 @@ fn padded(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     (lo - pad)..(hi + pad)
 }
 
+/// The part of the line y = a + b x inside the plotted box, or None when it misses the box. Drawn
+/// as is, an end outside the y range is pinned to the box's edge by the plotting library, which tilts
+/// the line (a steep fit looked shallower than the data).
+fn line_in_box(
+    (a, b): (f64, f64),
+    x: &std::ops::Range<f64>,
+    y: &std::ops::Range<f64>,
+) -> Option<[(f64, f64); 2]> {
+    let (mut x0, mut x1) = (x.start, x.end);
+    if b != 0.0 {
+        let (at_bottom, at_top) = ((y.start - a) / b, (y.end - a) / b);
+        x0 = x0.max(at_bottom.min(at_top));
+        x1 = x1.min(at_bottom.max(at_top));
+    } else if !(y.start..=y.end).contains(&a) {
+        return None;
+    }
+    (x0 < x1 && (a + b * x0).is_finite() && (a + b * x1).is_finite())
+        .then_some([(x0, a + b * x0), (x1, a + b * x1)])
+}
+
 impl Picture for ScatterPlot<'_> {
     fn size(&self) -> (u32, u32) {
         (SCATTER_PANEL.0 * self.panels.len() as u32, SCATTER_PANEL.1)
@@ -172,7 +192,7 @@ impl Picture for ScatterPlot<'_> {
                 Axes {
                     caption: &panel.title,
                     x: x.clone(),
-                    y,
+                    y: y.clone(),
                     x_desc: &panel.x_desc,
                     y_desc: &panel.y_desc,
                     equal_aspect: false,
@@ -186,10 +206,10 @@ impl Picture for ScatterPlot<'_> {
                     .filter(|(x, y)| x.is_finite() && y.is_finite())
                     .map(|&p| Circle::new(p, 5, colour.filled())),
             )?;
-            if let Some((a, b)) = panel.fit {
+            if let Some(segment) = panel.fit.and_then(|fit| line_in_box(fit, &x, &y)) {
                 style::line(
                     &mut chart,
-                    [(x.start, a + b * x.start), (x.end, a + b * x.end)],
+                    segment,
                     RGBColor(200, 40, 40).stroke_width(2),
                     Some("least-squares fit".into()),
                 )?;
@@ -197,5 +217,25 @@ impl Picture for ScatterPlot<'_> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::line_in_box;
+
+    #[test]
+    fn a_fit_line_is_cut_at_the_box_not_pinned_to_it() {
+        // y = 0.28 + 1.88 x over x in [0.15, 1.07], y in [0.3, 2.0]: leaves through the top at x = 0.915.
+        let [(x0, y0), (x1, y1)] = line_in_box((0.28, 1.88), &(0.15..1.07), &(0.3..2.0)).unwrap();
+        assert!((x0 - 0.15).abs() < 1e-12 && (y0 - (0.28 + 1.88 * 0.15)).abs() < 1e-12);
+        assert!((x1 - 1.72 / 1.88).abs() < 1e-12 && (y1 - 2.0).abs() < 1e-12);
+        // Its slope is the fit's.
+        assert!(((y1 - y0) / (x1 - x0) - 1.88).abs() < 1e-9);
+        // Falling lines and lines that miss the box.
+        let [(_, top), (_, bottom)] = line_in_box((2.0, -1.0), &(0.0..3.0), &(0.5..1.5)).unwrap();
+        assert!((top - 1.5).abs() < 1e-12 && (bottom - 0.5).abs() < 1e-12);
+        assert!(line_in_box((5.0, 0.0), &(0.0..1.0), &(0.0..1.0)).is_none());
+        assert!(line_in_box((5.0, 1.0), &(0.0..1.0), &(0.0..1.0)).is_none());
     }
 }
