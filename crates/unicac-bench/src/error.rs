@@ -27,6 +27,9 @@ pub enum BenchError {
     Pickle { what: String, why: String },
     #[error("{0}")]
     InvalidInput(String),
+    /// The run's estimated peak memory exceeds its limit (refused before any work).
+    #[error("{0}")]
+    MemoryExceeded(crate::memory::MemoryExceeded),
     /// A setting out of its range, named by its library field (`threads`, `wiener_nsr`).
     #[error(transparent)]
     InvalidParameter(#[from] unicac_trace::InvalidParameter),

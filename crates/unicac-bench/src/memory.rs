@@ -56,29 +56,97 @@ impl MemoryPlan {
     }
 
     /// Refuses a run whose estimate exceeds `limit_bytes`, with the figure and what lowers it.
-    /// `limit_flag` names where the limit came from.
-    pub fn check(&self, limit_bytes: u64, limit_source: &str, side_px: [usize; 2]) -> Result<()> {
-        let peak = self.peak_bytes();
-        if peak <= limit_bytes {
+    pub fn check(&self, limit_bytes: u64, limit: MemoryLimit, pair_size_px: [usize; 2]) -> Result<()> {
+        let peak_bytes = self.peak_bytes();
+        if peak_bytes <= limit_bytes {
             return Ok(());
         }
-        let mut lower = Vec::new();
+        let mut remedies = Vec::new();
         if self.models && !self.tiled {
-            lower.push("run the models on tiles (--tile 512)".to_string());
+            remedies.push(MemoryRemedy::TileModels { tile_px: 512 });
         }
         if self.lpips {
-            lower.push("leave LPIPS out (--metrics psnr,ssim,oiqe)".to_string());
+            remedies.push(MemoryRemedy::LeaveOutLpips);
         }
-        lower.push("build the dataset with a smaller --frame".to_string());
-        Err(BenchError::InvalidInput(format!(
-            "the largest test pair ({} x {} px) needs about {:.1} GB to benchmark, more than the {:.1} GB \
-             {limit_source}: {}",
-            side_px[0],
-            side_px[1],
-            peak as f64 / 1e9,
-            limit_bytes as f64 / 1e9,
-            lower.join(", or ")
-        )))
+        remedies.push(MemoryRemedy::SmallerFrame);
+        Err(BenchError::MemoryExceeded(MemoryExceeded {
+            pair_size_px,
+            peak_bytes,
+            limit_bytes,
+            limit,
+            remedies,
+        }))
+    }
+}
+
+/// Where a run's memory limit came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MemoryLimit {
+    /// The `memory_limit_bytes` setting.
+    Setting,
+    /// What the machine has available now (no setting).
+    Available,
+}
+
+/// What lowers a run's peak memory, in the order worth trying.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MemoryRemedy {
+    /// Run the models on tiles of this side (the `tiling.tile_px` setting).
+    TileModels { tile_px: usize },
+    /// Leave LPIPS out of the metrics.
+    LeaveOutLpips,
+    /// Build the dataset with a smaller frame.
+    SmallerFrame,
+}
+
+/// A run refused before any work because its estimated peak exceeds the limit. Faces say the limit and
+/// the remedies in their own words (`describe`); `Display` uses the library's field names.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MemoryExceeded {
+    /// The largest test pair (W, H).
+    pub pair_size_px: [usize; 2],
+    pub peak_bytes: u64,
+    pub limit_bytes: u64,
+    pub limit: MemoryLimit,
+    pub remedies: Vec<MemoryRemedy>,
+}
+
+impl MemoryExceeded {
+    /// The refusal as one sentence, the limit's source and each remedy put in the caller's words.
+    pub fn describe(
+        &self,
+        limit: impl Fn(MemoryLimit) -> String,
+        remedy: impl Fn(MemoryRemedy) -> String,
+    ) -> String {
+        let remedies: Vec<String> = self.remedies.iter().map(|&r| remedy(r)).collect();
+        format!(
+            "the largest test pair ({} x {} px) needs about {:.1} GB to benchmark, more than the {:.1} GB {}: {}",
+            self.pair_size_px[0],
+            self.pair_size_px[1],
+            self.peak_bytes as f64 / 1e9,
+            self.limit_bytes as f64 / 1e9,
+            limit(self.limit),
+            remedies.join(", or ")
+        )
+    }
+}
+
+impl std::fmt::Display for MemoryExceeded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let text = self.describe(
+            |limit| match limit {
+                MemoryLimit::Setting => "memory_limit_bytes allows".into(),
+                MemoryLimit::Available => "available on this machine now".into(),
+            },
+            |remedy| match remedy {
+                MemoryRemedy::TileModels { tile_px } => {
+                    format!("run the models on tiles (tile_px {tile_px})")
+                }
+                MemoryRemedy::LeaveOutLpips => "leave LPIPS out of the metrics".into(),
+                MemoryRemedy::SmallerFrame => "build the dataset with a smaller frame".into(),
+            },
+        );
+        f.write_str(&text)
     }
 }
 
@@ -116,25 +184,36 @@ mod tests {
     }
 
     #[test]
-    fn a_frame_beyond_the_limit_is_refused_with_the_figure_and_the_flags_that_lower_it() {
+    fn a_frame_beyond_the_limit_is_refused_with_the_figure_and_what_lowers_it() {
         let plan = MemoryPlan {
             pair_px: 10_000 * 10_000,
             lpips: true,
             models: true,
             tiled: false,
         };
-        let message = plan
-            .check(24_000_000_000, "available", [10_000, 10_000])
-            .unwrap_err()
-            .to_string();
+        let Err(BenchError::MemoryExceeded(refusal)) =
+            plan.check(24_000_000_000, MemoryLimit::Available, [10_000, 10_000])
+        else {
+            panic!("refused");
+        };
+        assert_eq!(
+            refusal.remedies,
+            [
+                MemoryRemedy::TileModels { tile_px: 512 },
+                MemoryRemedy::LeaveOutLpips,
+                MemoryRemedy::SmallerFrame
+            ]
+        );
+        let message = refusal.to_string();
         assert!(
             message.contains("10000 x 10000 px")
                 && message.contains("129.4 GB")
-                && message.contains("--tile")
-                && message.contains("--metrics")
-                && message.contains("--frame"),
+                && message.contains("tile_px 512"),
             "{message}"
         );
-        assert!(plan.check(u64::MAX, "available", [10_000, 10_000]).is_ok());
+        assert!(!message.contains("--"), "the library names no flag: {message}");
+        assert!(plan
+            .check(u64::MAX, MemoryLimit::Available, [10_000, 10_000])
+            .is_ok());
     }
 }

@@ -577,17 +577,15 @@ fn check_memory(s: &BenchSettings, pairs: &[PairRow], lpips: bool) -> Result<()>
         models: !s.models.is_empty(),
         tiled: s.tiling.tile_px.is_some(),
     };
-    let (limit, source) = match s.memory_limit_bytes {
-        Some(limit) => (limit, "--max-memory-gb allows"),
+    use crate::memory::MemoryLimit;
+    let (limit_bytes, limit) = match s.memory_limit_bytes {
+        Some(limit_bytes) => (limit_bytes, MemoryLimit::Setting),
         None => match crate::memory::available_bytes() {
-            Some(available) => (
-                available,
-                "available on this machine now (--max-memory-gb sets another limit)",
-            ),
+            Some(available) => (available, MemoryLimit::Available),
             None => return Ok(()),
         },
     };
-    plan.check(limit, source, [largest.crop[2], largest.crop[3]])
+    plan.check(limit_bytes, limit, [largest.crop[2], largest.crop[3]])
 }
 
 /// What the checks of `run_bench` hand to the work.

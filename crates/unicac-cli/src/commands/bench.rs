@@ -93,6 +93,21 @@ pub fn run(args: &BenchArgs, host: &Host) -> Result<()> {
 
 /// A bench error in this face's words: a setting named by its `BenchSettings` field becomes its flag.
 fn bench_error(error: unicac_bench::BenchError) -> anyhow::Error {
+    use unicac_bench::memory::{MemoryLimit, MemoryRemedy};
+    if let unicac_bench::BenchError::MemoryExceeded(refusal) = &error {
+        return anyhow::anyhow!(refusal.describe(
+            |limit| match limit {
+                MemoryLimit::Setting => "--max-memory-gb allows".into(),
+                MemoryLimit::Available =>
+                    "available on this machine now (--max-memory-gb sets another limit)".into(),
+            },
+            |remedy| match remedy {
+                MemoryRemedy::TileModels { tile_px } => format!("run the models on tiles (--tile {tile_px})"),
+                MemoryRemedy::LeaveOutLpips => "leave LPIPS out (--metrics psnr,ssim,oiqe)".into(),
+                MemoryRemedy::SmallerFrame => "build the dataset with a smaller --frame".into(),
+            },
+        ));
+    }
     let unicac_bench::BenchError::InvalidParameter(parameter) = error else {
         return error.into();
     };
