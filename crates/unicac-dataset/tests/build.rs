@@ -475,6 +475,11 @@ fn a_test_set_for_models_trained_elsewhere_refuses_their_lenses() {
         "{message}"
     );
     assert!(!dir.exists(), "nothing is written before the refusal");
+    // A file where the dataset should be is named as such.
+    s.unseen_by = Some(reference().join("dataset.json"));
+    let error = build_with(2, &s, &dir, Shard::ALL).unwrap_err().to_string();
+    assert!(error.contains("dataset.json: not a folder"), "{error}");
+    s.unseen_by = Some(reference().to_path_buf());
     // Its test lenses alone are unseen: they make a test set.
     s.lenses = lenses
         .iter()
