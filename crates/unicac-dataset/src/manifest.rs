@@ -32,7 +32,7 @@ pub struct LensRow {
     pub lens_id: String,
     /// The lens path as given on the command line (or the library manifest's entry).
     pub source: String,
-    /// SHA-256 of the lens file's bytes.
+    /// SHA-256 of the lens file's bytes, length-prefixed (`seeds::parts_sha256_hex`: not `sha256sum`).
     pub lens_sha256: String,
     #[serde(flatten)]
     pub scores: OdeScores,

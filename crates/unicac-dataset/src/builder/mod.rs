@@ -313,6 +313,21 @@ pub struct Plan {
     pub manifest: DatasetManifest,
 }
 
+/// A finished dataset named by a setting (`psf_basis_from`, `unseen_by`), or that setting's error:
+/// not a folder, or no `dataset.json` of this format (`Dataset::open`'s message names the folder).
+fn other_dataset(field: &str, dir: &Path) -> Result<crate::folder::Dataset> {
+    if !dir.is_dir() {
+        return Err(DatasetError::setting(
+            field,
+            format!(
+                "{}: not a folder (give a dataset built by `unicac dataset build`)",
+                dir.display()
+            ),
+        ));
+    }
+    crate::folder::Dataset::open(dir).map_err(|e| DatasetError::setting(field, e.to_string()))
+}
+
 /// Builds (or resumes, or builds one shard of) the dataset in `out`.
 pub fn build(
     settings: &BuildSettings,
@@ -324,17 +339,16 @@ pub fn build(
     // inputs (lenses, scenes, frame, the library's size), and only then the claim and the grading.
     settings.check()?;
     placement::check_output_placement(settings, out)?;
-    let adopted_basis = match &settings.psf_basis_from {
-        Some(dir) => {
-            let bad =
-                |why: String| DatasetError::setting("psf_basis_from", format!("{}: {why}", dir.display()));
-            if !dir.join(DATASET_JSON).is_file() {
-                return Err(bad("not a finished unicac dataset (no dataset.json)".into()));
+    let adopted_basis =
+        match &settings.psf_basis_from {
+            Some(dir) => {
+                let dataset = other_dataset("psf_basis_from", dir)?;
+                Some(crate::psf_basis::read_dataset_basis(&dataset.dir).map_err(|e| {
+                    DatasetError::setting("psf_basis_from", format!("{}: {e}", dir.display()))
+                })?)
             }
-            Some(crate::psf_basis::read_dataset_basis(dir).map_err(|e| bad(e.to_string()))?)
-        }
-        None => None,
-    };
+            None => None,
+        };
     let settings_json = serde_json::to_value(settings).expect("settings serialise");
     claim::check_output(
         out,
@@ -344,8 +358,8 @@ pub fn build(
         },
     )?;
     let sources = sources::lens_sources(&settings.lenses, out)?;
-    if let Some(seen_by) = &settings.unseen_by {
-        unseen::refuse_seen_lenses(&sources, seen_by)?;
+    if let Some(dir) = &settings.unseen_by {
+        unseen::refuse_seen_lenses(&sources, &other_dataset("unseen_by", dir)?)?;
     }
     settings.level_counts().check(sources.len())?;
     let lenses: Vec<Lens> = sources.iter().map(|s| s.load()).collect::<Result<_>>()?;

@@ -8,22 +8,14 @@ use super::sources::LensSource;
 use crate::error::{DatasetError, Result};
 use crate::folder::Dataset;
 use std::collections::BTreeMap;
-use std::path::Path;
 
 /// How many of the offending lenses an error names.
 const NAMED_IN_ERROR: usize = 5;
 
-/// Refuses the build when a source is a training or validation lens of the dataset in `seen_by`.
-pub fn refuse_seen_lenses(sources: &[LensSource], seen_by: &Path) -> Result<()> {
-    let bad = |why: String| DatasetError::setting("unseen_by", format!("{}: {why}", seen_by.display()));
-    if !seen_by.is_dir() {
-        return Err(bad(
-            "not a folder (give the dataset the models were trained on)".into()
-        ));
-    }
-    // Its error names the folder already.
-    let dataset = Dataset::open(seen_by).map_err(|e| DatasetError::setting("unseen_by", e.to_string()))?;
-    let seen: BTreeMap<String, String> = dataset
+/// Refuses the build when a source is a training or validation lens of `seen_by`.
+pub fn refuse_seen_lenses(sources: &[LensSource], seen_by: &Dataset) -> Result<()> {
+    let bad = |why: String| DatasetError::setting("unseen_by", format!("{}: {why}", seen_by.dir.display()));
+    let seen: BTreeMap<String, String> = seen_by
         .lenses()
         .map_err(|e| bad(e.to_string()))?
         .into_iter()
