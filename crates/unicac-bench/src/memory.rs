@@ -10,7 +10,7 @@
 //! its activations at full size, which depend on the network: [`UNTILED_ACTIVATION_BYTES_PER_PX`] is an
 //! assumption (not a measurement) of a few dozen float channels alive at once.
 
-use crate::error::{BenchError, Result};
+pub use crate::error::{MemoryExceeded, MemoryLimit, MemoryRemedy};
 
 /// What every run holds besides the pair (onnxruntime, metric networks, buffers), bytes.
 pub const BASE_BYTES: u64 = 300_000_000;
@@ -56,7 +56,12 @@ impl MemoryPlan {
     }
 
     /// Refuses a run whose estimate exceeds `limit_bytes`, with the figure and what lowers it.
-    pub fn check(&self, limit_bytes: u64, limit: MemoryLimit, pair_size_px: [usize; 2]) -> Result<()> {
+    pub fn check(
+        &self,
+        limit_bytes: u64,
+        limit: MemoryLimit,
+        pair_size_px: [usize; 2],
+    ) -> Result<(), MemoryExceeded> {
         let peak_bytes = self.peak_bytes();
         if peak_bytes <= limit_bytes {
             return Ok(());
@@ -69,84 +74,13 @@ impl MemoryPlan {
             remedies.push(MemoryRemedy::LeaveOutLpips);
         }
         remedies.push(MemoryRemedy::SmallerFrame);
-        Err(BenchError::MemoryExceeded(MemoryExceeded {
+        Err(MemoryExceeded {
             pair_size_px,
             peak_bytes,
             limit_bytes,
             limit,
             remedies,
-        }))
-    }
-}
-
-/// Where a run's memory limit came from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MemoryLimit {
-    /// The `memory_limit_bytes` setting.
-    Setting,
-    /// What the machine has available now (no setting).
-    Available,
-}
-
-/// What lowers a run's peak memory, in the order worth trying.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MemoryRemedy {
-    /// Run the models on tiles of this side (the `tiling.tile_px` setting).
-    TileModels { tile_px: usize },
-    /// Leave LPIPS out of the metrics.
-    LeaveOutLpips,
-    /// Build the dataset with a smaller frame.
-    SmallerFrame,
-}
-
-/// A run refused before any work because its estimated peak exceeds the limit. Faces say the limit and
-/// the remedies in their own words (`describe`); `Display` uses the library's field names.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MemoryExceeded {
-    /// The largest test pair (W, H).
-    pub pair_size_px: [usize; 2],
-    pub peak_bytes: u64,
-    pub limit_bytes: u64,
-    pub limit: MemoryLimit,
-    pub remedies: Vec<MemoryRemedy>,
-}
-
-impl MemoryExceeded {
-    /// The refusal as one sentence, the limit's source and each remedy put in the caller's words.
-    pub fn describe(
-        &self,
-        limit: impl Fn(MemoryLimit) -> String,
-        remedy: impl Fn(MemoryRemedy) -> String,
-    ) -> String {
-        let remedies: Vec<String> = self.remedies.iter().map(|&r| remedy(r)).collect();
-        format!(
-            "the largest test pair ({} x {} px) needs about {:.1} GB to benchmark, more than the {:.1} GB {}: {}",
-            self.pair_size_px[0],
-            self.pair_size_px[1],
-            self.peak_bytes as f64 / 1e9,
-            self.limit_bytes as f64 / 1e9,
-            limit(self.limit),
-            remedies.join(", or ")
-        )
-    }
-}
-
-impl std::fmt::Display for MemoryExceeded {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let text = self.describe(
-            |limit| match limit {
-                MemoryLimit::Setting => "memory_limit_bytes allows".into(),
-                MemoryLimit::Available => "available on this machine now".into(),
-            },
-            |remedy| match remedy {
-                MemoryRemedy::TileModels { tile_px } => {
-                    format!("run the models on tiles (tile_px {tile_px})")
-                }
-                MemoryRemedy::LeaveOutLpips => "leave LPIPS out of the metrics".into(),
-                MemoryRemedy::SmallerFrame => "build the dataset with a smaller frame".into(),
-            },
-        );
-        f.write_str(&text)
+        })
     }
 }
 
@@ -191,9 +125,7 @@ mod tests {
             models: true,
             tiled: false,
         };
-        let Err(BenchError::MemoryExceeded(refusal)) =
-            plan.check(24_000_000_000, MemoryLimit::Available, [10_000, 10_000])
-        else {
+        let Err(refusal) = plan.check(24_000_000_000, MemoryLimit::Available, [10_000, 10_000]) else {
             panic!("refused");
         };
         assert_eq!(

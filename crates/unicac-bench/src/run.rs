@@ -586,6 +586,7 @@ fn check_memory(s: &BenchSettings, pairs: &[PairRow], lpips: bool) -> Result<()>
         },
     };
     plan.check(limit_bytes, limit, [largest.crop[2], largest.crop[3]])
+        .map_err(BenchError::MemoryExceeded)
 }
 
 /// What the checks of `run_bench` hand to the work.
