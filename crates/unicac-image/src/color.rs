@@ -13,8 +13,16 @@
 //! pair's most expensive step otherwise (~30 ns per sample). The table's error against [`srgb_encode`]
 //! is below [`TABLE_ENCODE_BOUND`] (1/75 of a 16-bit code step); values outside [0, 1], the linear toe
 //! and NaN take the exact path.
+//!
+//! Whole-image decoding looks every sample that is an integer code of a 16- or 8-bit file (every
+//! sample a PNG or TIFF reader gives) up in a table of the 2^16 codes' exact decodings: the same value
+//! [`srgb_decode`] gives, bit for bit (an 8-bit code c is the 16-bit code 257 c: both are the f64 quotient
+//! of one rational rounded to f32); other samples take the exact path. Both directions run in parallel
+//! chunks (each sample on its own, so the result does not depend on the thread count).
 
+use crate::quantise::from_code;
 use crate::Planar;
+use rayon::prelude::*;
 use std::sync::OnceLock;
 
 /// Linear-light breakpoint of the encoding curve (IEC 61966-2-1, 5.3).
@@ -94,17 +102,59 @@ fn srgb_encode_by_table(linear: f32, table: &[f32]) -> f32 {
 }
 
 /// Applies the sRGB curve in `direction` to every sample of `samples` (one plane, or a whole image).
-/// Encoding uses the table (within [`TABLE_ENCODE_BOUND`] of [`srgb_encode`]).
+/// Encoding uses the table (within [`TABLE_ENCODE_BOUND`] of [`srgb_encode`]); decoding is exact.
 pub fn apply_srgb(samples: &mut [f32], direction: Transfer) {
+    // Samples per parallel task: large enough that scheduling costs nothing next to the work.
+    const CHUNK: usize = 1 << 16;
     match direction {
         Transfer::Encode => {
             let table = power_branch_table();
-            samples
-                .iter_mut()
-                .for_each(|v| *v = srgb_encode_by_table(*v, table));
+            samples.par_chunks_mut(CHUNK).for_each(|chunk| {
+                chunk
+                    .iter_mut()
+                    .for_each(|v| *v = srgb_encode_by_table(*v, table))
+            });
         }
-        Transfer::Decode => samples.iter_mut().for_each(|v| *v = srgb_decode(*v)),
+        Transfer::Decode => {
+            let table = code_decode_table();
+            samples.par_chunks_mut(CHUNK).for_each(|chunk| {
+                chunk
+                    .iter_mut()
+                    .for_each(|v| *v = srgb_decode_by_table(*v, table))
+            });
+        }
     }
+}
+
+/// Largest code of 16-bit samples; the decoding table's last index.
+const MAX_CODE_16: u32 = 65_535;
+
+/// For every 16-bit code i: the sample a reader makes of it (`from_code(i, 65535)`) and that sample's
+/// exact decoding. Built once per process.
+fn code_decode_table() -> &'static [(f32, f32)] {
+    static TABLE: OnceLock<Vec<(f32, f32)>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        (0..=MAX_CODE_16)
+            .map(|code| {
+                let sample = from_code(code, MAX_CODE_16);
+                (sample, srgb_decode(sample))
+            })
+            .collect()
+    })
+}
+
+/// [`srgb_decode`] of `encoded`, bit for bit: from the table when `encoded` is a 16-bit (or 8-bit)
+/// code's sample, else computed.
+fn srgb_decode_by_table(encoded: f32, table: &[(f32, f32)]) -> f32 {
+    if (0.0..=1.0).contains(&encoded) {
+        // The nearest code; the table says whether `encoded` is exactly its sample.
+        let code = (f64::from(encoded) * f64::from(MAX_CODE_16) + 0.5) as usize;
+        let (sample, decoded) = table[code.min(MAX_CODE_16 as usize)];
+        if sample.to_bits() == encoded.to_bits() {
+            return decoded;
+        }
+    }
+    srgb_decode(encoded)
 }
 
 /// sRGB-encoded copy of a linear-light image; every channel is encoded (pass colour planes only, not alpha).
@@ -139,6 +189,33 @@ mod tests {
         for (a, b) in image.data.iter().zip(&back.data) {
             assert!((a - b).abs() <= 1e-6);
         }
+    }
+
+    #[test]
+    fn table_decoder_equals_the_exact_decoder_bit_for_bit() {
+        // Every 16-bit and 8-bit code's sample (the table path), their neighbouring f32 values and
+        // values outside [0, 1] (the exact path).
+        let mut samples: Vec<f32> = (0..=MAX_CODE_16).map(|c| from_code(c, MAX_CODE_16)).collect();
+        samples.extend((0..=255).map(|c| from_code(c, 255)));
+        let neighbours: Vec<f32> = samples
+            .iter()
+            .flat_map(|v| {
+                [
+                    f32::from_bits(v.to_bits() + 1),
+                    f32::from_bits(v.to_bits().max(1) - 1),
+                ]
+            })
+            .collect();
+        samples.extend(neighbours);
+        samples.extend([-0.0, -0.5, 1.5, f32::MAX, f32::MIN_POSITIVE, f32::INFINITY]);
+        let mut decoded = samples.clone();
+        apply_srgb(&mut decoded, Transfer::Decode);
+        for (v, d) in samples.iter().zip(&decoded) {
+            assert_eq!(d.to_bits(), srgb_decode(*v).to_bits(), "{v:e}");
+        }
+        let mut nan = [f32::NAN];
+        apply_srgb(&mut nan, Transfer::Decode);
+        assert!(nan[0].is_nan());
     }
 
     #[test]

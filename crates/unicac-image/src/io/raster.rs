@@ -74,32 +74,13 @@ pub(super) fn decode(path: &Path, bytes: &[u8], raster: Raster) -> Result<Loaded
     };
     // `as_bytes` is the decoded buffer in native endianness, whatever the sample type.
     let raw = decoded.as_bytes();
-    let (samples, bit_depth, encoding): (Vec<f32>, u8, Encoding) =
-        match usize::from(colour.bytes_per_pixel()) / channels {
-            1 => (
-                raw.iter().map(|&v| from_code(v.into(), 255)).collect(),
-                8,
-                Encoding::Srgb,
-            ),
-            2 => (
-                raw.chunks_exact(2)
-                    .map(|b| from_code(u16::from_ne_bytes([b[0], b[1]]).into(), 65535))
-                    .collect(),
-                16,
-                Encoding::Srgb,
-            ),
-            4 => (
-                raw.chunks_exact(4)
-                    .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
-                    .collect(),
-                32,
-                Encoding::Linear,
-            ),
-            _ => return Err(decode_error(format!("unsupported sample layout {colour:?}"))),
-        };
-    let image = Planar::from_fn(width, height, channels, |c, x, y| {
-        samples[(y * width + x) * channels + c]
-    });
+    let (bit_depth, encoding) = match usize::from(colour.bytes_per_pixel()) / channels {
+        1 => (8, Encoding::Srgb),
+        2 => (16, Encoding::Srgb),
+        4 => (32, Encoding::Linear),
+        _ => return Err(decode_error(format!("unsupported sample layout {colour:?}"))),
+    };
+    let image = deinterleave(raw, width, height, channels, bit_depth);
     let channel_names = names.iter().map(|n| n.to_string()).collect();
     Ok(LoadedImage {
         image,
@@ -108,6 +89,32 @@ pub(super) fn decode(path: &Path, bytes: &[u8], raster: Raster) -> Result<Loaded
         encoding,
         channel_names,
     })
+}
+
+/// The planes of interleaved native-endian samples (`bit_depth` 8 or 16: integer codes as unit-range
+/// values; 32: f32 as stored), row by row in parallel.
+fn deinterleave(raw: &[u8], width: usize, height: usize, channels: usize, bit_depth: u8) -> Planar {
+    use rayon::prelude::*;
+    let bytes = usize::from(bit_depth / 8);
+    let sample = |index: usize| -> f32 {
+        let b = &raw[index * bytes..(index + 1) * bytes];
+        match bit_depth {
+            8 => from_code(b[0].into(), 255),
+            16 => from_code(u16::from_ne_bytes([b[0], b[1]]).into(), 65535),
+            _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
+        }
+    };
+    let mut image = Planar::new(width, height, channels);
+    if width > 0 {
+        // Row r of the planar data is row r % height of channel r / height.
+        image.data.par_chunks_mut(width).enumerate().for_each(|(r, row)| {
+            let (c, y) = (r / height, r % height);
+            for (x, out) in row.iter_mut().enumerate() {
+                *out = sample((y * width + x) * channels + c);
+            }
+        });
+    }
+    image
 }
 
 /// Writes `image` (1 = grey, 2 = grey + alpha, 3 = RGB, 4 = RGBA channels; values in [0, 1], clipped) as
@@ -135,16 +142,8 @@ pub(super) fn encode(path: &Path, image: &Planar, depth: SampleDepth, raster: Ra
         SampleDepth::Eight => 8,
         SampleDepth::Sixteen => 16,
     };
-    let max = max_code(bits)?;
-    let codes = interleave(image)
-        .map(|v| to_code(v, max))
-        .collect::<Option<Vec<u32>>>()
+    let bytes = interleaved_codes(image, bits)
         .ok_or_else(|| encode_error("NaN or infinite sample cannot be stored as an integer".into()))?;
-    let bytes: Vec<u8> = match depth {
-        SampleDepth::Eight => codes.iter().map(|&c| c as u8).collect(),
-        // The image encoders take 16-bit samples as native-endian bytes.
-        SampleDepth::Sixteen => codes.iter().flat_map(|&c| (c as u16).to_ne_bytes()).collect(),
-    };
     let colour = colour_type(image.channels, depth);
     write_atomically(path, format.name(), |sink| {
         let result = match raster {
@@ -173,10 +172,34 @@ fn colour_type(channels: usize, depth: SampleDepth) -> ExtendedColorType {
     }
 }
 
-/// Samples of `image` in pixel-interleaved order.
-fn interleave(image: &Planar) -> impl Iterator<Item = f32> + '_ {
-    let n = image.pixels();
-    (0..n * image.channels).map(move |i| image.data[(i % image.channels) * n + i / image.channels])
+/// The integer codes of `image` (8 or 16 `bits`) in pixel-interleaved order as the image encoders take
+/// them (16-bit codes as native-endian bytes), row by row in parallel; `None` when a sample is NaN or
+/// infinite.
+fn interleaved_codes(image: &Planar, bits: u8) -> Option<Vec<u8>> {
+    use rayon::prelude::*;
+    let max = max_code(bits).ok()?;
+    let (n, channels) = (image.pixels(), image.channels);
+    let bytes_per_sample = usize::from(bits / 8);
+    let row_bytes = image.width * channels * bytes_per_sample;
+    let mut bytes = vec![0u8; row_bytes * image.height];
+    if row_bytes == 0 {
+        return Some(bytes);
+    }
+    bytes
+        .par_chunks_mut(row_bytes)
+        .enumerate()
+        .try_for_each(|(y, row)| {
+            for (i, out) in row.chunks_exact_mut(bytes_per_sample).enumerate() {
+                let (x, c) = (i / channels, i % channels);
+                let code = to_code(image.data[c * n + y * image.width + x], max)?;
+                match bits {
+                    8 => out[0] = code as u8,
+                    _ => out.copy_from_slice(&(code as u16).to_ne_bytes()),
+                }
+            }
+            Some(())
+        })?;
+    Some(bytes)
 }
 
 /// Refuses a PNG whose palette (PLTE chunk) is not a whole number of 3-byte RGB entries, which the

@@ -11,6 +11,7 @@
 
 use crate::error::{check_layout, Result};
 use crate::Planar;
+use rayon::prelude::*;
 
 /// RGB channel (0 = R, 1 = G, 2 = B) of the filter over photosite (x, y) of an RGGB mosaic: R at even
 /// row/even column, B at odd row/odd column, G elsewhere.
@@ -201,25 +202,36 @@ pub fn demosaic(mosaic: &Planar, method: Demosaic) -> Result<Planar> {
     });
     let columns: Vec<usize> = (0..width + 4).map(|x| reflect(x as isize - 2, width)).collect();
     let mut rgb = Planar::new(width, height, 3);
-    for y in 0..height {
-        let rows: [usize; 5] = std::array::from_fn(|j| reflect(y as isize + j as isize - 2, height) * width);
-        for x in 0..width {
-            let site = 2 * (y % 2) + x % 2;
-            for (channel, taps) in plan[site].iter().enumerate() {
-                let value = match taps {
-                    None => raw[y * width + x],
-                    Some(taps) => {
-                        let mut sum = 0.0;
-                        for &(j, i, weight) in taps {
-                            sum += weight * raw[rows[j] + columns[x + i]];
-                        }
-                        sum
-                    }
-                };
-                rgb.set(channel, x, y, value);
-            }
-        }
+    if width == 0 {
+        return Ok(rgb);
     }
+    // Rows in parallel, each output sample on its own: the result does not depend on the threads.
+    let (red, green_blue) = rgb.data.split_at_mut(width * height);
+    let (green, blue) = green_blue.split_at_mut(width * height);
+    red.par_chunks_mut(width)
+        .zip(green.par_chunks_mut(width))
+        .zip(blue.par_chunks_mut(width))
+        .enumerate()
+        .for_each(|(y, ((r, g), b))| {
+            let rows: [usize; 5] =
+                std::array::from_fn(|j| reflect(y as isize + j as isize - 2, height) * width);
+            let out = [r, g, b];
+            for x in 0..width {
+                let site = 2 * (y % 2) + x % 2;
+                for (channel, taps) in plan[site].iter().enumerate() {
+                    out[channel][x] = match taps {
+                        None => raw[y * width + x],
+                        Some(taps) => {
+                            let mut sum = 0.0;
+                            for &(j, i, weight) in taps {
+                                sum += weight * raw[rows[j] + columns[x + i]];
+                            }
+                            sum
+                        }
+                    };
+                }
+            }
+        });
     Ok(rgb)
 }
 
