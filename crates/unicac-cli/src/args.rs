@@ -106,6 +106,11 @@ pub struct DatasetBuildArgs {
     /// trained on DIR; lenses matched by the hash of their file).
     #[arg(long, value_name = "DIR")]
     pub unseen_by: Option<PathBuf>,
+    /// Leave out lenses of `unicac design` libraries flagged as failing basic photographic usefulness
+    /// (edge relative illumination below 0.3, lateral colour above 0.25% of the image height; the
+    /// manifest's `flags` column)
+    #[arg(long)]
+    pub exclude_flagged: bool,
     /// Sensor frame WxH (px); default: the first test image's size. Larger scenes are centre-cropped.
     #[arg(long)]
     pub frame: Option<String>,
@@ -741,6 +746,10 @@ pub struct DesignArgs {
     /// Stop at the first COUNT acceptable designs instead of keeping the best (fast).
     #[arg(long)]
     pub first_acceptable: bool,
+    /// Every search round searches the specification itself; by default every other round of a
+    /// specification faster than F/4 starts from F/4 designs and opens the aperture in half stops.
+    #[arg(long)]
+    pub no_curriculum: bool,
     /// Smallest air gap between neighbouring surfaces over the beam heights (mm); default 0.1 mm at
     /// f = 50 mm, scaled with the focal length.
     #[arg(long)]

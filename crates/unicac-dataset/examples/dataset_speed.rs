@@ -39,7 +39,7 @@ fn main() {
         pixel_um: None,
     };
     let out = std::env::temp_dir().join(format!("unicac-dataset-speed-{}", std::process::id()));
-    let sources = builder::sources::lens_sources(&lenses, &out).expect("lenses");
+    let sources = builder::sources::lens_sources(&lenses, &out, false).expect("lenses");
     let start = Instant::now();
     pool_for(threads).install(|| {
         for source in &sources {

@@ -200,7 +200,7 @@ fn the_level_plot_is_titled_by_the_dataset_folder_name_not_its_path() {
 fn regenerate(dataset: &Dataset, pair: &PairRow) -> (Vec<u8>, Vec<u8>) {
     let lenses = dataset.lenses().unwrap();
     let lens_row = lenses.iter().find(|l| l.lens_id == pair.lens_id).unwrap();
-    let lens_source = sources::lens_sources(std::slice::from_ref(&lens_row.source), &dataset.dir)
+    let lens_source = sources::lens_sources(std::slice::from_ref(&lens_row.source), &dataset.dir, false)
         .unwrap()
         .remove(0);
     assert_eq!(lens_source.sha256, lens_row.lens_sha256);

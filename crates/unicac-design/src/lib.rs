@@ -14,6 +14,7 @@
 //!   the baseline;
 //! - `global`: the population search (simulated annealing, genetic operators, diversity-preserving
 //!   selection, in-loop local refinement);
+//! - `curriculum`: a fast aperture's search started from a slower aperture's solutions;
 //! - `glass_snap`: continuous (nd, Vd) to the nearest catalogue glass, then re-optimisation;
 //! - `asphere`: conversion of chosen surfaces to even aspheres and re-optimisation within
 //!   manufacturability limits;
@@ -27,6 +28,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod asphere;
+pub mod curriculum;
 pub mod dual;
 pub mod error;
 pub mod export;

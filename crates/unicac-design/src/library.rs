@@ -44,14 +44,57 @@ pub struct ManifestRow {
     pub elapsed_s: f64,
     pub json: String,
     pub zmx: String,
+    /// Why the lens fails basic photographic usefulness ([`ManifestRow::photographic_flags`], written
+    /// with the row; empty for a usable lens and in libraries made before flags existed).
+    #[serde(default)]
+    pub flags: Vec<String>,
 }
 
-const CSV_COLUMNS: &str = "id,spec,elements,half_fov_deg,f_number,stop,focal_length_mm,aspheric,parent,merit,rms_mean_um,rms_max_um,distortion_max_percent,relative_illumination_edge,lateral_colour_max_um,total_track_mm,back_focal_mm,efl_mm,glasses,seed,elapsed_s,json,zmx";
+const CSV_COLUMNS: &str = "id,spec,elements,half_fov_deg,f_number,stop,focal_length_mm,aspheric,parent,merit,rms_mean_um,rms_max_um,distortion_max_percent,relative_illumination_edge,lateral_colour_max_um,total_track_mm,back_focal_mm,efl_mm,glasses,seed,elapsed_s,json,zmx,flags";
+
+/// Edge relative illumination below which a lens is flagged: 0.3, about 1.7 stops of fall-off (a
+/// 40-degree half field alone loses cos^4 = 0.34 to natural vignetting; designs below 0.3 add pupil
+/// distortion on top).
+pub const MIN_EDGE_RELATIVE_ILLUMINATION: f64 = 0.3;
+
+/// Largest lateral colour (F-C chief-ray separation, any field) as a fraction of the image height
+/// f tan(half field) before a lens is flagged: 0.25 % (45 um for f = 50 mm over 20 degrees, 105 um over
+/// 40 degrees), a visible colour fringe of several pixels on any sensor that image height fills.
+pub const MAX_LATERAL_COLOUR_FRACTION: f64 = 0.0025;
 
 impl ManifestRow {
+    /// Each way this lens fails basic photographic usefulness, as `name: value (limit)`: edge relative
+    /// illumination below [`MIN_EDGE_RELATIVE_ILLUMINATION`], lateral colour above
+    /// [`MAX_LATERAL_COLOUR_FRACTION`] of the image height. Computed from the row's own figures, so
+    /// libraries made before flags existed are judged by the same rule.
+    pub fn photographic_flags(&self) -> Vec<String> {
+        let mut flags = Vec::new();
+        if self.relative_illumination_edge < MIN_EDGE_RELATIVE_ILLUMINATION {
+            flags.push(format!(
+                "relative_illumination_edge: {:.3} (floor {MIN_EDGE_RELATIVE_ILLUMINATION})",
+                self.relative_illumination_edge
+            ));
+        }
+        let image_height_um = 1e3 * self.focal_length_mm * self.half_fov_deg.to_radians().tan();
+        let bound_um = MAX_LATERAL_COLOUR_FRACTION * image_height_um;
+        if self.lateral_colour_max_um > bound_um {
+            flags.push(format!(
+                "lateral_colour_max_um: {:.1} (bound {bound_um:.1}, {MAX_LATERAL_COLOUR_FRACTION} of the image height)",
+                self.lateral_colour_max_um
+            ));
+        }
+        flags
+    }
+
     fn csv(&self) -> String {
+        // Flag names only (the values are in their own columns): no commas inside the CSV cell.
+        let flag_names: Vec<&str> = self
+            .flags
+            .iter()
+            .map(|f| f.split(':').next().unwrap_or(f))
+            .collect();
         format!(
-            "{},{},{},{},{},{},{},{},{},{:.6e},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.6},{},{},{:.2},{},{}",
+            "{},{},{},{},{},{},{},{},{},{:.6e},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.6},{},{},{:.2},{},{},{}",
             self.id,
             self.spec,
             self.elements,
@@ -74,7 +117,8 @@ impl ManifestRow {
             self.seed,
             self.elapsed_s,
             self.json,
-            self.zmx
+            self.zmx,
+            flag_names.join(";")
         )
     }
 }
@@ -223,6 +267,11 @@ impl Library {
             elapsed_s: entry.elapsed_s,
             json: format!("lenses/{id}.json"),
             zmx: format!("lenses/{id}.zmx"),
+            flags: Vec::new(),
+        };
+        let row = ManifestRow {
+            flags: row.photographic_flags(),
+            ..row
         };
         self.rows.push(row);
         self.write_manifest()?;
@@ -332,5 +381,68 @@ impl Checkpoint {
         let text = serde_json::to_string(self).unwrap_or_default();
         write_atomically(path, text.as_bytes())?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(relative_illumination_edge: f64, lateral_colour_max_um: f64, half_fov_deg: f64) -> ManifestRow {
+        ManifestRow {
+            id: "e6_h40_f2_middle_f50_s001".into(),
+            spec: "e6_h40_f2_middle_f50".into(),
+            elements: 6,
+            half_fov_deg,
+            f_number: 2.0,
+            stop: "middle".into(),
+            focal_length_mm: 50.0,
+            aspheric: false,
+            parent: String::new(),
+            merit: 1.0,
+            rms_mean_um: 10.0,
+            rms_max_um: 12.0,
+            distortion_max_percent: 1.0,
+            relative_illumination_edge,
+            lateral_colour_max_um,
+            total_track_mm: 80.0,
+            back_focal_mm: 30.0,
+            efl_mm: 50.0,
+            glasses: "SCHOTT:N-BK7".into(),
+            seed: 1,
+            elapsed_s: 1.0,
+            json: "lenses/x.json".into(),
+            zmx: "lenses/x.zmx".into(),
+            flags: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn the_issue_s_failed_design_is_flagged_twice_and_a_usable_one_not_at_all() {
+        // Issue 32's 6-element F/2 40-degree design: edge illumination 0.25, lateral colour 216 um.
+        let failed = row(0.25, 216.0, 40.0).photographic_flags();
+        assert_eq!(failed.len(), 2, "{failed:?}");
+        assert!(failed[0].starts_with("relative_illumination_edge: 0.250"));
+        // 0.25 % of 50 mm x tan 40 deg = 104.9 um.
+        assert!(failed[1].contains("bound 104.9"), "{failed:?}");
+        assert!(row(0.5, 40.0, 40.0).photographic_flags().is_empty());
+        // The colour bound follows the image height: 40 um is too much over 10 degrees (22 um).
+        assert_eq!(row(0.5, 40.0, 10.0).photographic_flags().len(), 1);
+    }
+
+    #[test]
+    fn the_csv_names_the_flags_without_commas_and_old_rows_read_without_flags() {
+        let mut r = row(0.25, 216.0, 40.0);
+        r.flags = r.photographic_flags();
+        let csv = r.csv();
+        assert_eq!(csv.split(',').count(), CSV_COLUMNS.split(',').count());
+        assert!(
+            csv.ends_with(",relative_illumination_edge;lateral_colour_max_um"),
+            "{csv}"
+        );
+        let mut old = serde_json::to_value(row(0.5, 1.0, 20.0)).unwrap();
+        old.as_object_mut().unwrap().remove("flags");
+        let read: ManifestRow = serde_json::from_value(old).unwrap();
+        assert!(read.flags.is_empty());
     }
 }

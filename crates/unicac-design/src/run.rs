@@ -5,12 +5,19 @@
 //! glass snapping and re-optimisation, then the aspheric stage if asked), verified, and written as soon
 //! as it is accepted. With time left and too few lenses, another search round runs with a new seed
 //! stream. At the budget, work stops between steps and everything accepted so far is on disk.
+//!
+//! Rounds alternate their starting forms: even rounds search the spec itself, odd rounds of a spec
+//! faster than F/4 start from F/4 solutions and open the aperture (`curriculum`). With a budget, a
+//! search whose best design is still poor (mean RMS spot radius above [`GOOD_RMS_AIRY_RADII`] Airy
+//! radii) never counts as converged: it restarts until the budget ends. A good one converges after
+//! [`IDLE_ROUNDS_TO_CONVERGE`] rounds without a better design.
 
 use crate::asphere::asphericize;
+use crate::curriculum;
 use crate::error::{DesignError, Result};
 use crate::export::to_lens_spec;
 use crate::glass_snap::snap;
-use crate::global::{search, GlobalProgress, GlobalSettings};
+use crate::global::{search, Candidate, GlobalProgress, GlobalSettings};
 use crate::library::{Checkpoint, Entry, Library};
 use crate::local::{refine, Gradient, LocalSettings};
 use crate::merit::{Merit, Sampling, Terms};
@@ -28,6 +35,17 @@ pub const MIN_ASPHERE_GAIN: f64 = 0.005;
 /// Search rounds in a row that must bring no better design before a full set of `count` counts as
 /// converged (each round is a new global search with its own seed stream).
 pub const IDLE_ROUNDS_TO_CONVERGE: usize = 2;
+
+/// A design is good when its mean RMS spot radius is at most this many Airy radii (1.22 lambda N at the
+/// primary wavelength: 14 um at F/2, 29 um at F/4): a budgeted search converges only once its best
+/// design is good, and otherwise keeps restarting until the budget ends.
+pub const GOOD_RMS_AIRY_RADII: f64 = 10.0;
+
+/// The mean RMS spot radius (um) below which a design of `spec` is good ([`GOOD_RMS_AIRY_RADII`]).
+pub fn good_rms_um(spec: &DesignSpec) -> f64 {
+    let wavelength_um = spec.wavelengths_um[spec.primary_wavelength_index];
+    GOOD_RMS_AIRY_RADII * 1.22 * wavelength_um * spec.f_number
+}
 
 #[derive(Debug, Clone)]
 pub struct RunSettings {
@@ -48,6 +66,9 @@ pub struct RunSettings {
     pub refine_iterations: usize,
     /// Search rounds per spec at most (each with a fresh seed stream).
     pub rounds: usize,
+    /// Odd rounds of a spec faster than F/4 start from F/4 solutions (`curriculum`); off, every round
+    /// searches the spec itself (the ablation).
+    pub curriculum: bool,
     pub global: GlobalSettings,
 }
 
@@ -104,6 +125,7 @@ impl RunSettings {
             global_share: 0.6,
             refine_iterations: 60,
             rounds: 3,
+            curriculum: true,
             global: GlobalSettings::new(seed),
         }
     }
@@ -277,7 +299,8 @@ fn refine_within_limits(
 pub enum StopReason {
     /// `first_acceptable`: the first `count` acceptable designs were found.
     CountReached,
-    /// The best `count` designs did not change for `IDLE_ROUNDS_TO_CONVERGE` search rounds.
+    /// The best `count` designs did not change for `IDLE_ROUNDS_TO_CONVERGE` search rounds (with a
+    /// budget: and the best of them is good, [`good_rms_um`]).
     Converged,
     /// The time budget ran out.
     Budget,
@@ -297,6 +320,10 @@ pub struct SpecSummary {
     pub stop_reason: StopReason,
     /// Search rounds run (global search and finishing of its candidates).
     pub rounds: usize,
+    /// The best kept spherical design's mean RMS spot radius (um), and the bar of a good one
+    /// ([`good_rms_um`]).
+    pub best_rms_mean_um: Option<f64>,
+    pub good_rms_um: f64,
 }
 
 /// Designs `spec` into `library`: keeps the `settings.count` best distinct acceptable designs until the
@@ -314,6 +341,13 @@ pub fn run_spec(
     let start = Instant::now();
     let slug = spec.slug();
     let accepted_now = |library: &Library| library.rows_for(&slug).filter(|r| !r.aspheric).count();
+    let best_rms_um = |library: &Library| {
+        library
+            .rows_for(&slug)
+            .filter(|r| !r.aspheric)
+            .map(|r| r.rms_mean_um)
+            .min_by(f64::total_cmp)
+    };
     let mut first_accepted_s = None;
     let checkpoint_path = library.checkpoint_path(&slug);
     let mut checkpoint = Checkpoint::load(&checkpoint_path)?.filter(|c| c.seed == settings.seed);
@@ -361,7 +395,7 @@ pub fn run_spec(
                         progress,
                     })
                 };
-                let archive = search(&coarse, &params, &global, &report);
+                let archive = round_archive(spec, settings, round, &coarse, &params, &global, &report);
                 let state = Checkpoint {
                     slug: slug.clone(),
                     seed: settings.seed,
@@ -425,7 +459,9 @@ pub fn run_spec(
             // convergence.
             let full = accepted_now(library) >= settings.count;
             idle_rounds = if full && !improved { idle_rounds + 1 } else { 0 };
-            converged = idle_rounds >= IDLE_ROUNDS_TO_CONVERGE;
+            // With a budget, a poor best design is not a converged search: restart until time is up.
+            let good = best_rms_um(library).is_some_and(|rms| rms <= good_rms_um(spec));
+            converged = idle_rounds >= IDLE_ROUNDS_TO_CONVERGE && (deadline.is_none() || good);
         } else {
             checkpoint = Some(state);
         }
@@ -458,6 +494,7 @@ pub fn run_spec(
         slug: slug.clone(),
         accepted,
     });
+    let best_rms_mean_um = best_rms_um(library);
     Ok(SpecSummary {
         slug,
         accepted,
@@ -465,7 +502,32 @@ pub fn run_spec(
         elapsed_s: start.elapsed().as_secs_f64(),
         stop_reason,
         rounds: round - first_round,
+        best_rms_mean_um,
+        good_rms_um: good_rms_um(spec),
     })
+}
+
+/// The global stage's archive for `round`: the spec searched itself, or, in odd rounds of a spec
+/// faster than F/4 (with `settings.curriculum`), designs found at F/4 and walked to the spec's aperture.
+fn round_archive(
+    spec: &DesignSpec,
+    settings: &RunSettings,
+    round: usize,
+    coarse: &Merit,
+    params: &Parameterization,
+    global: &GlobalSettings,
+    report: &(dyn Fn(GlobalProgress) + Sync),
+) -> Vec<Candidate> {
+    let from_slower = (settings.curriculum && round % 2 == 1 && curriculum::applies_to(spec))
+        .then(|| {
+            let local = LocalSettings {
+                deadline: global.deadline,
+                ..LocalSettings::new(settings.refine_iterations / 2, settings.gradient)
+            };
+            curriculum::search_from_slower_aperture(spec, global, &local, report)
+        })
+        .flatten();
+    from_slower.unwrap_or_else(|| search(coarse, params, global, report))
 }
 
 /// Writes the spherical design (and its aspheric child, if it improves on it and passes) when acceptable,

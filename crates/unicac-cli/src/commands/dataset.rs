@@ -76,6 +76,7 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     settings.bit_depth = args.bit_depth;
     settings.psf_basis_from = args.psf_basis_from.clone();
     settings.unseen_by = args.unseen_by.clone();
+    settings.exclude_flagged = args.exclude_flagged;
     let shard = match &args.shard {
         Some(text) => Shard::parse(text).map_err(flag_error)?,
         None => Shard::ALL,

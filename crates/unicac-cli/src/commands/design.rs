@@ -88,6 +88,7 @@ fn flag_error(error: DesignError, args: &DesignArgs) -> anyhow::Error {
 fn settings(args: &DesignArgs) -> Result<RunSettings> {
     let mut settings = RunSettings::new(args.count, args.seed);
     settings.first_acceptable = args.first_acceptable;
+    settings.curriculum = !args.no_curriculum;
     settings.time_budget_s = args.time_budget_s;
     settings.max_rms_um = args.max_rms_um;
     settings.gradient = args.gradient;
@@ -159,8 +160,15 @@ pub fn run(args: &DesignArgs) -> Result<()> {
     bar.finish_and_clear();
     let written = library.rows.len();
     for s in &summaries {
+        let best = s.best_rms_mean_um.map_or(String::new(), |rms| {
+            let verdict = if rms <= s.good_rms_um { "good" } else { "poor" };
+            format!(
+                "; best mean RMS spot {rms:.2} um ({verdict}: the bar is {:.1} um, 10 Airy radii)",
+                s.good_rms_um
+            )
+        });
         eprintln!(
-            "{}: {} kept, stopped: {} after {} search round(s), {:.1} s",
+            "{}: {} kept, stopped: {} after {} search round(s), {:.1} s{best}",
             s.slug,
             s.accepted,
             match s.stop_reason {
@@ -188,6 +196,7 @@ pub fn run(args: &DesignArgs) -> Result<()> {
                     "spec": s.slug, "accepted": s.accepted,
                     "first_accepted_s": s.first_accepted_s, "elapsed_s": s.elapsed_s,
                     "stop_reason": s.stop_reason, "rounds": s.rounds,
+                    "best_rms_mean_um": s.best_rms_mean_um, "good_rms_um": s.good_rms_um,
                 })
             })
             .collect();

@@ -88,6 +88,12 @@ pub struct BuildSettings {
     /// that changes no byte, so it is not part of the build's record: a folder resumes with or without it.
     #[serde(skip)]
     pub unseen_by: Option<std::path::PathBuf>,
+    /// Leave out the lenses of `unicac design` libraries flagged as failing basic photographic
+    /// usefulness (edge illumination, lateral colour: `ManifestRow::photographic_flags`), so that
+    /// the severe levels hold hard optics rather than failed designs. Recorded only when set (older
+    /// records stay valid).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub exclude_flagged: bool,
 }
 
 /// Largest `pairs_per_lens`.
@@ -129,6 +135,7 @@ impl BuildSettings {
             bit_depth: 8,
             psf_basis_from: None,
             unseen_by: None,
+            exclude_flagged: false,
         }
     }
 
@@ -357,7 +364,7 @@ pub fn build(
             scenes: None,
         },
     )?;
-    let sources = sources::lens_sources(&settings.lenses, out)?;
+    let sources = sources::lens_sources(&settings.lenses, out, settings.exclude_flagged)?;
     if let Some(dir) = &settings.unseen_by {
         unseen::refuse_seen_lenses(&sources, &other_dataset("unseen_by", dir)?)?;
     }

@@ -50,8 +50,9 @@ fn load_spec(location: &str) -> Result<LensSpec> {
 }
 
 /// Expands every `lenses` argument; ids sorted, duplicates (same id) listed once. Folders are scanned
-/// without entering `out` (the build's own output).
-pub fn lens_sources(arguments: &[String], out: &Path) -> Result<Vec<LensSource>> {
+/// without entering `out` (the build's own output). With `exclude_flagged`, lenses of `unicac design`
+/// libraries that fail basic photographic usefulness (`ManifestRow::photographic_flags`) are left out.
+pub fn lens_sources(arguments: &[String], out: &Path, exclude_flagged: bool) -> Result<Vec<LensSource>> {
     let mut found = Vec::new();
     for argument in arguments {
         if let Some(name) = argument.strip_prefix(BUILTIN_PREFIX) {
@@ -64,7 +65,7 @@ pub fn lens_sources(arguments: &[String], out: &Path) -> Result<Vec<LensSource>>
         if path.is_dir() {
             let manifest = path.join("manifest.jsonl");
             if manifest.is_file() {
-                found.extend(library_lenses(argument, &manifest)?);
+                found.extend(library_lenses(argument, &manifest, exclude_flagged)?);
             } else {
                 for file in files_with(path, &LENS_EXTENSIONS, out)? {
                     found.push(file_source(&file, &display_path(argument, &file, path))?);
@@ -91,11 +92,13 @@ pub fn lens_sources(arguments: &[String], out: &Path) -> Result<Vec<LensSource>>
     Ok(found)
 }
 
-/// The lenses a `unicac design` library lists (read only: the library is an input).
-fn library_lenses(argument: &str, manifest: &Path) -> Result<Vec<LensSource>> {
+/// The lenses a `unicac design` library lists (read only: the library is an input), without the
+/// flagged ones when `exclude_flagged` (judged from each row's figures, so older libraries too).
+fn library_lenses(argument: &str, manifest: &Path, exclude_flagged: bool) -> Result<Vec<LensSource>> {
     let rows: Vec<unicac_design::library::ManifestRow> = crate::manifest::read_jsonl(manifest)?;
     let dir = Path::new(argument);
     rows.iter()
+        .filter(|row| !exclude_flagged || row.photographic_flags().is_empty())
         .map(|row| {
             let file = dir.join(&row.json);
             file_source(
