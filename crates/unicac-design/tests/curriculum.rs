@@ -76,7 +76,13 @@ fn a_budgeted_search_whose_best_design_is_poor_uses_the_whole_budget() {
     settings.time_budget_s = Some(6.0);
     let dir = scratch("poor");
     let mut library = Library::open(&dir).unwrap();
-    let summary = run_specs(std::slice::from_ref(&spec), &settings, &mut library, &|_: Event| {}).unwrap();
+    let summary = run_specs(
+        std::slice::from_ref(&spec),
+        &settings,
+        &mut library,
+        &|_: Event| {},
+    )
+    .unwrap();
     let s = &summary[0];
     assert_eq!(s.stop_reason, StopReason::Budget, "{s:?}");
     assert!(s.elapsed_s >= 5.9, "{s:?}");
