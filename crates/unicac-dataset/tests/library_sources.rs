@@ -50,5 +50,17 @@ fn exclude_flagged_leaves_out_the_library_lenses_that_fail_photographic_usefulne
     let ids: Vec<&str> = kept.iter().map(|s| s.lens_id.as_str()).collect();
     assert_eq!(ids.len(), 1, "{ids:?}");
     assert!(ids[0].starts_with("good-"), "{ids:?}");
+    // A library of flagged lenses only: the error says the exclusion emptied it.
+    let rows = [row("dim", 0.2, 5.0), row("fringed", 0.8, 80.0)];
+    let jsonl: String = rows.iter().map(|r| format!("{r}\n")).collect();
+    std::fs::write(library.join("manifest.jsonl"), jsonl).unwrap();
+    let error = lens_sources(&arguments, &out, true).unwrap_err();
+    match &error {
+        unicac_dataset::DatasetError::Setting { field, message } => {
+            assert_eq!(field, "exclude_flagged");
+            assert!(message.contains("all 2 library lenses are flagged"), "{message}");
+        }
+        other => panic!("{other}"),
+    }
     let _ = std::fs::remove_dir_all(&folder);
 }

@@ -54,6 +54,7 @@ fn load_spec(location: &str) -> Result<LensSpec> {
 /// libraries that fail basic photographic usefulness (`ManifestRow::photographic_flags`) are left out.
 pub fn lens_sources(arguments: &[String], out: &Path, exclude_flagged: bool) -> Result<Vec<LensSource>> {
     let mut found = Vec::new();
+    let mut flagged = 0;
     for argument in arguments {
         if let Some(name) = argument.strip_prefix(BUILTIN_PREFIX) {
             let spec = load_spec(argument)?;
@@ -65,7 +66,9 @@ pub fn lens_sources(arguments: &[String], out: &Path, exclude_flagged: bool) -> 
         if path.is_dir() {
             let manifest = path.join("manifest.jsonl");
             if manifest.is_file() {
-                found.extend(library_lenses(argument, &manifest, exclude_flagged)?);
+                let (lenses, left_out) = library_lenses(argument, &manifest, exclude_flagged)?;
+                found.extend(lenses);
+                flagged += left_out;
             } else {
                 for file in files_with(path, &LENS_EXTENSIONS, out)? {
                     found.push(file_source(&file, &display_path(argument, &file, path))?);
@@ -83,6 +86,16 @@ pub fn lens_sources(arguments: &[String], out: &Path, exclude_flagged: bool) -> 
     }
     found.sort_by(|a, b| a.lens_id.cmp(&b.lens_id));
     found.dedup_by(|a, b| a.lens_id == b.lens_id);
+    if found.is_empty() && flagged > 0 {
+        return Err(DatasetError::setting(
+            "exclude_flagged",
+            format!(
+                "{}: all {flagged} library lenses are flagged as failing photographic usefulness; \
+                 nothing is left to build from",
+                arguments.join(", ")
+            ),
+        ));
+    }
     if found.is_empty() {
         return Err(DatasetError::setting(
             "lenses",
@@ -94,11 +107,21 @@ pub fn lens_sources(arguments: &[String], out: &Path, exclude_flagged: bool) -> 
 
 /// The lenses a `unicac design` library lists (read only: the library is an input), without the
 /// flagged ones when `exclude_flagged` (judged from each row's figures, so older libraries too).
-fn library_lenses(argument: &str, manifest: &Path, exclude_flagged: bool) -> Result<Vec<LensSource>> {
+/// Also returns how many rows were left out.
+fn library_lenses(
+    argument: &str,
+    manifest: &Path,
+    exclude_flagged: bool,
+) -> Result<(Vec<LensSource>, usize)> {
     let rows: Vec<unicac_design::library::ManifestRow> = crate::manifest::read_jsonl(manifest)?;
     let dir = Path::new(argument);
-    rows.iter()
+    let kept: Vec<_> = rows
+        .iter()
         .filter(|row| !exclude_flagged || row.photographic_flags().is_empty())
+        .collect();
+    let left_out = rows.len() - kept.len();
+    let sources = kept
+        .into_iter()
         .map(|row| {
             let file = dir.join(&row.json);
             file_source(
@@ -106,7 +129,8 @@ fn library_lenses(argument: &str, manifest: &Path, exclude_flagged: bool) -> Res
                 &recorded(&format!("{}/{}", argument.trim_end_matches('/'), row.json)),
             )
         })
-        .collect()
+        .collect::<Result<Vec<_>>>()?;
+    Ok((sources, left_out))
 }
 
 fn file_source(path: &Path, source: &str) -> Result<LensSource> {
