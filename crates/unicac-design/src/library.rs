@@ -325,6 +325,42 @@ impl Library {
     pub fn checkpoint_path(&self, slug: &str) -> PathBuf {
         self.dir.join("state").join(format!("{slug}.json"))
     }
+
+    /// `state/<slug>.rounds.jsonl`: one line per finished search round (the convergence trace).
+    pub fn rounds_log_path(&self, slug: &str) -> PathBuf {
+        self.dir.join("state").join(format!("{slug}.rounds.jsonl"))
+    }
+
+    /// Appends `round` to the spec's convergence trace (the file rewritten atomically: it is small,
+    /// one line per round, and a killed run never leaves half a line).
+    pub fn log_round(&self, slug: &str, round: &RoundRecord) -> Result<()> {
+        let path = self.rounds_log_path(slug);
+        let mut text = match std::fs::read_to_string(&path) {
+            Ok(text) => text,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+            Err(e) => return Err(io_error(&path)(e)),
+        };
+        text.push_str(&serde_json::to_string(round).expect("a round record serialises"));
+        text.push('\n');
+        write_atomically(&path, text.as_bytes())?;
+        Ok(())
+    }
+}
+
+/// One finished search round of a spec, as the convergence trace records it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RoundRecord {
+    pub seed: u64,
+    /// The round's index (rounds of earlier runs into the same library count too).
+    pub round: usize,
+    /// Seconds since this run started on the spec.
+    pub elapsed_s: f64,
+    /// Whether the round started from slower-aperture designs (`curriculum`).
+    pub curriculum: bool,
+    /// Spherical designs kept after the round, and the best one's mean RMS spot radius and merit.
+    pub kept: usize,
+    pub best_rms_mean_um: Option<f64>,
+    pub best_merit: Option<f64>,
 }
 
 fn glasses(lens: &LensSpec) -> String {

@@ -18,7 +18,7 @@ use crate::error::{DesignError, Result};
 use crate::export::to_lens_spec;
 use crate::glass_snap::snap;
 use crate::global::{search, Candidate, GlobalProgress, GlobalSettings};
-use crate::library::{Checkpoint, Entry, Library};
+use crate::library::{Checkpoint, Entry, Library, RoundRecord};
 use crate::local::{refine, Gradient, LocalSettings};
 use crate::merit::{Merit, Sampling, Terms};
 use crate::params::Parameterization;
@@ -341,13 +341,14 @@ pub fn run_spec(
     let start = Instant::now();
     let slug = spec.slug();
     let accepted_now = |library: &Library| library.rows_for(&slug).filter(|r| !r.aspheric).count();
-    let best_rms_um = |library: &Library| {
+    let best_row = |library: &Library| {
         library
             .rows_for(&slug)
             .filter(|r| !r.aspheric)
-            .map(|r| r.rms_mean_um)
-            .min_by(f64::total_cmp)
+            .min_by(|a, b| a.rms_mean_um.total_cmp(&b.rms_mean_um))
+            .cloned()
     };
+    let best_rms_um = |library: &Library| best_row(library).map(|r| r.rms_mean_um);
     let mut first_accepted_s = None;
     let checkpoint_path = library.checkpoint_path(&slug);
     let mut checkpoint = Checkpoint::load(&checkpoint_path)?.filter(|c| c.seed == settings.seed);
@@ -453,6 +454,19 @@ pub fn run_spec(
             state.save(&checkpoint_path)?;
         }
         if state.finished.len() == state.candidates.len() {
+            let best = best_row(library);
+            library.log_round(
+                &slug,
+                &RoundRecord {
+                    seed: settings.seed,
+                    round,
+                    elapsed_s: start.elapsed().as_secs_f64(),
+                    curriculum: uses_curriculum(spec, settings, round),
+                    kept: accepted_now(library),
+                    best_rms_mean_um: best.as_ref().map(|r| r.rms_mean_um),
+                    best_merit: best.as_ref().map(|r| r.merit),
+                },
+            )?;
             round += 1;
             checkpoint = None;
             // A full round that changed nothing in a full set of the best designs: one step towards
@@ -507,6 +521,12 @@ pub fn run_spec(
     })
 }
 
+/// Whether `round` starts from slower-aperture designs: odd rounds of a spec faster than F/4, with
+/// `settings.curriculum`.
+fn uses_curriculum(spec: &DesignSpec, settings: &RunSettings, round: usize) -> bool {
+    settings.curriculum && round % 2 == 1 && curriculum::applies_to(spec)
+}
+
 /// The global stage's archive for `round`: the spec searched itself, or, in odd rounds of a spec
 /// faster than F/4 (with `settings.curriculum`), designs found at F/4 and walked to the spec's aperture.
 fn round_archive(
@@ -518,7 +538,7 @@ fn round_archive(
     global: &GlobalSettings,
     report: &(dyn Fn(GlobalProgress) + Sync),
 ) -> Vec<Candidate> {
-    let from_slower = (settings.curriculum && round % 2 == 1 && curriculum::applies_to(spec))
+    let from_slower = uses_curriculum(spec, settings, round)
         .then(|| {
             let local = LocalSettings {
                 deadline: global.deadline,

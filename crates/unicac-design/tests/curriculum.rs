@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use unicac_design::curriculum::{search_from_slower_aperture, CURRICULUM_START_F_NUMBER};
 use unicac_design::global::GlobalSettings;
-use unicac_design::library::Library;
+use unicac_design::library::{Library, RoundRecord};
 use unicac_design::local::{Gradient, LocalSettings};
 use unicac_design::merit::{Merit, Sampling};
 use unicac_design::params::Parameterization;
@@ -89,5 +89,19 @@ fn a_budgeted_search_whose_best_design_is_poor_uses_the_whole_budget() {
     let best = s.best_rms_mean_um.expect("a kept design");
     assert!(best > good_rms_um(&spec), "{s:?}");
     assert_eq!(s.good_rms_um, good_rms_um(&spec));
+    // The convergence trace: one line per finished round, the best RMS never getting worse.
+    let trace = std::fs::read_to_string(library.rounds_log_path(&spec.slug())).unwrap();
+    let rounds: Vec<RoundRecord> = trace.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert!(!rounds.is_empty() && rounds.len() <= s.rounds, "{trace}");
+    for (i, r) in rounds.iter().enumerate() {
+        assert_eq!(r.round, i);
+        assert_eq!(r.curriculum, i % 2 == 1);
+    }
+    for pair in rounds.windows(2) {
+        assert!(pair[1].elapsed_s >= pair[0].elapsed_s);
+        if let (Some(a), Some(b)) = (pair[0].best_rms_mean_um, pair[1].best_rms_mean_um) {
+            assert!(b <= a, "{trace}");
+        }
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
