@@ -64,30 +64,28 @@ pub fn search_from_slower_aperture(
     local: &LocalSettings,
     progress: &(dyn Fn(GlobalProgress) + Sync),
 ) -> Option<Vec<Candidate>> {
-    let ladder = aperture_ladder(spec.f_number);
-    let target = Parameterization::spherical(spec);
-    let specs: Vec<DesignSpec> = ladder.iter().map(|&f| at_f_number(spec, f)).collect();
+    // The ladder ends at `spec`'s own F/#: its last rung is `spec`.
+    let specs: Vec<DesignSpec> = aperture_ladder(spec.f_number)
+        .into_iter()
+        .map(|f| at_f_number(spec, f))
+        .collect();
     let params: Vec<Parameterization> = specs.iter().map(Parameterization::spherical).collect();
-    if params.iter().any(|p| p.len() != target.len()) {
+    let merits: Vec<Merit> = specs.iter().map(|s| Merit::new(s, Sampling::COARSE)).collect();
+    let (target_params, target_merit) = (params.last()?, merits.last()?);
+    if params.iter().any(|p| p.len() != target_params.len()) {
         return None;
     }
-    let first = Merit::new(&specs[0], Sampling::COARSE);
-    let archive = search(&first, &params[0], global, progress);
-    let merits: Vec<Merit> = specs.iter().map(|s| Merit::new(s, Sampling::COARSE)).collect();
+    let archive = search(&merits[0], &params[0], global, progress);
     let mut walked: Vec<Candidate> = archive
         .into_par_iter()
-        .map(|candidate| {
+        .filter_map(|candidate| {
             let mut x = candidate.x;
             for (merit, params) in merits.iter().zip(&params).skip(1) {
                 x = refine(merit, params, &x, local, |_| {}).x;
             }
-            let merit = merits[merits.len() - 1]
-                .value(&target, &x)
-                .filter(|v| v.is_finite())
-                .unwrap_or(f64::INFINITY);
-            Candidate { x, merit }
+            let merit = target_merit.value(target_params, &x).filter(|v| v.is_finite())?;
+            Some(Candidate { x, merit })
         })
-        .filter(|c| c.merit.is_finite())
         .collect();
     walked.sort_by(|a, b| a.merit.total_cmp(&b.merit));
     Some(walked)

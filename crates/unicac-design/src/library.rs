@@ -243,7 +243,7 @@ impl Library {
             self.notes.push(format!("{id}: layout plot not written: {e}"));
         }
         let t = entry.terms;
-        let row = ManifestRow {
+        let mut row = ManifestRow {
             id: id.clone(),
             spec: slug,
             elements: entry.spec.elements,
@@ -269,10 +269,7 @@ impl Library {
             zmx: format!("lenses/{id}.zmx"),
             flags: Vec::new(),
         };
-        let row = ManifestRow {
-            flags: row.photographic_flags(),
-            ..row
-        };
+        row.flags = row.photographic_flags();
         self.rows.push(row);
         self.write_manifest()?;
         Ok(id)

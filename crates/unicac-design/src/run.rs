@@ -341,14 +341,14 @@ pub fn run_spec(
     let start = Instant::now();
     let slug = spec.slug();
     let accepted_now = |library: &Library| library.rows_for(&slug).filter(|r| !r.aspheric).count();
-    let best_row = |library: &Library| {
+    // The best kept spherical design's (mean RMS spot radius, merit).
+    let best_design = |library: &Library| {
         library
             .rows_for(&slug)
             .filter(|r| !r.aspheric)
-            .min_by(|a, b| a.rms_mean_um.total_cmp(&b.rms_mean_um))
-            .cloned()
+            .map(|r| (r.rms_mean_um, r.merit))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
     };
-    let best_rms_um = |library: &Library| best_row(library).map(|r| r.rms_mean_um);
     let mut first_accepted_s = None;
     let checkpoint_path = library.checkpoint_path(&slug);
     let mut checkpoint = Checkpoint::load(&checkpoint_path)?.filter(|c| c.seed == settings.seed);
@@ -454,7 +454,7 @@ pub fn run_spec(
             state.save(&checkpoint_path)?;
         }
         if state.finished.len() == state.candidates.len() {
-            let best = best_row(library);
+            let (kept, best) = (accepted_now(library), best_design(library));
             library.log_round(
                 &slug,
                 &RoundRecord {
@@ -462,19 +462,19 @@ pub fn run_spec(
                     round,
                     elapsed_s: start.elapsed().as_secs_f64(),
                     curriculum: uses_curriculum(spec, settings, round),
-                    kept: accepted_now(library),
-                    best_rms_mean_um: best.as_ref().map(|r| r.rms_mean_um),
-                    best_merit: best.as_ref().map(|r| r.merit),
+                    kept,
+                    best_rms_mean_um: best.map(|(rms, _)| rms),
+                    best_merit: best.map(|(_, merit)| merit),
                 },
             )?;
             round += 1;
             checkpoint = None;
             // A full round that changed nothing in a full set of the best designs: one step towards
             // convergence.
-            let full = accepted_now(library) >= settings.count;
+            let full = kept >= settings.count;
             idle_rounds = if full && !improved { idle_rounds + 1 } else { 0 };
             // With a budget, a poor best design is not a converged search: restart until time is up.
-            let good = best_rms_um(library).is_some_and(|rms| rms <= good_rms_um(spec));
+            let good = best.is_some_and(|(rms, _)| rms <= good_rms_um(spec));
             converged = idle_rounds >= IDLE_ROUNDS_TO_CONVERGE && (deadline.is_none() || good);
         } else {
             checkpoint = Some(state);
@@ -508,7 +508,7 @@ pub fn run_spec(
         slug: slug.clone(),
         accepted,
     });
-    let best_rms_mean_um = best_rms_um(library);
+    let best_rms_mean_um = best_design(library).map(|(rms, _)| rms);
     Ok(SpecSummary {
         slug,
         accepted,

@@ -104,26 +104,25 @@ fn srgb_encode_by_table(linear: f32, table: &[f32]) -> f32 {
 /// Applies the sRGB curve in `direction` to every sample of `samples` (one plane, or a whole image).
 /// Encoding uses the table (within [`TABLE_ENCODE_BOUND`] of [`srgb_encode`]); decoding is exact.
 pub fn apply_srgb(samples: &mut [f32], direction: Transfer) {
-    // Samples per parallel task: large enough that scheduling costs nothing next to the work.
-    const CHUNK: usize = 1 << 16;
     match direction {
         Transfer::Encode => {
             let table = power_branch_table();
-            samples.par_chunks_mut(CHUNK).for_each(|chunk| {
-                chunk
-                    .iter_mut()
-                    .for_each(|v| *v = srgb_encode_by_table(*v, table))
-            });
+            map_in_parallel(samples, |v| srgb_encode_by_table(v, table));
         }
         Transfer::Decode => {
             let table = code_decode_table();
-            samples.par_chunks_mut(CHUNK).for_each(|chunk| {
-                chunk
-                    .iter_mut()
-                    .for_each(|v| *v = srgb_decode_by_table(*v, table))
-            });
+            map_in_parallel(samples, |v| srgb_decode_by_table(v, table));
         }
     }
+}
+
+/// Replaces every sample by `f` of it, in parallel chunks large enough that scheduling costs nothing
+/// next to the work.
+fn map_in_parallel(samples: &mut [f32], f: impl Fn(f32) -> f32 + Sync) {
+    const CHUNK: usize = 1 << 16;
+    samples
+        .par_chunks_mut(CHUNK)
+        .for_each(|chunk| chunk.iter_mut().for_each(|v| *v = f(*v)));
 }
 
 /// Largest code of 16-bit samples; the decoding table's last index.

@@ -142,7 +142,7 @@ pub(super) fn encode(path: &Path, image: &Planar, depth: SampleDepth, raster: Ra
         SampleDepth::Eight => 8,
         SampleDepth::Sixteen => 16,
     };
-    let bytes = interleaved_codes(image, bits)
+    let bytes = interleaved_codes(image, bits, max_code(bits)?)
         .ok_or_else(|| encode_error("NaN or infinite sample cannot be stored as an integer".into()))?;
     let colour = colour_type(image.channels, depth);
     write_atomically(path, format.name(), |sink| {
@@ -172,12 +172,11 @@ fn colour_type(channels: usize, depth: SampleDepth) -> ExtendedColorType {
     }
 }
 
-/// The integer codes of `image` (8 or 16 `bits`) in pixel-interleaved order as the image encoders take
+/// The integer codes of `image` (8 or 16 `bits`, codes up to `max`) in pixel-interleaved order as the image encoders take
 /// them (16-bit codes as native-endian bytes), row by row in parallel; `None` when a sample is NaN or
 /// infinite.
-fn interleaved_codes(image: &Planar, bits: u8) -> Option<Vec<u8>> {
+fn interleaved_codes(image: &Planar, bits: u8, max: u32) -> Option<Vec<u8>> {
     use rayon::prelude::*;
-    let max = max_code(bits).ok()?;
     let (n, channels) = (image.pixels(), image.channels);
     let bytes_per_sample = usize::from(bits / 8);
     let row_bytes = image.width * channels * bytes_per_sample;
