@@ -62,6 +62,9 @@ pub enum Command {
     Gpu(GpuCommand),
     /// Automatic lens design (spherical and aspheric) into a lens library; resumes an existing one.
     Design(DesignArgs),
+    /// Monte Carlo tolerancing: units built within a tolerance file's limits, refocused and graded over
+    /// the whole field; yields and their curves (docs/tolerancing.md). Resumes its --out folder.
+    Tolerance(ToleranceArgs),
     /// Benchmark restoration models (ONNX, docs/models.md) and classical methods on a dataset's test split.
     Bench(BenchArgs),
     /// PSNR, SSIM and LPIPS (pyiqa's defaults) of one image pair or two folders matched by file name.
@@ -591,6 +594,32 @@ pub struct RaySelection {
     /// auto (real where the lens's pupil is aberrated), paraxial or real (docs/conventions.md).
     #[arg(long, default_value = "auto", value_parser = parse_aiming)]
     pub aim: Aiming,
+}
+
+#[derive(Args)]
+pub struct ToleranceArgs {
+    #[command(flatten)]
+    pub lens: LensArg,
+    /// Tolerance file (JSON: the +- limit of each error kind, distribution, compensator).
+    #[arg(long, value_name = "TOL.json")]
+    pub spec: PathBuf,
+    /// Built units to draw (at most 100000); a larger count on a finished folder adds trials.
+    #[arg(long, default_value_t = 200)]
+    pub trials: usize,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Run folder: run.json, trials.jsonl, summary.json and yield.png (resumed when it holds this run).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Pupil grid of the RMS criterion (8 to 256 cells per axis).
+    #[arg(long, default_value_t = unicac_tolerance::evaluate::DEFAULT_PUPIL_GRID)]
+    pub pupil_grid: usize,
+    /// Frequencies (cycles/mm, comma-separated) of the MTF graded per unit (y-axis field points).
+    #[arg(long, value_delimiter = ',', value_name = "CY_MM")]
+    pub mtf_cy_mm: Vec<f64>,
+    /// Print the summary as JSON (what summary.json holds).
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Args)]

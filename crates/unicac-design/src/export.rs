@@ -109,6 +109,9 @@ pub fn from_lens(lens: &Lens) -> Result<Prescription<f64>> {
                     Medium::Air => Material::Air,
                     Medium::Model { nd, vd } => Material::Model { nd: *nd, vd: *vd },
                     Medium::Catalog(g) => Material::Catalog(g.clone()),
+                    Medium::Offset { .. } => {
+                        return Err(unsupported("a glass with an index offset (a toleranced lens)"))
+                    }
                 },
                 is_stop: i == lens.stop_index,
             })

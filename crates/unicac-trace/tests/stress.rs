@@ -183,6 +183,7 @@ fn reversed(lens: &Lens) -> Lens {
         unicac_optics::Medium::Model { nd, vd } => Some(MaterialSpec::Model { nd: *nd, vd: *vd }),
         unicac_optics::Medium::Air => None,
         unicac_optics::Medium::Catalog(g) => Some(MaterialSpec::Named(g.qualified_name())),
+        other => panic!("no spec form for {other:?}"),
     };
     let mut surfaces: Vec<SurfaceSpec> = optical
         .iter()

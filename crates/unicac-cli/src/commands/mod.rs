@@ -15,6 +15,7 @@ mod ode;
 mod psf;
 mod simulate;
 mod spot;
+mod tolerance;
 mod trace;
 
 use crate::args::{AnalysisCommand, Command, DatasetCommand, LensCommand};
@@ -42,6 +43,7 @@ pub fn run(command: Command, host: &crate::Host) -> Result<()> {
         Command::Analysis(AnalysisCommand::EncircledEnergy(args)) => analysis::encircled_energy(&args),
         Command::Gpu(command) => gpu::run(&command),
         Command::Design(args) => design::run(&args),
+        Command::Tolerance(args) => tolerance::run(&args),
         Command::Bench(args) => bench::run(&args, host),
         Command::Metrics(args) => bench::metrics(&args, host),
         Command::Weights(command) => bench::weights(&command, host),

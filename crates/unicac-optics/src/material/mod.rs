@@ -21,7 +21,16 @@ pub const VISIBLE_BAND_UM: [f64; 2] = [0.4, 0.7];
 pub enum Medium {
     Air,
     Catalog(Arc<Glass>),
-    Model { nd: f64, vd: f64 },
+    Model {
+        nd: f64,
+        vd: f64,
+    },
+    /// A glass whose index departs from its nominal one by `delta_n` at every wavelength (a melt's
+    /// index error, as tolerancing draws it: the dispersion is kept).
+    Offset {
+        base: Box<Medium>,
+        delta_n: f64,
+    },
 }
 
 impl Medium {
@@ -30,6 +39,7 @@ impl Medium {
         match self {
             Medium::Air => Ok(1.0),
             Medium::Model { nd, vd } => Ok(model_glass_index(*nd, *vd, wavelength_um)),
+            Medium::Offset { base, delta_n } => Ok(base.index(wavelength_um)? + delta_n),
             Medium::Catalog(glass) => {
                 let [lo, hi] = glass.wavelength_range_um;
                 if !glass.covers_um([wavelength_um, wavelength_um]) {
@@ -55,6 +65,7 @@ impl Medium {
             Medium::Air => "AIR".into(),
             Medium::Catalog(g) => g.name.clone(),
             Medium::Model { nd, vd } => format!("{nd:.4}/{vd:.1}"),
+            Medium::Offset { base, delta_n } => format!("{}{delta_n:+.5}", base.label()),
         }
     }
 }

@@ -1,0 +1,131 @@
+//! `unicac tolerance`: Monte Carlo tolerancing into a resumable folder, with the yield curves drawn.
+
+use super::{flag_error, print_json, progress};
+use crate::args::ToleranceArgs;
+use crate::lens_input::load_spec;
+use anyhow::{Context, Result};
+use unicac_optics::Lens;
+use unicac_plot::{line_panels, Line, LineColour, LinePanel};
+use unicac_tolerance::{
+    run_folder, Better, Grading, MonteCarlo, Statistic, Summary, ToleranceError, ToleranceSpec,
+};
+
+/// Largest tolerance file read.
+const MAX_SPEC_BYTES: u64 = 1 << 20;
+const PLOT_FILE: &str = "yield.png";
+
+pub fn run(args: &ToleranceArgs) -> Result<()> {
+    let mut plan = crate::outputs::plan(Some(&args.lens.lens));
+    plan.input(&args.spec);
+    for path in unicac_tolerance::run::outputs(&args.out) {
+        plan.output("--out", path);
+    }
+    plan.output("--out", args.out.join(PLOT_FILE));
+    plan.check()?;
+    let bytes = unicac_io::read_capped(&args.spec, MAX_SPEC_BYTES, "MAX_SPEC_BYTES")
+        .with_context(|| format!("--spec {}", args.spec.display()))?;
+    let text = String::from_utf8(bytes)
+        .with_context(|| format!("--spec {}: not UTF-8 text", args.spec.display()))?;
+    let spec = ToleranceSpec::from_json(&text).with_context(|| format!("--spec {}", args.spec.display()))?;
+    let lens_spec = load_spec(&args.lens.lens)?;
+    let lens = Lens::from_spec(&lens_spec).with_context(|| args.lens.lens.clone())?;
+    // The lens's identity is its JSON form's hash: a .zmx and its .json conversion are one lens.
+    let identity = unicac_io::digest::sha256_hex(serde_json::to_string(&lens_spec)?.as_bytes());
+    let grading = Grading {
+        compensator: spec.compensator,
+        pupil_grid: args.pupil_grid,
+        mtf_frequencies_cy_mm: args.mtf_cy_mm.clone(),
+    };
+    let bar = progress(args.trials, "units");
+    let request = MonteCarlo {
+        lens_identity: identity,
+        spec,
+        grading,
+        seed: args.seed,
+        trials: args.trials,
+    };
+    let summary = run_folder(&lens, &request, &args.out, &mut |done, _| {
+        bar.set_position(done as u64)
+    })
+    .map_err(|e| match e {
+        ToleranceError::InvalidParameter(p) => flag_error(p),
+        other => anyhow::Error::new(other).context(format!("--out {}", args.out.display())),
+    })?;
+    bar.finish_and_clear();
+    let plot = args.out.join(PLOT_FILE);
+    draw_yields(&summary, &args.lens.lens, &plot)?;
+    if args.json {
+        return print_json(&summary);
+    }
+    print_table(&summary);
+    eprintln!(
+        "wrote {} and {}",
+        args.out.join(unicac_tolerance::run::SUMMARY_FILE).display(),
+        plot.display()
+    );
+    Ok(())
+}
+
+fn print_table(summary: &Summary) {
+    println!(
+        "{} units ({} could not be graded), seed {}; the value met by each share of units:",
+        summary.trials, summary.failed, summary.record.seed
+    );
+    println!(
+        "{:<28} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
+        "metric", "nominal", "mean", "50%", "80%", "90%", "98%"
+    );
+    for s in &summary.statistics {
+        println!(
+            "{:<28} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4}",
+            s.metric, s.nominal, s.mean, s.met_by_50, s.met_by_80, s.met_by_90, s.met_by_98
+        );
+    }
+}
+
+/// One panel per metric: the share of units meeting each value, with the nominal lens's value.
+fn draw_yields(summary: &Summary, lens: &str, path: &std::path::Path) -> Result<()> {
+    let panels: Vec<LinePanel> = summary
+        .statistics
+        .iter()
+        .filter(|s| !s.yield_curve.is_empty())
+        .map(panel)
+        .collect();
+    if panels.is_empty() {
+        return Ok(());
+    }
+    let title = format!("{lens}: {} units as built", summary.trials);
+    line_panels(&title, &panels, path)?;
+    Ok(())
+}
+
+fn panel(statistic: &Statistic) -> LinePanel {
+    let n = statistic.yield_curve.len() as f64;
+    let shares: Vec<f64> = (1..=statistic.yield_curve.len()).map(|k| k as f64 / n).collect();
+    let bound = match statistic.better {
+        Better::Lower => "at most",
+        Better::Higher => "at least",
+    };
+    LinePanel {
+        caption: statistic.metric.clone(),
+        x_desc: statistic.metric.clone(),
+        y_desc: format!("share of units {bound} x"),
+        y_range: Some((0.0, 1.0)),
+        lines: vec![
+            Line {
+                label: "built units".into(),
+                x: statistic.yield_curve.clone(),
+                y: shares,
+                colour: LineColour::Series { rank: 0, series: 1 },
+                dashed: false,
+            },
+            Line {
+                label: "nominal".into(),
+                x: vec![statistic.nominal; 2],
+                y: vec![0.0, 1.0],
+                colour: LineColour::Reference,
+                dashed: true,
+            },
+        ],
+    }
+}

@@ -1,0 +1,22 @@
+//! # unicac-tolerance
+//!
+//! Monte Carlo tolerancing, as lens designers do it (Zemax, CODE V, optiland's tolerancing module):
+//! draw manufacturing errors within stated limits (`spec`: radius, thickness, surface and element
+//! decentre and tilt, index), build the unit (`perturb`: the lens model's per-surface placements, the
+//! axial stack, index offsets), compensate focus and grade it over the whole field (`evaluate`), and
+//! gather yields over many units (`run`, resumable in a folder). Conventions in docs/tolerancing.md.
+//!
+//! Written here rather than borrowed: no Rust crate tolerances lenses, and the draws, the build and
+//! the grading are the product's own (on unicac's lens model, tracer and aiming).
+
+pub mod error;
+pub mod evaluate;
+pub mod perturb;
+pub mod run;
+pub mod spec;
+
+pub use error::{ToleranceError, ToleranceResult};
+pub use evaluate::{field_points, score, FieldPoint, Grading, Score};
+pub use perturb::{apply, draw, elements, Change, ChangeKind};
+pub use run::{run_folder, run_trial, Better, MonteCarlo, RunRecord, Statistic, Summary, Trial, MAX_TRIALS};
+pub use spec::{Compensator, Distribution, ToleranceSpec};

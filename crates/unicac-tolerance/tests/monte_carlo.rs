@@ -1,0 +1,218 @@
+//! Tolerancing checked against direct traces and geometry, and its run folder against kills.
+
+use unicac_analysis::refocused;
+use unicac_optics::{builtin, Lens};
+use unicac_tolerance::{
+    apply, elements, field_points, run_folder, score, Change, ChangeKind, Compensator, FieldPoint, Grading,
+    MonteCarlo, ToleranceError, ToleranceSpec,
+};
+use unicac_trace::{spots, Aiming, PupilSampling};
+
+fn cooke() -> Lens {
+    builtin::lens("cooke_triplet").expect("builtin lens")
+}
+
+fn grading(compensator: Compensator) -> Grading {
+    Grading {
+        compensator,
+        pupil_grid: 16,
+        mtf_frequencies_cy_mm: Vec::new(),
+    }
+}
+
+fn change(kind: ChangeKind, surfaces: [usize; 2], value: f64) -> Change {
+    Change {
+        kind,
+        surfaces,
+        value,
+    }
+}
+
+#[test]
+fn the_nominal_score_is_the_polychromatic_rms_of_a_direct_trace() {
+    let lens = cooke();
+    let points = field_points(&lens).unwrap();
+    let scored = score(&lens, &points, &grading(Compensator::None)).unwrap();
+    assert_eq!(scored.focus_shift_mm, 0.0);
+    let wavelengths = lens.wavelengths_um();
+    let weights: Vec<f64> = lens.wavelengths.iter().map(|w| w.weight).collect();
+    for (point, &rms) in points.iter().zip(&scored.rms_um) {
+        let [x, y] = point.field_deg;
+        // The rotationally symmetric lens: an x field is the y field turned by 90 degrees.
+        let field = if x != 0.0 { x.abs() } else { y.abs() };
+        let spot = spots(
+            &lens,
+            &[field],
+            &wavelengths,
+            Aiming::Real,
+            &PupilSampling::Grid { n: 16 },
+        )
+        .unwrap();
+        let mut sum = [0.0; 3];
+        let mut centroid = [0.0; 2];
+        let mut total = 0.0;
+        for (s, w) in spot.iter().zip(&weights) {
+            let per_ray = w / s.points_mm.len() as f64;
+            for p in &s.points_mm {
+                centroid[0] += per_ray * p[0];
+                centroid[1] += per_ray * p[1];
+                total += per_ray;
+            }
+        }
+        centroid = centroid.map(|c| c / total);
+        for (s, w) in spot.iter().zip(&weights) {
+            let per_ray = w / s.points_mm.len() as f64;
+            for p in &s.points_mm {
+                sum[0] += per_ray * ((p[0] - centroid[0]).powi(2) + (p[1] - centroid[1]).powi(2));
+            }
+        }
+        let expected = (sum[0] / total).sqrt() * 1e3;
+        assert!(
+            (rms / expected - 1.0).abs() < 1e-9,
+            "field {:?}: {rms} against {expected}",
+            point.field_deg
+        );
+    }
+}
+
+#[test]
+fn the_solved_focus_is_the_traced_optimum() {
+    let lens = cooke();
+    let unit = apply(
+        &lens,
+        &[
+            change(ChangeKind::Thickness, [2, 2], 0.04),
+            change(ChangeKind::ElementDecentreY, [3, 4], 0.02),
+            change(ChangeKind::Radius, [5, 5], -0.003),
+        ],
+    );
+    let points = field_points(&lens).unwrap();
+    let solved = score(&unit, &points, &grading(Compensator::BackFocus)).unwrap();
+    assert!(solved.focus_shift_mm.abs() > 1e-3, "the unit needs refocusing");
+    let traced = |shift: f64| {
+        score(&refocused(&unit, shift), &points, &grading(Compensator::None))
+            .unwrap()
+            .rms_um
+    };
+    // The criterion: the weighted mean of squared RMS radii.
+    let criterion = |rms: &[f64]| points.iter().zip(rms).map(|(p, r)| p.weight * r * r).sum::<f64>();
+    let at_solution = traced(solved.focus_shift_mm);
+    for (a, b) in at_solution.iter().zip(&solved.rms_um) {
+        assert!((a / b - 1.0).abs() < 1e-9, "{a} against {b}");
+    }
+    for step in [-0.01, 0.01] {
+        assert!(criterion(&traced(solved.focus_shift_mm + step)) > criterion(&at_solution));
+    }
+}
+
+#[test]
+fn an_element_moves_as_a_rigid_body_about_its_front_vertex() {
+    let lens = cooke();
+    let [first, last] = elements(&lens)[0];
+    assert_eq!(
+        [first, last],
+        [0, 1],
+        "the Cooke triplet's first element is surfaces 1-2"
+    );
+    let theta_deg: f64 = 0.5;
+    let unit = apply(&lens, &[change(ChangeKind::ElementTiltX, [1, 2], theta_deg)]);
+    let thickness = lens.surfaces[0].thickness_mm;
+    let back = &unit.surfaces[1];
+    let theta = theta_deg.to_radians();
+    // Tilting about x by +theta turns the local z axis towards -y.
+    assert!((back.placement.decentre_y_mm + thickness * theta.sin()).abs() < 1e-12);
+    assert!((back.z_mm - thickness * theta.cos()).abs() < 1e-12);
+    assert!((back.placement.tilt_x_deg - theta_deg).abs() < 1e-12);
+    assert!((unit.surfaces[0].placement.tilt_x_deg - theta_deg).abs() < 1e-12);
+    // The surfaces after the element and the image keep their places.
+    for (a, b) in unit.surfaces[2..].iter().zip(&lens.surfaces[2..]) {
+        assert_eq!((a.z_mm, a.placement), (b.z_mm, b.placement));
+    }
+    let decentred = apply(&lens, &[change(ChangeKind::ElementDecentreX, [1, 2], 0.03)]);
+    assert!(decentred.surfaces[..2]
+        .iter()
+        .all(|s| s.placement.decentre_x_mm == 0.03));
+    // A thickness error moves every later vertex but the image.
+    let thicker = apply(&lens, &[change(ChangeKind::Thickness, [1, 1], 0.05)]);
+    let image = lens.image_index();
+    for i in 1..image {
+        assert!((thicker.surfaces[i].z_mm - lens.surfaces[i].z_mm - 0.05).abs() < 1e-12);
+    }
+    assert_eq!(thicker.surfaces[image].z_mm, lens.surfaces[image].z_mm);
+    assert!(
+        (thicker.surfaces[image - 1].thickness_mm - lens.surfaces[image - 1].thickness_mm + 0.05).abs()
+            < 1e-12
+    );
+}
+
+#[test]
+fn a_unit_decentred_in_y_grades_the_x_fields_alike_and_the_y_fields_apart() {
+    let lens = cooke();
+    let unit = apply(&lens, &[change(ChangeKind::ElementDecentreY, [3, 4], 0.05)]);
+    let points = field_points(&lens).unwrap();
+    let scored = score(&unit, &points, &grading(Compensator::BackFocus)).unwrap();
+    let rms_at = |field: [f64; 2]| {
+        let i = points
+            .iter()
+            .position(|p: &FieldPoint| p.field_deg == field)
+            .unwrap();
+        scored.rms_um[i]
+    };
+    let f = points.last().unwrap().field_deg[0].abs();
+    assert!((rms_at([f, 0.0]) / rms_at([-f, 0.0]) - 1.0).abs() < 1e-9);
+    assert!((rms_at([0.0, f]) / rms_at([0.0, -f]) - 1.0).abs() > 1e-3);
+    assert!(
+        scored.boresight_um > 1.0,
+        "a decentred element moves the on-axis image"
+    );
+}
+
+#[test]
+fn a_killed_run_resumes_to_the_same_bytes_and_a_foreign_folder_is_refused() {
+    let lens = cooke();
+    let spec = ToleranceSpec::from_json(
+        r#"{"radius_fraction": 0.002, "thickness_mm": 0.05, "element_decentre_mm": 0.025,
+            "element_tilt_deg": 0.05, "index": 0.001}"#,
+    )
+    .unwrap();
+    let grading = grading(Compensator::BackFocus);
+    let dir = tempfile::tempdir().unwrap();
+    let (whole, resumed) = (dir.path().join("whole"), dir.path().join("resumed"));
+    let run = |folder: &std::path::Path, trials: usize, seed: u64| {
+        let request = MonteCarlo {
+            lens_identity: "cooke".into(),
+            spec: spec.clone(),
+            grading: grading.clone(),
+            seed,
+            trials,
+        };
+        run_folder(&lens, &request, folder, &mut |_, _| {})
+    };
+    let summary = run(&whole, 6, 3).unwrap();
+    assert_eq!((summary.trials, summary.failed), (6, 0));
+    run(&resumed, 3, 3).unwrap();
+    // A kill in the middle of a line.
+    let trials = resumed.join("trials.jsonl");
+    let mut text = std::fs::read_to_string(&trials).unwrap();
+    text.push_str(r#"{"trial":3,"score":{"focus_sh"#);
+    std::fs::write(&trials, text).unwrap();
+    let resumed_summary = run(&resumed, 6, 3).unwrap();
+    assert_eq!(
+        std::fs::read(whole.join("trials.jsonl")).unwrap(),
+        std::fs::read(&trials).unwrap()
+    );
+    assert_eq!(resumed_summary, summary);
+    // Units differ from one another, and every metric's yield curve is ordered best first.
+    let rms = &summary.statistics[0];
+    assert_eq!(rms.metric, "rms_mean_um");
+    assert!(rms.yield_curve.windows(2).all(|w| w[0] <= w[1]) && rms.std > 0.0);
+    assert!(rms.met_by_50 <= rms.met_by_90 && rms.met_by_90 <= rms.met_by_98);
+    match run(&resumed, 6, 4) {
+        Err(ToleranceError::Folder { reason, .. }) => assert!(reason.contains("seed"), "{reason}"),
+        other => panic!("another seed must be refused: {other:?}"),
+    }
+    let foreign = dir.path().join("foreign");
+    std::fs::create_dir(&foreign).unwrap();
+    std::fs::write(foreign.join("notes.txt"), "mine").unwrap();
+    assert!(matches!(run(&foreign, 2, 3), Err(ToleranceError::Folder { .. })));
+}
