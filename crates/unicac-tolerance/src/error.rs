@@ -8,9 +8,9 @@ use unicac_trace::{InvalidParameter, TraceError};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ToleranceError {
-    /// A field of the tolerance file out of its range, by its name in the file.
-    #[error("tolerance file: {field}: {reason}")]
-    InvalidSpec { field: String, reason: String },
+    /// The tolerance file, or one of its fields (by its name in the file), is wrong.
+    #[error("tolerance file: {}{reason}", field.as_ref().map(|f| format!("field {f}: ")).unwrap_or_default())]
+    InvalidSpec { field: Option<String>, reason: String },
     /// A setting of the run out of its range, by its library name (`trials`, `pupil_grid`, ...).
     #[error(transparent)]
     InvalidParameter(#[from] InvalidParameter),

@@ -27,7 +27,6 @@ pub const MAX_MTF_FREQUENCIES: usize = 16;
 /// How each unit is graded.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Grading {
-    pub compensator: Compensator,
     /// Pupil grid of the RMS criterion.
     pub pupil_grid: usize,
     /// Frequencies (cycles/mm) of the MTF (diffraction, tangential and sagittal) at the y-axis field
@@ -38,7 +37,6 @@ pub struct Grading {
 impl Default for Grading {
     fn default() -> Self {
         Grading {
-            compensator: Compensator::BackFocus,
             pupil_grid: DEFAULT_PUPIL_GRID,
             mtf_frequencies_cy_mm: Vec::new(),
         }
@@ -183,12 +181,15 @@ impl Quadratic {
     }
 }
 
-/// Grades `lens` (a built unit, or the nominal lens) at `points`.
-pub fn score(lens: &Lens, points: &[FieldPoint], grading: &Grading) -> ToleranceResult<Score> {
+/// Grades `lens` (a built unit, or the nominal lens) at `points`, after `compensator`.
+pub fn score(
+    lens: &Lens,
+    points: &[FieldPoint],
+    grading: &Grading,
+    compensator: Compensator,
+) -> ToleranceResult<Score> {
     let image = &lens.surfaces[lens.image_index()];
-    if grading.compensator == Compensator::BackFocus
-        && !(image.profile.is_plane() && image.placement.is_centred())
-    {
+    if compensator == Compensator::BackFocus && !(image.profile.is_plane() && image.placement.is_centred()) {
         return Err(ToleranceError::Unsupported(
             "the back-focus compensator needs a plane image surface square to the axis".into(),
         ));
@@ -245,7 +246,7 @@ pub fn score(lens: &Lens, points: &[FieldPoint], grading: &Grading) -> Tolerance
         })?;
         quadratics.push(quadratic);
     }
-    let focus_shift_mm = match grading.compensator {
+    let focus_shift_mm = match compensator {
         Compensator::None => 0.0,
         Compensator::BackFocus => {
             let (b, c) = points.iter().zip(&quadratics).fold((0.0, 0.0), |(b, c), (p, q)| {

@@ -52,7 +52,12 @@ pub struct Trial {
 pub fn run_trial(nominal: &Lens, record: &RunRecord, trial: u64) -> Trial {
     let changes = draw(nominal, &record.spec, record.seed, trial);
     let built = apply(nominal, &changes);
-    let graded = score(&built, &record.field_points, &record.grading);
+    let graded = score(
+        &built,
+        &record.field_points,
+        &record.grading,
+        record.spec.compensator,
+    );
     Trial {
         trial,
         failure: graded.as_ref().err().map(ToString::to_string),
@@ -107,7 +112,13 @@ pub fn run_folder(
         field_points: field_points(nominal)?,
     };
     // The nominal lens first: a lens that cannot be graded stops the run before any trial.
-    let nominal_score = score(nominal, &record.field_points, grading)?;
+    let nominal_score = score(nominal, &record.field_points, grading, spec.compensator)?;
+    if folder.exists() && !folder.is_dir() {
+        return Err(ToleranceError::Folder {
+            folder: folder.to_path_buf(),
+            reason: "is a file; the run needs a folder".into(),
+        });
+    }
     std::fs::create_dir_all(folder).map_err(ToleranceError::io(folder))?;
     adopt_record(folder, &record)?;
     let trials_path = folder.join(TRIALS_FILE);

@@ -72,7 +72,7 @@ impl ToleranceSpec {
     /// Reads and checks a tolerance file; every error names the file and the field.
     pub fn from_json(text: &str) -> ToleranceResult<ToleranceSpec> {
         let spec: ToleranceSpec = serde_json::from_str(text).map_err(|e| ToleranceError::InvalidSpec {
-            field: "(file)".into(),
+            field: None,
             reason: e.to_string(),
         })?;
         spec.check()?;
@@ -84,14 +84,14 @@ impl ToleranceSpec {
         for (field, value, max) in self.limits() {
             if !(value.is_finite() && (0.0..=max).contains(&value)) {
                 return Err(ToleranceError::InvalidSpec {
-                    field: field.into(),
+                    field: Some(field.into()),
                     reason: format!("{value}: must lie between 0 and {max}"),
                 });
             }
         }
         if self.limits().iter().all(|(_, value, _)| *value == 0.0) {
             return Err(ToleranceError::InvalidSpec {
-                field: "(file)".into(),
+                field: None,
                 reason: "every limit is 0: give at least one of radius_fraction, thickness_mm, \
                          surface_decentre_mm, surface_tilt_deg, element_decentre_mm, element_tilt_deg, index"
                     .into(),

@@ -12,9 +12,8 @@ fn cooke() -> Lens {
     builtin::lens("cooke_triplet").expect("builtin lens")
 }
 
-fn grading(compensator: Compensator) -> Grading {
+fn grading() -> Grading {
     Grading {
-        compensator,
         pupil_grid: 16,
         mtf_frequencies_cy_mm: Vec::new(),
     }
@@ -32,7 +31,7 @@ fn change(kind: ChangeKind, surfaces: [usize; 2], value: f64) -> Change {
 fn the_nominal_score_is_the_polychromatic_rms_of_a_direct_trace() {
     let lens = cooke();
     let points = field_points(&lens).unwrap();
-    let scored = score(&lens, &points, &grading(Compensator::None)).unwrap();
+    let scored = score(&lens, &points, &grading(), Compensator::None).unwrap();
     assert_eq!(scored.focus_shift_mm, 0.0);
     let wavelengths = lens.wavelengths_um();
     let weights: Vec<f64> = lens.wavelengths.iter().map(|w| w.weight).collect();
@@ -87,10 +86,10 @@ fn the_solved_focus_is_the_traced_optimum() {
         ],
     );
     let points = field_points(&lens).unwrap();
-    let solved = score(&unit, &points, &grading(Compensator::BackFocus)).unwrap();
+    let solved = score(&unit, &points, &grading(), Compensator::BackFocus).unwrap();
     assert!(solved.focus_shift_mm.abs() > 1e-3, "the unit needs refocusing");
     let traced = |shift: f64| {
-        score(&refocused(&unit, shift), &points, &grading(Compensator::None))
+        score(&refocused(&unit, shift), &points, &grading(), Compensator::None)
             .unwrap()
             .rms_um
     };
@@ -150,7 +149,7 @@ fn a_unit_decentred_in_y_grades_the_x_fields_alike_and_the_y_fields_apart() {
     let lens = cooke();
     let unit = apply(&lens, &[change(ChangeKind::ElementDecentreY, [3, 4], 0.05)]);
     let points = field_points(&lens).unwrap();
-    let scored = score(&unit, &points, &grading(Compensator::BackFocus)).unwrap();
+    let scored = score(&unit, &points, &grading(), Compensator::BackFocus).unwrap();
     let rms_at = |field: [f64; 2]| {
         let i = points
             .iter()
@@ -175,7 +174,7 @@ fn a_killed_run_resumes_to_the_same_bytes_and_a_foreign_folder_is_refused() {
             "element_tilt_deg": 0.05, "index": 0.001}"#,
     )
     .unwrap();
-    let grading = grading(Compensator::BackFocus);
+    let grading = grading();
     let dir = tempfile::tempdir().unwrap();
     let (whole, resumed) = (dir.path().join("whole"), dir.path().join("resumed"));
     let run = |folder: &std::path::Path, trials: usize, seed: u64| {

@@ -1,6 +1,6 @@
 //! `unicac tolerance`: Monte Carlo tolerancing into a resumable folder, with the yield curves drawn.
 
-use super::{flag_error, print_json, progress};
+use super::{flag_error, named_flag_error, print_json, progress};
 use crate::args::ToleranceArgs;
 use crate::lens_input::load_spec;
 use anyhow::{Context, Result};
@@ -32,7 +32,6 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
     // The lens's identity is its JSON form's hash: a .zmx and its .json conversion are one lens.
     let identity = unicac_io::digest::sha256_hex(serde_json::to_string(&lens_spec)?.as_bytes());
     let grading = Grading {
-        compensator: spec.compensator,
         pupil_grid: args.pupil_grid,
         mtf_frequencies_cy_mm: args.mtf_cy_mm.clone(),
     };
@@ -48,6 +47,9 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         bar.set_position(done as u64)
     })
     .map_err(|e| match e {
+        ToleranceError::InvalidParameter(p) if p.field == "mtf_frequencies_cy_mm" => {
+            named_flag_error("--mtf-cy-mm", p)
+        }
         ToleranceError::InvalidParameter(p) => flag_error(p),
         other => anyhow::Error::new(other).context(format!("--out {}", args.out.display())),
     })?;
