@@ -53,6 +53,7 @@ fn shrink(args: &[&str], scratch: &Path) -> Vec<String> {
             (Some("--size"), _) => "256x192".to_string(),
             (Some("--time-budget-s"), _) => "3".to_string(),
             (Some("--count"), _) => "1".to_string(),
+            (Some("--trials"), _) => "4".to_string(),
             (Some("--images"), _) => "dead-leaves:2:80x60".to_string(),
             (Some("--test-images"), _) => "dead-leaves:1:64x48".to_string(),
             (Some("--crop"), _) => "32x24".to_string(),
@@ -60,7 +61,7 @@ fn shrink(args: &[&str], scratch: &Path) -> Vec<String> {
                 let (name, path) = a.split_once('=').unwrap();
                 format!("{name}={}", Path::new(ROOT).join(path).display())
             }
-            (_, a) if a.starts_with("lenses/") || a.starts_with("models/") => {
+            (_, a) if ["lenses/", "models/", "docs/"].iter().any(|p| a.starts_with(p)) => {
                 Path::new(ROOT).join(a).display().to_string()
             }
             (_, a) if a.starts_with("/tmp/") => scratch.join(&a[5..]).display().to_string(),
