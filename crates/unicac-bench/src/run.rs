@@ -472,13 +472,13 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
                 Some(net) => fid = Some(net),
                 None => unavailable(
                     Metric::Fid,
-                    format!("no {} in --weights-dir", crate::fid::FID_NETWORK),
+                    format!("no {} in the weights folder", crate::fid::FID_NETWORK),
                     &mut notices,
                 )?,
             },
             _ => unavailable(
                 Metric::Fid,
-                "needs --weights-dir with fid/inception.onnx and onnxruntime".into(),
+                "needs a weights folder holding fid/inception.onnx, and onnxruntime".into(),
                 &mut notices,
             )?,
         }
@@ -490,7 +490,7 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
                 None => unavailable(
                     Metric::ClipIqa,
                     format!(
-                        "no {} and {} in --weights-dir",
+                        "no {} and {} in the weights folder",
                         crate::clipiqa::CLIPIQA_ENCODER,
                         crate::clipiqa::CLIPIQA_PROMPTS
                     ),
@@ -499,7 +499,7 @@ pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<P
             },
             _ => unavailable(
                 Metric::ClipIqa,
-                "needs --weights-dir with clipiqa/ weights and onnxruntime".into(),
+                "needs a weights folder holding the clipiqa/ weights, and onnxruntime".into(),
                 &mut notices,
             )?,
         }

@@ -81,18 +81,26 @@ pub fn check(dir: &Path) -> Result<()> {
     // A symlink to a folder is followed (the plan compared its target with the inputs).
     let is_dir = metadata.is_dir() || std::fs::metadata(dir).is_ok_and(|m| m.is_dir());
     if !is_dir {
-        return Err(BenchError::InvalidInput(format!(
-            "--out {}: exists and is not a folder; give a new folder, an empty one or a previous report",
-            dir.display()
-        )));
+        return Err(unicac_trace::InvalidParameter::new(
+            "out",
+            format!(
+                "{}: exists and is not a folder; give a new folder, an empty one or a previous report",
+                dir.display()
+            ),
+        )
+        .into());
     }
     if let Some(foreign) = foreign_entry(dir)? {
-        return Err(BenchError::InvalidInput(format!(
-            "--out {}: holds {}, which is not part of a bench report; give a new folder, an empty one or \
-             a previous report (whose files are replaced)",
-            dir.display(),
-            foreign.display()
-        )));
+        return Err(unicac_trace::InvalidParameter::new(
+            "out",
+            format!(
+                "{}: holds {}, which is not part of a bench report; give a new folder, an empty one or \
+                 a previous report (whose files are replaced)",
+                dir.display(),
+                foreign.display()
+            ),
+        )
+        .into());
     }
     Ok(())
 }
