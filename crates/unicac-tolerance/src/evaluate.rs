@@ -3,7 +3,9 @@
 //!
 //! A built unit is not rotationally symmetric, so one azimuth does not stand for the others: every
 //! non-zero field of the lens file is graded at four azimuths (+y, -y, +x, -x), each with a quarter of
-//! its weight, and the axis once. Rays are aimed for real (the paraxial pupil is the nominal lens's).
+//! its weight, and the axis once. Rays are aimed for real; the stop radius they aim at is the unit's own
+//! paraxial one (its centred system: radius, thickness and index errors move it), as the entrance pupil
+//! diameter of the lens file holds for every unit.
 //!
 //! The back-focus compensator is solved, not searched: on a plane image surface every ray's intercept
 //! moves linearly with the image's axial shift s (x + s dx/dz), so each field's squared RMS radius
