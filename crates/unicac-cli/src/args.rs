@@ -617,6 +617,10 @@ pub struct ToleranceArgs {
     /// Frequencies (cycles/mm, comma-separated) of the MTF graded per unit (y-axis field points).
     #[arg(long, value_delimiter = ',', value_name = "CY_MM")]
     pub mtf_cy_mm: Vec<f64>,
+    /// Run part I of N (I from 1 to N) into --out; N parts in one folder equal the single run, whose
+    /// rerun without --shard then writes the summary.
+    #[arg(long)]
+    pub shard: Option<String>,
     /// Print the summary as JSON (what summary.json holds).
     #[arg(long)]
     pub json: bool,

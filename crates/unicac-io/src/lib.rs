@@ -26,6 +26,7 @@ pub mod counter_random;
 pub mod digest;
 mod plan;
 mod read;
+pub mod shard;
 
 pub use atomic::{
     clean_stale_temporaries, clean_stale_temporaries_under, is_temporary_name, temporary_sibling,
@@ -33,3 +34,4 @@ pub use atomic::{
 };
 pub use plan::{extension_of, require_extension, OutputError, OutputPlan};
 pub use read::read_capped;
+pub use shard::Shard;

@@ -1,10 +1,12 @@
-//! A Monte Carlo run in a folder, resumable:
+//! A Monte Carlo run in a folder, resumable and shardable:
 //! - `run.json`: what the run is (lens identity, tolerance file, grading, seed, field points); a
 //!   folder made for anything else is refused, so a resumed run continues the same trials;
-//! - `trials.jsonl`: one line per finished trial, in trial order, appended and synced batch by batch.
-//!   A line cut short by a kill is dropped on resume, and the trial redone: trial t depends only on
-//!   (seed, t), so the resumed file is byte for byte the uninterrupted one;
-//! - `summary.json`: the nominal lens's score, the statistics and yields of every metric.
+//! - `trials/NNNNNN.jsonl`: chunk c holds trials 64 c .. 64 c + 63 (fewer in the last), one JSON line
+//!   each, written atomically when the chunk is done. Trial t depends only on (seed, t), so a killed
+//!   run redoes only missing chunks and ends with the bytes of an uninterrupted one, and shard I of N
+//!   (chunks c with c mod N = I - 1) can run anywhere that sees the folder;
+//! - `summary.json`: the nominal lens's score, the statistics and yields of every metric, written by
+//!   the unsharded run once every chunk is there.
 
 use crate::error::{ToleranceError, ToleranceResult};
 use crate::evaluate::{field_points, score, FieldPoint, Grading, Score};
@@ -12,8 +14,8 @@ use crate::perturb::{apply, draw, Change};
 use crate::spec::ToleranceSpec;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::io::Write;
 use std::path::{Path, PathBuf};
+use unicac_io::Shard;
 use unicac_optics::Lens;
 use unicac_trace::InvalidParameter;
 
@@ -22,8 +24,10 @@ pub const MAX_TRIALS: usize = 100_000;
 /// Version of the folder's files.
 const FORMAT: u32 = 1;
 pub const RUN_FILE: &str = "run.json";
-pub const TRIALS_FILE: &str = "trials.jsonl";
+pub const TRIALS_DIR: &str = "trials";
 pub const SUMMARY_FILE: &str = "summary.json";
+/// Trials per chunk file: the unit of resumption and of sharding (part of the folder format).
+pub const CHUNK_TRIALS: usize = 64;
 
 /// What a run is: the same record means the same trials.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -78,14 +82,16 @@ pub struct MonteCarlo {
     pub trials: usize,
 }
 
-/// Runs (or resumes) a Monte Carlo run into `folder`, reporting (done, total) after each batch;
-/// returns the summary, also written to `summary.json`.
+/// Runs (or resumes) `shard`'s part of a Monte Carlo run in `folder`, reporting (done, total) trials
+/// of the shard after each chunk. The unsharded run (`Shard::ALL`) returns the summary, also written
+/// to `summary.json`; a shard returns None (the summary needs every shard's chunks).
 pub fn run_folder(
     nominal: &Lens,
     request: &MonteCarlo,
     folder: &Path,
+    shard: Shard,
     progress: &mut dyn FnMut(usize, usize),
-) -> ToleranceResult<Summary> {
+) -> ToleranceResult<Option<Summary>> {
     let MonteCarlo {
         lens_identity,
         spec,
@@ -121,39 +127,80 @@ pub fn run_folder(
     }
     std::fs::create_dir_all(folder).map_err(ToleranceError::io(folder))?;
     adopt_record(folder, &record)?;
-    let trials_path = folder.join(TRIALS_FILE);
-    let mut done = read_trials(&trials_path)?;
-    let mut file = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&trials_path)
-        .map_err(ToleranceError::io(&trials_path))?;
-    let batch = (2 * rayon::current_num_threads()).max(4);
-    progress(done.len().min(trials), trials);
-    while done.len() < trials {
-        let next = done.len() as u64;
-        let end = (done.len() + batch).min(trials) as u64;
-        let fresh: Vec<Trial> = (next..end)
-            .into_par_iter()
-            .map(|t| run_trial(nominal, &record, t))
-            .collect();
-        let mut lines = String::new();
-        for trial in &fresh {
-            lines.push_str(&serde_json::to_string(trial).expect("a trial serialises"));
-            lines.push('\n');
+    let chunks_dir = folder.join(TRIALS_DIR);
+    std::fs::create_dir_all(&chunks_dir).map_err(ToleranceError::io(&chunks_dir))?;
+    // A killed writer's half-written chunk (its temporary) goes; a live shard's stays.
+    unicac_io::clean_stale_temporaries(&chunks_dir).map_err(ToleranceError::io(&chunks_dir))?;
+    let mine: Vec<usize> = (0..trials.div_ceil(CHUNK_TRIALS))
+        .filter(|&c| shard.owns(c))
+        .collect();
+    let total: usize = mine.iter().map(|&c| chunk_range(c, trials).count()).sum();
+    let mut done = 0;
+    progress(done, total);
+    for &c in &mine {
+        let range = chunk_range(c, trials);
+        if read_chunk(folder, c, trials)?.is_none() {
+            let fresh: Vec<Trial> = range
+                .clone()
+                .into_par_iter()
+                .map(|t| run_trial(nominal, &record, t as u64))
+                .collect();
+            let mut lines = String::new();
+            for trial in &fresh {
+                lines.push_str(&serde_json::to_string(trial).expect("a trial serialises"));
+                lines.push('\n');
+            }
+            let path = chunk_path(folder, c);
+            unicac_io::write_atomically(&path, lines.as_bytes()).map_err(ToleranceError::io(&path))?;
         }
-        file.write_all(lines.as_bytes())
-            .and_then(|_| file.sync_data())
-            .map_err(ToleranceError::io(&trials_path))?;
-        done.extend(fresh);
-        progress(done.len(), trials);
+        done += range.len();
+        progress(done, total);
     }
-    done.truncate(trials);
-    let summary = Summary::of(&record, nominal_score, &done);
+    if !shard.is_all() {
+        return Ok(None);
+    }
+    let mut all = Vec::with_capacity(trials);
+    for c in 0..trials.div_ceil(CHUNK_TRIALS) {
+        all.extend(read_chunk(folder, c, trials)?.expect("every chunk was just made or found"));
+    }
+    let summary = Summary::of(&record, nominal_score, &all);
     let text = serde_json::to_string_pretty(&summary).expect("a summary serialises") + "\n";
     let summary_path = folder.join(SUMMARY_FILE);
     unicac_io::write_atomically(&summary_path, text.as_bytes()).map_err(ToleranceError::io(&summary_path))?;
-    Ok(summary)
+    Ok(Some(summary))
+}
+
+/// The trials of chunk `chunk` of a run of `trials` trials.
+fn chunk_range(chunk: usize, trials: usize) -> std::ops::Range<usize> {
+    chunk * CHUNK_TRIALS..((chunk + 1) * CHUNK_TRIALS).min(trials)
+}
+
+fn chunk_path(folder: &Path, chunk: usize) -> PathBuf {
+    folder.join(TRIALS_DIR).join(format!("{chunk:06}.jsonl"))
+}
+
+/// Chunk `chunk`'s trials when its file holds exactly them (a chunk written for a smaller run, or
+/// damaged, is None: made again).
+fn read_chunk(folder: &Path, chunk: usize, trials: usize) -> ToleranceResult<Option<Vec<Trial>>> {
+    let path = chunk_path(folder, chunk);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(ToleranceError::io(&path)(e)),
+    };
+    let expected = chunk_range(chunk, trials);
+    let parsed: Option<Vec<Trial>> = text
+        .split_terminator('\n')
+        .map(|line| serde_json::from_str::<Trial>(line).ok())
+        .collect();
+    Ok(parsed.filter(|found| {
+        text.ends_with('\n')
+            && found.len() == expected.len()
+            && found
+                .iter()
+                .zip(expected.clone())
+                .all(|(t, k)| t.trial == k as u64)
+    }))
 }
 
 /// Writes `run.json`, or checks that the folder's is this run's.
@@ -200,40 +247,6 @@ fn adopt_record(folder: &Path, record: &RunRecord) -> ToleranceResult<()> {
         }
         Err(e) => Err(ToleranceError::io(&path)(e)),
     }
-}
-
-/// The finished trials of a folder, in order; a last line cut short is cut off the file.
-fn read_trials(path: &Path) -> ToleranceResult<Vec<Trial>> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(text) => text,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(e) => return Err(ToleranceError::io(path)(e)),
-    };
-    let mut trials = Vec::new();
-    let mut good_bytes = 0;
-    for line in text.split_inclusive('\n') {
-        let parsed = line
-            .strip_suffix('\n')
-            .and_then(|l| serde_json::from_str::<Trial>(l).ok())
-            .filter(|t| t.trial == trials.len() as u64);
-        match parsed {
-            Some(trial) => {
-                trials.push(trial);
-                good_bytes += line.len();
-            }
-            None => break,
-        }
-    }
-    if good_bytes < text.len() {
-        let file = std::fs::OpenOptions::new()
-            .write(true)
-            .open(path)
-            .map_err(ToleranceError::io(path))?;
-        file.set_len(good_bytes as u64)
-            .and_then(|_| file.sync_data())
-            .map_err(ToleranceError::io(path))?;
-    }
-    Ok(trials)
 }
 
 /// Whether a metric is better low (spot radii) or high (MTF).
@@ -353,7 +366,7 @@ impl Summary {
     }
 }
 
-/// The files a run writes into its folder (for the faces' output checks).
+/// The files and folder a run writes into its folder (for the faces' output checks).
 pub fn outputs(folder: &Path) -> [PathBuf; 3] {
-    [RUN_FILE, TRIALS_FILE, SUMMARY_FILE].map(|name| folder.join(name))
+    [RUN_FILE, TRIALS_DIR, SUMMARY_FILE].map(|name| folder.join(name))
 }

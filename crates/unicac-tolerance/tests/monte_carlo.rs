@@ -1,6 +1,7 @@
 //! Tolerancing checked against direct traces and geometry, and its run folder against kills.
 
 use unicac_analysis::refocused;
+use unicac_io::Shard;
 use unicac_optics::{builtin, Lens};
 use unicac_tolerance::{
     apply, elements, field_points, run_folder, score, Change, ChangeKind, Compensator, FieldPoint, Grading,
@@ -166,8 +167,30 @@ fn a_unit_decentred_in_y_grades_the_x_fields_alike_and_the_y_fields_apart() {
     );
 }
 
+/// Every file under `folder` (relative name -> bytes).
+fn files(folder: &std::path::Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let mut out = std::collections::BTreeMap::new();
+    for entry in std::fs::read_dir(folder).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            for (name, bytes) in files(&path) {
+                out.insert(
+                    format!("{}/{name}", path.file_name().unwrap().to_string_lossy()),
+                    bytes,
+                );
+            }
+        } else {
+            out.insert(
+                path.file_name().unwrap().to_string_lossy().into(),
+                std::fs::read(&path).unwrap(),
+            );
+        }
+    }
+    out
+}
+
 #[test]
-fn a_killed_run_resumes_to_the_same_bytes_and_a_foreign_folder_is_refused() {
+fn killed_grown_and_sharded_runs_end_with_the_bytes_of_one_run_and_a_foreign_folder_is_refused() {
     let lens = cooke();
     let spec = ToleranceSpec::from_json(
         r#"{"radius_fraction": 0.002, "thickness_mm": 0.05, "element_decentre_mm": 0.025,
@@ -176,8 +199,8 @@ fn a_killed_run_resumes_to_the_same_bytes_and_a_foreign_folder_is_refused() {
     .unwrap();
     let grading = grading();
     let dir = tempfile::tempdir().unwrap();
-    let (whole, resumed) = (dir.path().join("whole"), dir.path().join("resumed"));
-    let run = |folder: &std::path::Path, trials: usize, seed: u64| {
+    let folder = |name: &str| dir.path().join(name);
+    let run = |folder: &std::path::Path, trials: usize, seed: u64, shard: &str| {
         let request = MonteCarlo {
             lens_identity: "cooke".into(),
             spec: spec.clone(),
@@ -185,33 +208,50 @@ fn a_killed_run_resumes_to_the_same_bytes_and_a_foreign_folder_is_refused() {
             seed,
             trials,
         };
-        run_folder(&lens, &request, folder, &mut |_, _| {})
+        run_folder(
+            &lens,
+            &request,
+            folder,
+            Shard::parse(shard).unwrap(),
+            &mut |_, _| {},
+        )
     };
-    let summary = run(&whole, 6, 3).unwrap();
-    assert_eq!((summary.trials, summary.failed), (6, 0));
-    run(&resumed, 3, 3).unwrap();
-    // A kill in the middle of a line.
-    let trials = resumed.join("trials.jsonl");
-    let mut text = std::fs::read_to_string(&trials).unwrap();
-    text.push_str(r#"{"trial":3,"score":{"focus_sh"#);
-    std::fs::write(&trials, text).unwrap();
-    let resumed_summary = run(&resumed, 6, 3).unwrap();
-    assert_eq!(
-        std::fs::read(whole.join("trials.jsonl")).unwrap(),
-        std::fs::read(&trials).unwrap()
-    );
-    assert_eq!(resumed_summary, summary);
+    // Three chunk files: 64 + 64 + 2 trials.
+    let summary = run(&folder("whole"), 130, 3, "1/1").unwrap().unwrap();
+    assert_eq!((summary.trials, summary.failed), (130, 0));
+    let whole = files(&folder("whole"));
+    assert_eq!(whole.keys().filter(|k| k.starts_with("trials/")).count(), 3);
+    // A run of 70 (its last chunk holds 6 trials), a kill that left a temporary and a chunk cut short,
+    // then the run of 130: the short chunks are made again.
+    let resumed = folder("resumed");
+    run(&resumed, 70, 3, "1/1").unwrap();
+    std::fs::write(resumed.join("trials/.000002.jsonl.tmp-999999"), "half").unwrap();
+    let first = resumed.join("trials/000000.jsonl");
+    let text = std::fs::read_to_string(&first).unwrap();
+    std::fs::write(&first, &text[..text.len() / 2]).unwrap();
+    assert_eq!(run(&resumed, 130, 3, "1/1").unwrap().unwrap(), summary);
+    assert_eq!(files(&resumed), whole);
+    // Two shards into one folder, then the unsharded run writes the summary.
+    let sharded = folder("sharded");
+    assert!(run(&sharded, 130, 3, "2/2").unwrap().is_none());
+    assert!(run(&sharded, 130, 3, "1/2").unwrap().is_none());
+    assert!(!sharded.join("summary.json").exists());
+    run(&sharded, 130, 3, "1/1").unwrap();
+    assert_eq!(files(&sharded), whole);
     // Units differ from one another, and every metric's yield curve is ordered best first.
     let rms = &summary.statistics[0];
     assert_eq!(rms.metric, "rms_mean_um");
     assert!(rms.yield_curve.windows(2).all(|w| w[0] <= w[1]) && rms.std > 0.0);
     assert!(rms.met_by_50 <= rms.met_by_90 && rms.met_by_90 <= rms.met_by_98);
-    match run(&resumed, 6, 4) {
+    match run(&resumed, 130, 4, "1/1") {
         Err(ToleranceError::Folder { reason, .. }) => assert!(reason.contains("seed"), "{reason}"),
         other => panic!("another seed must be refused: {other:?}"),
     }
-    let foreign = dir.path().join("foreign");
+    let foreign = folder("foreign");
     std::fs::create_dir(&foreign).unwrap();
     std::fs::write(foreign.join("notes.txt"), "mine").unwrap();
-    assert!(matches!(run(&foreign, 2, 3), Err(ToleranceError::Folder { .. })));
+    assert!(matches!(
+        run(&foreign, 2, 3, "1/1"),
+        Err(ToleranceError::Folder { .. })
+    ));
 }

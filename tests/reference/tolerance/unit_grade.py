@@ -23,6 +23,7 @@ Grading:
 from __future__ import annotations
 
 import argparse
+import glob
 import json
 import math
 import os
@@ -273,7 +274,8 @@ def main(argv=None):
     spec = cl.load_lens(a.lens)
     run = json.load(open(os.path.join(a.run, "run.json")))
     summ = json.load(open(os.path.join(a.run, "summary.json")))
-    trials = [json.loads(l) for l in open(os.path.join(a.run, "trials.jsonl")) if l.strip()]
+    chunks = sorted(glob.glob(os.path.join(a.run, "trials", "[0-9]*.jsonl")))
+    trials = [json.loads(l) for c in chunks for l in open(c) if l.strip()]
     if "-" in a.trials:
         lo, hi = (int(x) for x in a.trials.split("-"))
         want = list(range(lo, hi + 1))

@@ -78,7 +78,7 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     settings.unseen_by = args.unseen_by.clone();
     settings.exclude_flagged = args.exclude_flagged;
     let shard = match &args.shard {
-        Some(text) => Shard::parse(text).map_err(flag_error)?,
+        Some(text) => Shard::parse(text).map_err(|message| anyhow::anyhow!("--shard {message}"))?,
         None => Shard::ALL,
     };
     let threads = args.threads.unwrap_or(0);

@@ -4,6 +4,7 @@ use super::{flag_error, named_flag_error, print_json, progress};
 use crate::args::ToleranceArgs;
 use crate::lens_input::load_spec;
 use anyhow::{Context, Result};
+use unicac_io::Shard;
 use unicac_optics::Lens;
 use unicac_plot::{line_panels, Line, LineColour, LinePanel};
 use unicac_tolerance::{
@@ -36,6 +37,10 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         mtf_frequencies_cy_mm: args.mtf_cy_mm.clone(),
     };
     let bar = progress(args.trials, "units");
+    let shard = match &args.shard {
+        Some(text) => Shard::parse(text).map_err(|message| anyhow::anyhow!("--shard {message}"))?,
+        None => Shard::ALL,
+    };
     let request = MonteCarlo {
         lens_identity: identity,
         spec,
@@ -43,7 +48,8 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         seed: args.seed,
         trials: args.trials,
     };
-    let summary = run_folder(&lens, &request, &args.out, &mut |done, _| {
+    let summary = run_folder(&lens, &request, &args.out, shard, &mut |done, total| {
+        bar.set_length(total as u64);
         bar.set_position(done as u64)
     })
     .map_err(|e| match e {
@@ -54,6 +60,15 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         other => anyhow::Error::new(other).context(format!("--out {}", args.out.display())),
     })?;
     bar.finish_and_clear();
+    let Some(summary) = summary else {
+        eprintln!(
+            "shard {}/{} done in {}; run the command without --shard for the summary",
+            shard.index,
+            shard.count,
+            args.out.display()
+        );
+        return Ok(());
+    };
     let plot = args.out.join(PLOT_FILE);
     draw_yields(&summary, &args.lens.lens, &plot)?;
     if args.json {

@@ -230,42 +230,8 @@ impl BuildSettings {
     }
 }
 
-/// Which part of the work a run does: `index` in 1..=count.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Shard {
-    pub index: usize,
-    pub count: usize,
-}
-
-/// Most shards.
-pub const MAX_SHARDS: usize = 10_000;
-
-impl Shard {
-    pub const ALL: Shard = Shard { index: 1, count: 1 };
-
-    /// "I/N" with 1 <= I <= N <= MAX_SHARDS.
-    pub fn parse(text: &str) -> Result<Shard> {
-        let bad = || {
-            DatasetError::setting(
-                "shard",
-                format!("{text}: expected I/N with 1 <= I <= N <= {MAX_SHARDS}"),
-            )
-        };
-        let (i, n) = text.split_once('/').ok_or_else(bad)?;
-        let (index, count) = (
-            i.trim().parse().map_err(|_| bad())?,
-            n.trim().parse().map_err(|_| bad())?,
-        );
-        if index == 0 || index > count || count > MAX_SHARDS {
-            return Err(bad());
-        }
-        Ok(Shard { index, count })
-    }
-
-    fn owns(&self, item: usize) -> bool {
-        item % self.count == self.index - 1
-    }
-}
+/// Which part of the work a run does (`unicac_io::shard`): lens k in use is shard (k mod N) + 1's.
+pub use unicac_io::shard::{Shard, MAX_SHARDS};
 
 /// Progress of a build: stages with a known amount of work.
 pub trait Progress: Sync {
