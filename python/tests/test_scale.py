@@ -179,3 +179,22 @@ def test_ray_dataset_equals_the_cli_with_every_task_killed_once(binary, local_ra
     assert sorted(got) == sorted(expected)
     for name, data in expected.items():
         assert got[name] == data, name
+
+
+# 130 units: three chunk files (64 + 64 + 2) over three shards; a coarse pupil keeps it to seconds.
+TOLERANCE_ARGS = [
+    "tolerance", "builtin:cooke_triplet", "--spec", "docs/tolerancing/textbook.json",
+    "--trials", "130", "--seed", "3", "--pupil-grid", "16",
+]  # fmt: skip
+
+
+def test_ray_tolerance_equals_the_cli_with_every_task_killed_once(binary, local_ray, tmp_path, capsys, monkeypatch):
+    reference = tmp_path / "cli"
+    expected_table = run_cli(binary, *TOLERANCE_ARGS, "--out", str(reference))
+    monkeypatch.setenv(FAULT_ENV, str(tmp_path / "faults"))
+    out = tmp_path / "ray"
+    table = run_driver(binary, capsys, monkeypatch, *TOLERANCE_ARGS, "--shards", "3", "--out", str(out))
+    assert table == expected_table and "rms_mean_um" in table
+    assert len(list((tmp_path / "faults").iterdir())) == 3   # every shard ran as a task, each killed once
+    assert folder_files(out) == folder_files(reference)
+    assert len(list((out / "trials").iterdir())) == 3

@@ -6,6 +6,6 @@ parts into exactly the files the single-machine command writes. Nothing here sch
 retries the tasks; this package only splits, runs and merges.
 
 Modules: `tasks` (running the CLI inside a Ray task, the fault-injection hook),
-`session` (starting or joining Ray, a bounded window of tasks with progress), `design`, `ode`, `dataset`
-(one per stage) and `cli` (the `unicac-ray` command).
+`session` (starting or joining Ray, a bounded window of tasks with progress), `design`, `ode`, `dataset`,
+`tolerance` (one per stage) and `cli` (the `unicac-ray` command).
 """

@@ -3,6 +3,7 @@
     unicac-ray design  DESIGN-ARGS  [--address A] [--workers N] [--cpus-per-task C] [--unicac-bin PATH]
     unicac-ray ode     ODE-ARGS     [...]
     unicac-ray dataset build DATASET-ARGS [...]
+    unicac-ray tolerance TOLERANCE-ARGS [--shards K] [...]
 
 The stage arguments are the CLI's own (`unicac design --help`, ...). --address: a running Ray cluster
 (`ray start --head` prints it; `auto` finds the local one); default: a local Ray started for the run with
@@ -20,7 +21,7 @@ import os
 import sys
 from typing import Optional, Sequence
 
-STAGES = ("design", "ode", "dataset")
+STAGES = ("design", "ode", "dataset", "tolerance")
 
 
 def _driver_options(argv: Sequence[str]) -> tuple[argparse.Namespace, list[str]]:
