@@ -36,6 +36,7 @@ pub mod fid;
 pub mod inputs;
 pub mod lpips;
 pub mod memory;
+mod model_run;
 pub mod npz;
 pub mod onnx;
 pub mod op;
@@ -43,6 +44,7 @@ pub mod ort_library;
 pub mod report;
 pub mod run;
 pub mod runtime;
+mod scoring;
 pub mod tiling;
 pub mod wiener;
 
