@@ -23,7 +23,7 @@ use crate::ort_library::Search;
 use crate::report::write::{write_report, Report};
 use crate::report::{summarise, LensInfo, Scores};
 use crate::runtime::Runtime;
-use crate::scoring::{method_entries, score_lens_edges, score_pair, Judges, LensTables, Needs, Running};
+use crate::scoring::{method_entries, EdgeScores, Judges, LensTables, Needs, Pass, Running};
 use crate::tiling::Tiling;
 use unicac_trace::InvalidParameter;
 
@@ -448,11 +448,17 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
         .then_some(s.wiener_nsr);
     let mut entries = method_entries(wiener_nsr, loaded, runtime, s.threads, &mut notices)?;
     let needs = Needs::of(&entries, has_psf);
-    let mut tables = LensTables::new(&dataset, basis.as_ref());
-    let mut judges = Judges { lpips, fid, clip };
-    let running = Running {
-        tiling: s.tiling,
-        save_images_under: s.save_images.then_some(s.out.as_path()),
+    let mut pass = Pass {
+        dataset: &dataset,
+        pairs: &pairs,
+        lenses: &lenses,
+        needs,
+        tables: LensTables::new(&dataset, basis.as_ref()),
+        judges: Judges { lpips, fid, clip },
+        running: Running {
+            tiling: s.tiling,
+            save_images_under: s.save_images.then_some(s.out.as_path()),
+        },
     };
     // The edge rows by lens, and the images each lens's rows are restored as (an R, G, B triple shares one).
     let edge_lenses: Vec<(&[unicac_dataset::EdgeRow], Vec<crate::edges::EdgeGroup>)> = edges
@@ -470,34 +476,14 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
     for pair in &pairs {
         progress(done, total, &pair.pair_id);
         done += pair_px(pair);
-        score_pair(
-            pair,
-            &dataset,
-            &mut entries,
-            &needs,
-            &mut tables,
-            &mut judges,
-            &lenses,
-            running,
-            &mut scores,
-        )?;
+        pass.score_pair(pair, &mut entries, &mut scores)?;
     }
     // OIQE of the restored edge patches, a lens at a time: each model runs a lens's patches as batches.
-    let mut edge_scores: BTreeMap<(String, String), Vec<unicac_metrics::MtfSummary>> = BTreeMap::new();
+    let mut edge_scores = EdgeScores::new();
     for (rows, groups) in &edge_lenses {
         progress(done, total, &rows[0].edge_id);
         done += edge_px(groups);
-        score_lens_edges(
-            rows,
-            groups,
-            &pairs,
-            &dataset,
-            &mut entries,
-            &needs,
-            &mut tables,
-            s.tiling,
-            &mut edge_scores,
-        )?;
+        pass.score_lens_edges(rows, groups, &mut entries, &mut edge_scores)?;
     }
     for (key, summaries) in edge_scores {
         if let Ok(v) = unicac_metrics::oiqe::oiqe_mean(&summaries, &unicac_metrics::OiqeWeights::default()) {

@@ -224,121 +224,132 @@ fn frame_crop(pair: &PairRow) -> FrameCrop {
     }
 }
 
-/// One test pair through every method: its inputs made once, each restoration scored (a method that
-/// fails on it is listed under the method's failures).
-#[allow(clippy::too_many_arguments)] // the pass's context, each borrowed as it is needed
-pub(crate) fn score_pair(
-    pair: &PairRow,
-    dataset: &Dataset,
-    entries: &mut [Entry],
-    needs: &Needs,
-    tables: &mut LensTables,
-    judges: &mut Judges,
-    lenses: &BTreeMap<String, LensInfo>,
-    running: Running,
-    scores: &mut Scores,
-) -> Result<()> {
-    let lq_path = dataset.resolve(&pair.lq).map_err(dataset_error)?;
-    let gt_path = dataset.resolve(&pair.gt).map_err(dataset_error)?;
-    let (lq, gt) = (read_rgb(&lq_path)?, read_rgb(&gt_path)?);
-    if (lq.width, lq.height) != (gt.width, gt.height) {
-        return Err(invalid(format!(
-            "{} and {} differ in size",
-            lq_path.display(),
-            gt_path.display()
-        )));
-    }
-    let crop = frame_crop(pair);
-    if (crop.w, crop.h) != (lq.width, lq.height) {
-        return Err(invalid(format!(
-            "pairs.jsonl: pair {} crop {:?} does not match its {}x{} image",
-            pair.pair_id, pair.crop, lq.width, lq.height
-        )));
-    }
-    let table = if needs.table {
-        Some(tables.table(&pair.psf, &pair.lens_id)?)
-    } else {
-        None
-    };
-    let fov = if needs.maps.fov {
-        Some(to_planar(unicac_dataset::fov_map(crop).map_err(dataset_error)?))
-    } else {
-        None
-    };
-    let psf = match (&table, needs.maps.psf) {
-        (Some(t), true) => Some(to_planar(
-            unicac_dataset::psf_feature_map(t, crop).map_err(dataset_error)?,
-        )),
-        _ => None,
-    };
-    let psf_code = match (&table, needs.maps.psf_code) {
-        (Some(t), true) => Some(to_planar(
-            unicac_dataset::psf_code_map(&tables.codes(t, &pair.lens_id), crop).map_err(dataset_error)?,
-        )),
-        _ => None,
-    };
-    let wiener_inputs = needs
-        .wiener_nsrs
-        .iter()
-        .map(|&nsr| {
-            let t = table.as_ref().expect("PSF table loaded");
-            Ok((
-                nsr.to_bits(),
-                crate::wiener::wiener_restore(&lq, t, &|r, c| crop.normalised(r, c), nsr)?,
-            ))
-        })
-        .collect::<Result<WienerEstimates>>()?;
-    if let Some(net) = judges.fid.as_mut() {
-        scores
-            .gt_features
-            .insert(pair.pair_id.clone(), net.features(&gt)?);
-    }
-    let level = lenses[&pair.lens_id]
-        .levels
-        .get(&Benchmark::Ode)
-        .copied()
-        .unwrap_or(0);
-    for entry in entries.iter_mut() {
-        let restored = match &mut entry.method {
-            Method::Identity => Ok(lq.clone()),
-            Method::Wiener { nsr } => wiener_at(&wiener_inputs, *nsr, || {
-                crate::wiener::wiener_restore(
-                    &lq,
-                    table.as_ref().expect("PSF table loaded"),
-                    &|r, c| crop.normalised(r, c),
-                    *nsr,
-                )
-            }),
-            Method::Onnx { contract, session } => {
-                let maps = InputMaps {
-                    fov: fov.as_ref(),
-                    psf: psf.as_ref(),
-                    psf_code: psf_code.as_ref(),
-                    wiener: wiener_input(contract, &wiener_inputs),
-                };
-                run_onnx_with(session, contract, &lq, &maps, running.tiling)
-            }
-        };
-        let restored = match restored {
-            Ok(r) => r,
-            Err(e) => {
-                entry.info.failures.push(format!("{}: {e}", lq_path.display()));
-                continue;
-            }
-        };
-        scores.pairs.push(score_restored(
-            pair,
-            level,
-            &entry.info.name,
-            &restored,
-            &gt,
+/// What every pair and patch of a run shares: the dataset, what the methods read, the metric networks.
+pub(crate) struct Pass<'a> {
+    pub dataset: &'a Dataset,
+    pub pairs: &'a [PairRow],
+    pub lenses: &'a BTreeMap<String, LensInfo>,
+    pub needs: Needs,
+    pub tables: LensTables<'a>,
+    pub judges: Judges,
+    pub running: Running<'a>,
+}
+
+impl Pass<'_> {
+    /// One test pair through every method: its inputs made once, each restoration scored (a method
+    /// that fails on it is listed under the method's failures).
+    pub fn score_pair(&mut self, pair: &PairRow, entries: &mut [Entry], scores: &mut Scores) -> Result<()> {
+        let Pass {
+            dataset,
+            lenses,
+            needs,
+            tables,
             judges,
-        )?);
-        if let Some(root) = running.save_images_under {
-            save_restored(root, &entry.info.name, &pair.pair_id, &restored)?;
+            running,
+            ..
+        } = self;
+        let lq_path = dataset.resolve(&pair.lq).map_err(dataset_error)?;
+        let gt_path = dataset.resolve(&pair.gt).map_err(dataset_error)?;
+        let (lq, gt) = (read_rgb(&lq_path)?, read_rgb(&gt_path)?);
+        if (lq.width, lq.height) != (gt.width, gt.height) {
+            return Err(invalid(format!(
+                "{} and {} differ in size",
+                lq_path.display(),
+                gt_path.display()
+            )));
         }
+        let crop = frame_crop(pair);
+        if (crop.w, crop.h) != (lq.width, lq.height) {
+            return Err(invalid(format!(
+                "pairs.jsonl: pair {} crop {:?} does not match its {}x{} image",
+                pair.pair_id, pair.crop, lq.width, lq.height
+            )));
+        }
+        let table = if needs.table {
+            Some(tables.table(&pair.psf, &pair.lens_id)?)
+        } else {
+            None
+        };
+        let fov = if needs.maps.fov {
+            Some(to_planar(unicac_dataset::fov_map(crop).map_err(dataset_error)?))
+        } else {
+            None
+        };
+        let psf = match (&table, needs.maps.psf) {
+            (Some(t), true) => Some(to_planar(
+                unicac_dataset::psf_feature_map(t, crop).map_err(dataset_error)?,
+            )),
+            _ => None,
+        };
+        let psf_code = match (&table, needs.maps.psf_code) {
+            (Some(t), true) => Some(to_planar(
+                unicac_dataset::psf_code_map(&tables.codes(t, &pair.lens_id), crop).map_err(dataset_error)?,
+            )),
+            _ => None,
+        };
+        let wiener_inputs = needs
+            .wiener_nsrs
+            .iter()
+            .map(|&nsr| {
+                let t = table.as_ref().expect("PSF table loaded");
+                Ok((
+                    nsr.to_bits(),
+                    crate::wiener::wiener_restore(&lq, t, &|r, c| crop.normalised(r, c), nsr)?,
+                ))
+            })
+            .collect::<Result<WienerEstimates>>()?;
+        if let Some(net) = judges.fid.as_mut() {
+            scores
+                .gt_features
+                .insert(pair.pair_id.clone(), net.features(&gt)?);
+        }
+        let level = lenses[&pair.lens_id]
+            .levels
+            .get(&Benchmark::Ode)
+            .copied()
+            .unwrap_or(0);
+        for entry in entries.iter_mut() {
+            let restored = match &mut entry.method {
+                Method::Identity => Ok(lq.clone()),
+                Method::Wiener { nsr } => wiener_at(&wiener_inputs, *nsr, || {
+                    crate::wiener::wiener_restore(
+                        &lq,
+                        table.as_ref().expect("PSF table loaded"),
+                        &|r, c| crop.normalised(r, c),
+                        *nsr,
+                    )
+                }),
+                Method::Onnx { contract, session } => {
+                    let maps = InputMaps {
+                        fov: fov.as_ref(),
+                        psf: psf.as_ref(),
+                        psf_code: psf_code.as_ref(),
+                        wiener: wiener_input(contract, &wiener_inputs),
+                    };
+                    run_onnx_with(session, contract, &lq, &maps, running.tiling)
+                }
+            };
+            let restored = match restored {
+                Ok(r) => r,
+                Err(e) => {
+                    entry.info.failures.push(format!("{}: {e}", lq_path.display()));
+                    continue;
+                }
+            };
+            scores.pairs.push(score_restored(
+                pair,
+                level,
+                &entry.info.name,
+                &restored,
+                &gt,
+                judges,
+            )?);
+            if let Some(root) = running.save_images_under {
+                save_restored(root, &entry.info.name, &pair.pair_id, &restored)?;
+            }
+        }
+        Ok(())
     }
-    Ok(())
 }
 
 /// The metrics of one restoration against its ground truth.
@@ -387,69 +398,78 @@ fn save_restored(root: &Path, model: &str, pair_id: &str, restored: &Planar) -> 
     Ok(())
 }
 
-/// One lens's edge patches through every method: the slanted-edge summary of each restored patch,
-/// gathered per (method, lens) into `edge_scores`.
-#[allow(clippy::too_many_arguments)] // the pass's context, each borrowed as it is needed
-pub(crate) fn score_lens_edges(
-    rows: &[EdgeRow],
-    groups: &[EdgeGroup],
-    pairs: &[PairRow],
-    dataset: &Dataset,
-    entries: &mut [Entry],
-    needs: &Needs,
-    tables: &mut LensTables,
-    tiling: Tiling,
-    edge_scores: &mut BTreeMap<(String, String), Vec<unicac_metrics::MtfSummary>>,
-) -> Result<()> {
-    let lens_id = &rows[0].lens_id;
-    let table = if needs.table {
-        let lens_pair = pairs
+/// The slanted-edge summaries of each (method, lens).
+pub(crate) type EdgeScores = BTreeMap<(String, String), Vec<unicac_metrics::MtfSummary>>;
+
+impl Pass<'_> {
+    /// One lens's edge patches through every method: the slanted-edge summary of each restored patch,
+    /// gathered per (method, lens) into `edge_scores`.
+    pub fn score_lens_edges(
+        &mut self,
+        rows: &[EdgeRow],
+        groups: &[EdgeGroup],
+        entries: &mut [Entry],
+        edge_scores: &mut EdgeScores,
+    ) -> Result<()> {
+        let Pass {
+            dataset,
+            pairs,
+            needs,
+            tables,
+            running,
+            ..
+        } = self;
+        let tiling = running.tiling;
+        let lens_id = &rows[0].lens_id;
+        let table = if needs.table {
+            let lens_pair = pairs
+                .iter()
+                .find(|p| &p.lens_id == lens_id)
+                .expect("lens has pairs");
+            Some(tables.table(&lens_pair.psf, lens_id)?)
+        } else {
+            None
+        };
+        let codes = match (&table, needs.maps.psf_code) {
+            (Some(t), true) => Some(tables.codes(t, lens_id)),
+            _ => None,
+        };
+        let half_diagonal_px = frames_half_diagonal(pairs);
+        let patches = groups
             .iter()
-            .find(|p| &p.lens_id == lens_id)
-            .expect("lens has pairs");
-        Some(tables.table(&lens_pair.psf, lens_id)?)
-    } else {
-        None
-    };
-    let codes = match (&table, needs.maps.psf_code) {
-        (Some(t), true) => Some(tables.codes(t, lens_id)),
-        _ => None,
-    };
-    let half_diagonal_px = frames_half_diagonal(pairs);
-    let patches = groups
-        .iter()
-        .map(|group| {
-            EdgePatch::load(
-                dataset,
-                group,
-                half_diagonal_px,
-                needs.maps,
-                table.as_ref(),
-                codes.as_ref(),
-                &needs.wiener_nsrs,
-            )
-        })
-        .collect::<Result<Vec<_>>>()?;
-    for entry in entries.iter_mut() {
-        let restored = restore_patches(&mut entry.method, &patches, table.as_ref(), tiling);
-        for (patch, restored) in patches.iter().zip(restored) {
-            for (_, path, channel) in &patch.rows {
-                let summary = restored.as_ref().map_err(|e| e.to_string()).and_then(|r| {
-                    patch
-                        .score(r, *channel)
-                        .map_err(|e| format!("slanted edge of the restored patch: {e}"))
-                });
-                match summary {
-                    Ok(summary) => edge_scores
-                        .entry((entry.info.name.clone(), lens_id.clone()))
-                        .or_default()
-                        .push(summary),
-                    Err(e) => entry.info.failures.push(format!("{}: {e}", path.display())),
+            .map(|group| {
+                EdgePatch::load(
+                    dataset,
+                    group,
+                    half_diagonal_px,
+                    needs.maps,
+                    table.as_ref(),
+                    codes.as_ref(),
+                    &needs.wiener_nsrs,
+                )
+            })
+            .collect::<Result<Vec<_>>>()?;
+        for entry in entries.iter_mut() {
+            let restored = restore_patches(&mut entry.method, &patches, table.as_ref(), tiling);
+            for (patch, restored) in patches.iter().zip(restored) {
+                for (_, path, channel) in &patch.rows {
+                    let summary = restored.as_ref().map_err(|e| e.to_string()).and_then(|r| {
+                        patch
+                            .score(r, *channel)
+                            .map_err(|e| format!("slanted edge of the restored patch: {e}"))
+                    });
+                    match summary {
+                        Ok(summary) => edge_scores
+                            .entry((entry.info.name.clone(), lens_id.clone()))
+                            .or_default()
+                            .push(summary),
+                        Err(e) => entry.info.failures.push(format!("{}: {e}", path.display())),
+                    }
                 }
             }
         }
+        Ok(())
     }
-    Ok(())
 }
 
 /// The half-diagonal (px) of the frames the pairs were rendered at.
