@@ -142,7 +142,7 @@ struct Quadratic {
 impl Quadratic {
     fn of(bundles: &[Bundle]) -> Option<Quadratic> {
         let total: f64 = bundles.iter().map(|b| b.weight * b.points_mm.len() as f64).sum();
-        if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        if !(total > 0.0) {
             return None;
         }
         let mut centroid = [0.0; 2];

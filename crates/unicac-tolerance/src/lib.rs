@@ -9,6 +9,9 @@
 //! Written here rather than borrowed: no Rust crate tolerances lenses, and the draws, the build and
 //! the grading are the product's own (on unicac's lens model, tracer and aiming).
 
+// `!(x > 0.0)` and friends are deliberate: they reject NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod error;
 pub mod evaluate;
 pub mod perturb;
