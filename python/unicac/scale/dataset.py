@@ -21,7 +21,7 @@ import argparse
 import sys
 from typing import Optional, Sequence, TextIO
 
-from .tasks import fail_once, run_cli
+from .tasks import run_sharded
 
 MAX_SHARDS = 10_000
 
@@ -50,21 +50,11 @@ def prepare(binary: str, argv: Sequence[str]) -> Plan:
     return Plan(binary, argv)
 
 
-def shard_task(binary: str, args: list[str], index: int, shards: int, threads: int, fault_dir: Optional[str]) -> int:
-    """Ray task: `unicac dataset build ARGS --shard I/N` (resumes: files present are skipped)."""
-    run_cli(binary, ["dataset", "build", *args, "--shard", f"{index}/{shards}", "--threads", str(threads)], threads)
-    fail_once(fault_dir, f"dataset-shard-{index}-of-{shards}")
-    return index
-
-
 def run(session, plan: Plan, fault_dir: Optional[str], stdout: TextIO) -> int:
     shards = plan.shards or min(MAX_SHARDS, 4 * session.workers)
-    threads = session.cpus_per_task
     print(f"dataset build: {shards} shards; shard 1 grades the library first", file=sys.stderr)
-    session.map(shard_task, [(plan.binary, plan.rest, 1, shards, threads, fault_dir)], "dataset shard 1 (grading)")
-    calls = [(plan.binary, plan.rest, i, shards, threads, fault_dir) for i in range(2, shards + 1)]
-    session.map(shard_task, calls, "dataset shards")
-    # The unsharded CLI: checks that every file is present and writes dataset.json and the summary.
-    stdout.write(run_cli(plan.binary, ["dataset", "build", *plan.rest], session.cpus_per_task))
+    # The unsharded CLI at the end checks that every file is present and writes dataset.json and the summary.
+    threads = ["--threads", str(session.cpus_per_task)]
+    stdout.write(run_sharded(session, plan.binary, ["dataset", "build"], plan.rest, threads, shards, fault_dir, "grading"))
     stdout.flush()
     return 0

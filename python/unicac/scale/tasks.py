@@ -72,3 +72,34 @@ def fail_once(fault_dir: Optional[str], key: str) -> None:
     marker.parent.mkdir(parents=True, exist_ok=True)
     marker.write_text("killed once\n")
     os._exit(1)  # a dead worker, not an exception: Ray's retry path for lost tasks
+
+
+def shard_task(
+    binary: str, command: list[str], args: list[str], index: int, shards: int, threads: int, fault_dir: Optional[str]
+) -> int:
+    """Ray task: `unicac COMMAND ARGS --shard I/N` (the CLI resumes: the parts already there are skipped)."""
+    run_cli(binary, [*command, *args, "--shard", f"{index}/{shards}"], threads)
+    fail_once(fault_dir, f"{'-'.join(command)}-shard-{index}-of-{shards}")
+    return index
+
+
+def run_sharded(
+    session,
+    binary: str,
+    command: list[str],
+    args: list[str],
+    shard_args: list[str],
+    shards: int,
+    fault_dir: Optional[str],
+    first: str,
+) -> str:
+    """Shard 1/N alone (`first` says why it goes first), shards 2..N as tasks (`args` + `shard_args`),
+    then the unsharded command on the driver, which finds every part present and writes what only the
+    whole run writes; returns that command's stdout."""
+    threads = session.cpus_per_task
+    calls = [(binary, command, [*args, *shard_args], i, shards, threads, fault_dir) for i in range(1, shards + 1)]
+    name = " ".join(command)
+    session.map(shard_task, calls[:1], f"{name} shard 1 ({first})")
+    session.map(shard_task, calls[1:], f"{name} shards")
+    return run_cli(binary, [*command, *args], threads)
+

@@ -19,7 +19,7 @@ import argparse
 import sys
 from typing import Optional, Sequence, TextIO
 
-from .tasks import fail_once, run_cli
+from .tasks import run_sharded
 
 MAX_SHARDS = 10_000
 
@@ -44,21 +44,10 @@ def prepare(binary: str, argv: Sequence[str]) -> Plan:
     return Plan(binary, argv)
 
 
-def shard_task(binary: str, args: list[str], index: int, shards: int, threads: int, fault_dir: Optional[str]) -> int:
-    """Ray task: `unicac tolerance ARGS --shard I/N` (resumes: chunks present are skipped)."""
-    run_cli(binary, ["tolerance", *args, "--shard", f"{index}/{shards}"], threads)
-    fail_once(fault_dir, f"tolerance-shard-{index}-of-{shards}")
-    return index
-
-
 def run(session, plan: Plan, fault_dir: Optional[str], stdout: TextIO) -> int:
     shards = plan.shards or min(MAX_SHARDS, 4 * session.workers)
-    threads = session.cpus_per_task
     print(f"tolerance: {shards} shards; shard 1 writes the run record first", file=sys.stderr)
-    session.map(shard_task, [(plan.binary, plan.rest, 1, shards, threads, fault_dir)], "tolerance shard 1")
-    calls = [(plan.binary, plan.rest, i, shards, threads, fault_dir) for i in range(2, shards + 1)]
-    session.map(shard_task, calls, "tolerance shards")
-    # The unsharded CLI: checks that every chunk is present, writes the summary and prints the table.
-    stdout.write(run_cli(plan.binary, ["tolerance", *plan.rest], threads))
+    # The unsharded CLI at the end finds every chunk, writes the summary and prints the table.
+    stdout.write(run_sharded(session, plan.binary, ["tolerance"], plan.rest, [], shards, fault_dir, "the run record"))
     stdout.flush()
     return 0
