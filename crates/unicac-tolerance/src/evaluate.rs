@@ -102,6 +102,11 @@ pub fn field_points(lens: &Lens) -> ToleranceResult<Vec<FieldPoint>> {
             }
         }
     }
+    if !(points.iter().map(|p| p.weight).sum::<f64>() > 0.0) {
+        return Err(ToleranceError::Unsupported(
+            "the lens's field weights are all 0: no field to grade units on".into(),
+        ));
+    }
     Ok(points)
 }
 

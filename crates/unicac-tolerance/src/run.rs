@@ -220,14 +220,17 @@ fn adopt_record(folder: &Path, record: &RunRecord) -> ToleranceResult<()> {
             let differs = [
                 ("lens", existing.lens != record.lens),
                 ("tolerance file", existing.spec != record.spec),
-                ("grading settings", existing.grading != record.grading),
+                (
+                    "grading (pupil grid, MTF frequencies)",
+                    existing.grading != record.grading,
+                ),
                 ("seed", existing.seed != record.seed),
                 ("field points", existing.field_points != record.field_points),
                 ("format", existing.format != record.format),
             ];
             match differs.iter().find(|(_, d)| *d) {
                 Some((what, _)) => Err(refuse(format!(
-                    "holds a run with another {what}; resume it with the same inputs or choose another folder"
+                    "holds a run with a different {what}; resume it with the same inputs or choose another folder"
                 ))),
                 None => Ok(()),
             }

@@ -255,3 +255,13 @@ fn killed_grown_and_sharded_runs_end_with_the_bytes_of_one_run_and_a_foreign_fol
         Err(ToleranceError::Folder { .. })
     ));
 }
+
+#[test]
+fn a_lens_without_field_weight_is_refused_not_graded_as_nan() {
+    let mut lens = cooke();
+    lens.field_weights.iter_mut().for_each(|w| *w = 0.0);
+    match field_points(&lens) {
+        Err(ToleranceError::Unsupported(message)) => assert!(message.contains("field weights"), "{message}"),
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+}

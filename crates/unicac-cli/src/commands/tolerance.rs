@@ -57,7 +57,11 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
             named_flag_error("--mtf-cy-mm", p)
         }
         ToleranceError::InvalidParameter(p) => flag_error(p),
-        other => anyhow::Error::new(other).context(format!("--out {}", args.out.display())),
+        // Folder and file errors are the run folder's; the rest (a lens that cannot be graded) the lens's.
+        e @ (ToleranceError::Folder { .. } | ToleranceError::Io { .. }) => {
+            anyhow::Error::new(e).context("--out")
+        }
+        other => anyhow::Error::new(other).context(args.lens.lens.clone()),
     })?;
     bar.finish_and_clear();
     let Some(summary) = summary else {
