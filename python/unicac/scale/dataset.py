@@ -21,10 +21,7 @@ import argparse
 import sys
 from typing import Optional, Sequence, TextIO
 
-from .tasks import run_sharded
-
-MAX_SHARDS = 10_000
-
+from .tasks import MAX_SHARDS, parse_shards, run_sharded
 
 class Plan:
     def __init__(self, binary: str, argv: Sequence[str]):
@@ -34,16 +31,9 @@ class Plan:
                 "only `dataset build` runs on Ray (info and plot are instant)"
             )
         parser = argparse.ArgumentParser(prog="unicac-ray dataset build", allow_abbrev=False, add_help=False)
-        parser.add_argument("--shard")
-        parser.add_argument("--threads")
-        parser.add_argument("--shards", type=int, help=f"shards (1 to {MAX_SHARDS}; default 4 per worker)")
-        known, self.rest = parser.parse_known_args(argv[1:])
-        if known.shard or known.threads:
-            parser.error("--shard and --threads are set by the driver (--shards, --cpus-per-task)")
-        if known.shards is not None and not 1 <= known.shards <= MAX_SHARDS:
-            parser.error(f"--shards {known.shards}: must be 1 to {MAX_SHARDS}")
+        self.shards: Optional[int]
+        self.shards, self.rest = parse_shards(parser, argv[1:], ["--threads"])
         self.binary = binary
-        self.shards: Optional[int] = known.shards
 
 
 def prepare(binary: str, argv: Sequence[str]) -> Plan:

@@ -103,3 +103,24 @@ def run_sharded(
     session.map(shard_task, calls[1:], f"{name} shards")
     return run_cli(binary, [*command, *args], threads)
 
+
+#: Most shards of a sharded stage (the CLI's own limit, `--shard I/N`).
+MAX_SHARDS = 10_000
+
+
+def parse_shards(parser, argv: Sequence[str], set_by_driver: Sequence[str] = ()) -> tuple[Optional[int], list[str]]:
+    """The driver's `--shards K` (1..MAX_SHARDS, None: the default) and the stage's own arguments; `--shard`
+    and the flags in `set_by_driver` are the driver's to set and are refused."""
+    parser.add_argument("--shard")
+    for flag in set_by_driver:
+        parser.add_argument(flag)
+    parser.add_argument("--shards", type=int, help=f"shards (1 to {MAX_SHARDS}; default 4 per worker)")
+    known, rest = parser.parse_known_args(list(argv))
+    taken = ["--shard", *set_by_driver]
+    if any(getattr(known, flag.lstrip("-").replace("-", "_")) for flag in taken):
+        verb = "is" if len(taken) == 1 else "are"
+        parser.error(f"{' and '.join(taken)} {verb} set by the driver (--shards, --cpus-per-task)")
+    if known.shards is not None and not 1 <= known.shards <= MAX_SHARDS:
+        parser.error(f"--shards {known.shards}: must be 1 to {MAX_SHARDS}")
+    return known.shards, rest
+
