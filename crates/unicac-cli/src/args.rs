@@ -608,7 +608,8 @@ pub struct ToleranceArgs {
     pub trials: usize,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Run folder: run.json, trials.jsonl, summary.json and yield.png (resumed when it holds this run).
+    /// Run folder: run.json, trials/ (64 units per file), summary.json and yield.png (resumed when it
+    /// holds this run).
     #[arg(long)]
     pub out: PathBuf,
     /// Pupil grid of the RMS criterion (8 to 256 cells per axis).
