@@ -25,6 +25,12 @@ pub struct Placement {
 /// A rotation matrix, rows first: `m[r][c]`. Column c is local axis c in global coordinates.
 pub type Rotation = [[f64; 3]; 3];
 
+/// `rotation` applied to the vector `v` (local to global for a placement's rotation).
+#[inline]
+pub fn rotate(rotation: &Rotation, v: [f64; 3]) -> [f64; 3] {
+    rotation.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2])
+}
+
 impl Placement {
     pub fn is_centred(&self) -> bool {
         *self == Placement::default()

@@ -7,6 +7,7 @@
 use crate::spec::{Distribution, ToleranceSpec};
 use serde::{Deserialize, Serialize};
 use unicac_io::counter_random::{counter_hash, derive_seed, unit_interval};
+use unicac_optics::placement::rotate;
 use unicac_optics::{Lens, Medium, Placement};
 
 /// What one error changes.
@@ -214,19 +215,17 @@ pub fn apply(nominal: &Lens, changes: &[Change]) -> Lens {
 fn move_rigidly(lens: &mut Lens, first: usize, last: usize, rigid: Placement) {
     let pivot = [0.0, 0.0, lens.surfaces[first].z_mm];
     let turn = rigid.rotation();
-    let apply =
-        |m: &[[f64; 3]; 3], v: [f64; 3]| [0, 1, 2].map(|r| (0..3).map(|c| m[r][c] * v[c]).sum::<f64>());
     for s in &mut lens.surfaces[first..=last] {
         let own = s.placement.rotation();
         let vertex = [s.placement.decentre_x_mm, s.placement.decentre_y_mm, s.z_mm];
         let arm = [0, 1, 2].map(|k| vertex[k] - pivot[k]);
-        let turned = apply(&turn, arm);
+        let turned = rotate(&turn, arm);
         let origin = [
             pivot[0] + turned[0] + rigid.decentre_x_mm,
             pivot[1] + turned[1] + rigid.decentre_y_mm,
             pivot[2] + turned[2],
         ];
-        let axis = apply(&turn, [own[0][2], own[1][2], own[2][2]]);
+        let axis = rotate(&turn, [own[0][2], own[1][2], own[2][2]]);
         let (placement, z_mm) = Placement::from_frame(origin, axis);
         s.placement = placement;
         s.z_mm = z_mm;

@@ -137,31 +137,36 @@ pub fn run_folder(
     let total: usize = mine.iter().map(|&c| chunk_range(c, trials).count()).sum();
     let mut done = 0;
     progress(done, total);
+    // The unsharded run owns every chunk, in order: it keeps them for the summary as it goes.
+    let mut all = Vec::with_capacity(if shard.is_all() { trials } else { 0 });
     for &c in &mine {
         let range = chunk_range(c, trials);
-        if read_chunk(folder, c, trials)?.is_none() {
-            let fresh: Vec<Trial> = range
-                .clone()
-                .into_par_iter()
-                .map(|t| run_trial(nominal, &record, t as u64))
-                .collect();
-            let mut lines = String::new();
-            for trial in &fresh {
-                lines.push_str(&serde_json::to_string(trial).expect("a trial serialises"));
-                lines.push('\n');
+        let chunk = match read_chunk(folder, c, trials)? {
+            Some(found) => found,
+            None => {
+                let fresh: Vec<Trial> = range
+                    .clone()
+                    .into_par_iter()
+                    .map(|t| run_trial(nominal, &record, t as u64))
+                    .collect();
+                let mut lines = String::new();
+                for trial in &fresh {
+                    lines.push_str(&serde_json::to_string(trial).expect("a trial serialises"));
+                    lines.push('\n');
+                }
+                let path = chunk_path(folder, c);
+                unicac_io::write_atomically(&path, lines.as_bytes()).map_err(ToleranceError::io(&path))?;
+                fresh
             }
-            let path = chunk_path(folder, c);
-            unicac_io::write_atomically(&path, lines.as_bytes()).map_err(ToleranceError::io(&path))?;
+        };
+        if shard.is_all() {
+            all.extend(chunk);
         }
         done += range.len();
         progress(done, total);
     }
     if !shard.is_all() {
         return Ok(None);
-    }
-    let mut all = Vec::with_capacity(trials);
-    for c in 0..trials.div_ceil(CHUNK_TRIALS) {
-        all.extend(read_chunk(folder, c, trials)?.expect("every chunk was just made or found"));
     }
     let summary = Summary::of(&record, nominal_score, &all);
     let text = serde_json::to_string_pretty(&summary).expect("a summary serialises") + "\n";

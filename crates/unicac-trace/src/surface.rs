@@ -78,8 +78,7 @@ impl Frame {
     /// R v.
     #[inline]
     pub fn vector_to_global(&self, v: [f64; 3]) -> [f64; 3] {
-        let r = &self.rotation;
-        [0, 1, 2].map(|k| r[k][0] * v[0] + r[k][1] * v[1] + r[k][2] * v[2])
+        unicac_optics::placement::rotate(&self.rotation, v)
     }
 }
 

@@ -18,10 +18,9 @@ missing files. The folder must be on a filesystem every node sees.
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Optional, Sequence, TextIO
 
-from .tasks import MAX_SHARDS, parse_shards, run_sharded
+from .tasks import parse_shards, run_sharded
 
 class Plan:
     def __init__(self, binary: str, argv: Sequence[str]):
@@ -41,10 +40,9 @@ def prepare(binary: str, argv: Sequence[str]) -> Plan:
 
 
 def run(session, plan: Plan, fault_dir: Optional[str], stdout: TextIO) -> int:
-    shards = plan.shards or min(MAX_SHARDS, 4 * session.workers)
-    print(f"dataset build: {shards} shards; shard 1 grades the library first", file=sys.stderr)
     # The unsharded CLI at the end checks that every file is present and writes dataset.json and the summary.
     threads = ["--threads", str(session.cpus_per_task)]
-    stdout.write(run_sharded(session, plan.binary, ["dataset", "build"], plan.rest, threads, shards, fault_dir, "grading"))
-    stdout.flush()
-    return 0
+    return run_sharded(
+        session, plan.binary, ["dataset", "build"], plan.rest, threads, plan.shards, fault_dir, "grades the library",
+        stdout,
+    )

@@ -10,8 +10,9 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Optional, Sequence, TextIO
 
 # Ray retries a task whose worker died this many times (a CLI error is not retried: it would fail again).
 MAX_RETRIES = 3
@@ -89,19 +90,25 @@ def run_sharded(
     command: list[str],
     args: list[str],
     shard_args: list[str],
-    shards: int,
+    shards: Optional[int],
     fault_dir: Optional[str],
-    first: str,
-) -> str:
-    """Shard 1/N alone (`first` says why it goes first), shards 2..N as tasks (`args` + `shard_args`),
-    then the unsharded command on the driver, which finds every part present and writes what only the
-    whole run writes; returns that command's stdout."""
-    threads = session.cpus_per_task
-    calls = [(binary, command, [*args, *shard_args], i, shards, threads, fault_dir) for i in range(1, shards + 1)]
+    why_first: str,
+    stdout: TextIO,
+) -> int:
+    """`shards` parts (default four per worker): shard 1/N alone (`why_first` says what it does that the
+    others need), shards 2..N as tasks (`args` + `shard_args`), then the unsharded command on the driver,
+    which finds every part present, writes what only the whole run writes and prints the CLI's own
+    output to `stdout`."""
+    count = shards or min(MAX_SHARDS, 4 * session.workers)
     name = " ".join(command)
-    session.map(shard_task, calls[:1], f"{name} shard 1 ({first})")
+    print(f"{name}: {count} shards; shard 1 {why_first} first", file=sys.stderr)
+    threads = session.cpus_per_task
+    calls = [(binary, command, [*args, *shard_args], i, count, threads, fault_dir) for i in range(1, count + 1)]
+    session.map(shard_task, calls[:1], f"{name} shard 1 ({why_first})")
     session.map(shard_task, calls[1:], f"{name} shards")
-    return run_cli(binary, [*command, *args], threads)
+    stdout.write(run_cli(binary, [*command, *args], threads))
+    stdout.flush()
+    return 0
 
 
 #: Most shards of a sharded stage (the CLI's own limit, `--shard I/N`).

@@ -16,10 +16,9 @@ chunks. The folder must be on a filesystem every node sees.
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Optional, Sequence, TextIO
 
-from .tasks import MAX_SHARDS, parse_shards, run_sharded
+from .tasks import parse_shards, run_sharded
 
 class Plan:
     def __init__(self, binary: str, argv: Sequence[str]):
@@ -36,9 +35,7 @@ def prepare(binary: str, argv: Sequence[str]) -> Plan:
 
 
 def run(session, plan: Plan, fault_dir: Optional[str], stdout: TextIO) -> int:
-    shards = plan.shards or min(MAX_SHARDS, 4 * session.workers)
-    print(f"tolerance: {shards} shards; shard 1 writes the run record first", file=sys.stderr)
     # The unsharded CLI at the end finds every chunk, writes the summary and prints the table.
-    stdout.write(run_sharded(session, plan.binary, ["tolerance"], plan.rest, [], shards, fault_dir, "the run record"))
-    stdout.flush()
-    return 0
+    return run_sharded(
+        session, plan.binary, ["tolerance"], plan.rest, [], plan.shards, fault_dir, "writes the run record", stdout
+    )

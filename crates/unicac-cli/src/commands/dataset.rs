@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::sync::Mutex;
-use unicac_dataset::builder::{self, sources::parse_size, BuildSettings, PairTask, Progress, Shard};
+use unicac_dataset::builder::{self, sources::parse_size, BuildSettings, PairTask, Progress};
 
 /// A bar per stage on a terminal (pairs/s and ETA); notes only otherwise.
 struct Bar {
@@ -77,10 +77,7 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     settings.psf_basis_from = args.psf_basis_from.clone();
     settings.unseen_by = args.unseen_by.clone();
     settings.exclude_flagged = args.exclude_flagged;
-    let shard = match &args.shard {
-        Some(text) => Shard::parse(text).map_err(|message| anyhow::anyhow!("--shard {message}"))?,
-        None => Shard::ALL,
-    };
+    let shard = super::shard_arg(args.shard.as_deref())?;
     let threads = args.threads.unwrap_or(0);
     if threads > 1024 {
         anyhow::bail!("--threads {threads}: at most 1024");

@@ -121,6 +121,13 @@ pub(crate) fn named_flag_error(flag: &str, parameter: unicac_trace::InvalidParam
     anyhow::anyhow!("{flag} {}", parameter.message)
 }
 
+/// `--shard I/N` (every part when not given).
+pub(crate) fn shard_arg(text: Option<&str>) -> Result<unicac_io::Shard> {
+    text.map_or(Ok(unicac_io::Shard::ALL), |text| {
+        unicac_io::Shard::parse(text).map_err(|message| anyhow::anyhow!("--shard {message}"))
+    })
+}
+
 /// A progress bar on stderr for `count` items (hidden when stderr is not a terminal).
 pub(crate) fn progress(count: usize, what: &str) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(count as u64);

@@ -4,7 +4,6 @@ use super::{flag_error, named_flag_error, print_json, progress};
 use crate::args::ToleranceArgs;
 use crate::lens_input::load_spec;
 use anyhow::{Context, Result};
-use unicac_io::Shard;
 use unicac_optics::Lens;
 use unicac_plot::{line_panels, Line, LineColour, LinePanel};
 use unicac_tolerance::{
@@ -37,10 +36,7 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         mtf_frequencies_cy_mm: args.mtf_cy_mm.clone(),
     };
     let bar = progress(args.trials, "units");
-    let shard = match &args.shard {
-        Some(text) => Shard::parse(text).map_err(|message| anyhow::anyhow!("--shard {message}"))?,
-        None => Shard::ALL,
-    };
+    let shard = super::shard_arg(args.shard.as_deref())?;
     let request = MonteCarlo {
         lens_identity: identity,
         spec,

@@ -9,7 +9,7 @@
 //! parameter negated, and the opposite order or a single move) closes it without arithmetic, so a lens
 //! written by `around` reads back with its centred surfaces and thicknesses bit for bit.
 
-use crate::placement::{Placement, Rotation};
+use crate::placement::{rotate, Placement, Rotation};
 use crate::spec::SurfaceSpec;
 
 /// Parameters of one coordinate break.
@@ -192,8 +192,8 @@ fn frame_placement(open: &[Open]) -> (Placement, f64) {
 
 /// origin += rotation * local.
 fn move_along(origin: &mut [f64; 3], rotation: &Rotation, local: [f64; 3]) {
-    for (r, o) in origin.iter_mut().enumerate() {
-        *o += rotation[r][0] * local[0] + rotation[r][1] * local[1] + rotation[r][2] * local[2];
+    for (o, step) in origin.iter_mut().zip(rotate(rotation, local)) {
+        *o += step;
     }
 }
 
