@@ -673,11 +673,11 @@ pub struct LayoutArgs {
     pub rays: usize,
 }
 
-/// Where rays are traced (spot, psf, simulate, ode). See docs/gpu.md.
+/// Where rays are traced (spot, psf, simulate, ode) and simulate's image pass runs. See docs/gpu.md.
 #[derive(Args, Clone, Copy)]
 pub struct DeviceArgs {
-    /// cpu, gpu (the CPU with a message when no adapter exists) or auto (a real GPU, for batches big
-    /// enough to pay for the transfers).
+    /// cpu, gpu (the CPU with a message when no adapter exists) or auto (a real GPU, for ray batches
+    /// and images big enough to pay for the transfers).
     #[arg(long, default_value = "auto", value_parser = parse_device)]
     pub device: unicac_gpu::DeviceChoice,
     /// Working precision of the GPU kernels: f32, or f64 where the adapter offers SHADER_F64.

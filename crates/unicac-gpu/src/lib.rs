@@ -1,7 +1,7 @@
 //! # unicac-gpu
 //!
 //! The GPU compute path: WGSL kernels (`shaders/*.wgsl`) for batched sequential ray tracing, pupil
-//! sampling on the device and PSF accumulation, run through wgpu (Vulkan; Mesa lavapipe where there is
+//! sampling on the device, PSF accumulation and the simulator's image pass, run through wgpu (Vulkan; Mesa lavapipe where there is
 //! no GPU), each with a plain-Rust twin (`twin`) and GPU-vs-CPU tests. See docs/gpu.md.
 //!
 //! - `device`: adapters, `GpuContext` (device + queue), typed errors; getting a device is separate from
@@ -12,6 +12,8 @@
 //! - `trace`: pipelines and buffers built once, chunked streaming of any number of rays;
 //! - `psf`: deterministic PSF accumulation (64-bit fixed point with u32 atomics);
 //! - `hits`, `spot`: the GPU behind `unicac_psf::HitTracer` and spot diagrams;
+//! - `image`: the simulator's image pass (spatially varying blur, warp, shading) behind
+//!   `unicac_sim::ImageDevice`;
 //! - `select`: `--device cpu|gpu|auto`, opened lazily, always ending on the CPU when the GPU cannot run;
 //! - `twin`: the kernels in plain Rust.
 
@@ -20,6 +22,7 @@
 
 pub mod device;
 pub mod hits;
+pub mod image;
 pub mod layout;
 pub mod psf;
 pub mod real;
@@ -32,8 +35,9 @@ pub mod twin;
 
 pub use device::{AdapterSummary, GpuContext, GpuError, GpuResult};
 pub use hits::GpuHitTracer;
+pub use image::GpuImagePass;
 pub use psf::{Accumulated, PsfPass, SplatGrid};
 pub use real::{Precision, Real};
-pub use select::{DeviceChoice, DeviceSelection, AUTO_MIN_RAYS};
+pub use select::{DeviceChoice, DeviceSelection, AUTO_MIN_PIXELS, AUTO_MIN_RAYS};
 pub use source::{ParaxialAim, PupilSource, RaySource};
 pub use trace::{GpuTracer, Traced};

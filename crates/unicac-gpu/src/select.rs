@@ -8,17 +8,27 @@
 //! without Vulkan: no GPU device node, no hardware GPU (`hardware_gpu_node_present`).
 
 use crate::device::GpuContext;
+use crate::image::GpuImagePass;
 use crate::real::Precision;
 use crate::trace::GpuTracer;
 use crate::RaySource;
 use std::sync::{Arc, Mutex, OnceLock};
+use unicac_image::Planar;
 use unicac_psf::{HitTracer, PsfResult, RayBackend};
+use unicac_sim::{ImageBackend, ImageDevice, ImagePass};
 use unicac_trace::{trace_rays, Ray, RayStatus, TraceSystem};
 
 /// Smallest batch `auto` sends to a GPU. A batch pays a fixed ~0.3-0.5 ms (submit, wait, map; measured
 /// 0.4 ms on lavapipe) plus ~50 bytes per ray over the bus, against ~90 ns per ray on the CPU path
 /// (Cooke triplet, 2 cores): break-even near 4k rays, so 16k leaves a factor 4 of margin (docs/gpu.md).
 pub const AUTO_MIN_RAYS: usize = 16_384;
+
+/// Smallest image pass (output pixels) `auto` sends to a GPU. Each channel of a pass costs three
+/// uploads, one download and two submissions (~1-2 ms of fixed cost and ~12 bytes per pixel over
+/// the bus) against ~50 ns per pixel of the CPU path's image pass (12 MP in ~0.65 s on 2 cores,
+/// docs/performance.md): break-even near 64k pixels, so 2^18 (a 512 x 512 frame) leaves a factor 4.
+/// An estimate from those figures: no hardware GPU was available to measure it.
+pub const AUTO_MIN_PIXELS: usize = 1 << 18;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -45,7 +55,10 @@ impl std::str::FromStr for DeviceChoice {
 pub struct DeviceSelection {
     choice: DeviceChoice,
     precision: Precision,
+    /// One device for both kinds of work, opened on first use.
+    context: OnceLock<Option<Arc<GpuContext>>>,
     tracer: OnceLock<Option<GpuTracer>>,
+    image: OnceLock<Option<GpuImagePass>>,
     /// Fallbacks to the CPU not yet reported, and whether a trace failure was already noted (once).
     notes: Mutex<(Vec<String>, bool)>,
 }
@@ -55,17 +68,32 @@ impl DeviceSelection {
         DeviceSelection {
             choice,
             precision,
+            context: OnceLock::new(),
             tracer: OnceLock::new(),
+            image: OnceLock::new(),
             notes: Mutex::new((Vec::new(), false)),
+        }
+    }
+
+    /// This policy as the image device of simulation settings: the plain CPU path for `cpu`.
+    pub fn image_backend(selection: &Arc<DeviceSelection>) -> ImageBackend {
+        match selection.choice {
+            DeviceChoice::Cpu => ImageBackend::cpu(),
+            _ => ImageBackend::new(selection.clone()),
+        }
+    }
+
+    /// This policy as the ray backend of PSF settings, sharing its device with `image_backend`.
+    pub fn ray_backend(selection: &Arc<DeviceSelection>) -> RayBackend {
+        match selection.choice {
+            DeviceChoice::Cpu => RayBackend::cpu(),
+            _ => RayBackend::new(selection.clone()),
         }
     }
 
     /// This policy as the ray backend of PSF settings: the plain CPU tracer for `cpu`.
     pub fn backend(choice: DeviceChoice, precision: Precision) -> RayBackend {
-        match choice {
-            DeviceChoice::Cpu => RayBackend::cpu(),
-            _ => RayBackend::new(Arc::new(DeviceSelection::new(choice, precision))),
-        }
+        DeviceSelection::ray_backend(&Arc::new(DeviceSelection::new(choice, precision)))
     }
 
     fn note(&self, text: String) {
@@ -88,12 +116,28 @@ impl DeviceSelection {
         }
     }
 
+    /// The device, opened on first use (a failure is noted once when the GPU was asked for).
+    fn context(&self) -> Option<&Arc<GpuContext>> {
+        self.context
+            .get_or_init(|| match GpuContext::new() {
+                Ok(context) => Some(Arc::new(context)),
+                Err(error) => {
+                    if self.choice == DeviceChoice::Gpu {
+                        self.note(format!(
+                            "GPU requested but not available ({error}); running on the CPU instead"
+                        ));
+                    }
+                    None
+                }
+            })
+            .as_ref()
+    }
+
     fn open(&self) -> Option<&GpuTracer> {
         self.tracer
             .get_or_init(|| {
-                let opened =
-                    GpuContext::new().and_then(|context| GpuTracer::new(Arc::new(context), self.precision));
-                match opened {
+                let context = self.context()?;
+                match GpuTracer::new(context.clone(), self.precision) {
                     Ok(tracer) => Some(tracer),
                     Err(error) => {
                         if self.choice == DeviceChoice::Gpu {
@@ -108,13 +152,62 @@ impl DeviceSelection {
             .as_ref()
     }
 
-    fn fall_back(&self, error: impl std::fmt::Display) {
+    /// The GPU image pass for `pixels` output pixels, or None for the CPU path (the rule of
+    /// `tracer_for`, with `AUTO_MIN_PIXELS`).
+    pub fn image_pass_for(&self, pixels: usize) -> Option<&GpuImagePass> {
+        let usable = match self.choice {
+            DeviceChoice::Cpu => false,
+            DeviceChoice::Auto if pixels < AUTO_MIN_PIXELS => false,
+            DeviceChoice::Auto if !hardware_gpu_node_present() => false,
+            DeviceChoice::Auto => self.context().is_some_and(|c| !c.adapter.software),
+            DeviceChoice::Gpu => true,
+        };
+        if !usable {
+            return None;
+        }
+        self.image
+            .get_or_init(|| self.context().map(|context| GpuImagePass::new(context.clone())))
+            .as_ref()
+    }
+
+    fn fall_back(&self, work: &str, error: impl std::fmt::Display) {
         let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
         if !std::mem::replace(&mut notes.1, true) {
             notes
                 .0
-                .push(format!("GPU trace failed ({error}); continuing on the CPU"));
+                .push(format!("GPU {work} failed ({error}); continuing on the CPU"));
         }
+    }
+
+    fn adapter_name(&self) -> Option<&str> {
+        match self.context.get() {
+            Some(Some(context)) => Some(&context.adapter.name),
+            _ => None,
+        }
+    }
+}
+
+impl ImageDevice for DeviceSelection {
+    fn apply(&self, pass: &ImagePass) -> Option<Planar> {
+        let image = self.image_pass_for(pass.window.width * pass.window.height)?;
+        match image.apply(pass) {
+            Ok(out) => Some(out),
+            Err(error) => {
+                self.fall_back("image pass", error);
+                None
+            }
+        }
+    }
+
+    fn describe(&self) -> String {
+        match (self.image.get(), self.adapter_name()) {
+            (Some(Some(_)), Some(name)) => format!("gpu (f32, {name})"),
+            _ => "cpu".into(),
+        }
+    }
+
+    fn take_notes(&self) -> Vec<String> {
+        HitTracer::take_notes(self)
     }
 }
 
@@ -126,7 +219,7 @@ impl HitTracer for DeviceSelection {
                     rays.copy_from_slice(&traced.rays);
                     return Ok(traced.statuses);
                 }
-                Err(error) => self.fall_back(error),
+                Err(error) => self.fall_back("trace", error),
             }
         }
         Ok(trace_rays(system, rays))
@@ -180,7 +273,8 @@ mod tests {
             auto.tracer.get().is_none(),
             "adapter discovery must wait for a big job"
         );
-        assert_eq!(auto.describe(), "cpu");
+        assert_eq!(HitTracer::describe(&auto), "cpu");
+        assert_eq!(ImageDevice::describe(&auto), "cpu");
     }
 
     #[test]

@@ -2,13 +2,14 @@
 //!
 //! Image simulation through a lens: where pixels sit on the sensor (`geometry`), the real chief ray
 //! over the field with distortion and relative illumination (`chief`), PSFs over the sensor from one
-//! radius (`psf_map`), per-pixel radial quantities as lookup tables (`radial_table`), seamless spatially varying convolution (`convolve`), and the simulator that
-//! puts them together (`simulate`).
+//! radius (`psf_map`), per-pixel radial quantities as lookup tables (`radial_table`), seamless spatially varying convolution (`convolve`), the simulator that
+//! puts them together (`simulate`), and the hand-over of its image pass to another device (`device`).
 //!
 //! Hand-written because these are the product's own optics; parallel with rayon.
 
 pub mod chief;
 pub mod convolve;
+pub mod device;
 pub mod error;
 pub mod geometry;
 pub mod psf_map;
@@ -17,6 +18,7 @@ pub mod sequence;
 pub mod simulate;
 
 pub use chief::ChiefRayMap;
+pub use device::{ImageBackend, ImageDevice, ImagePass};
 pub use error::{SimError, SimResult};
 pub use geometry::SensorGrid;
 pub use psf_map::{RadialPsfs, RadialSampling};

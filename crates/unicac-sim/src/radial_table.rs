@@ -48,6 +48,12 @@ impl RadialTable {
         }
     }
 
+    /// The samples f(0), f(step), f(2 step), ... (`RADIAL_TABLE_STEP_PX`), for a device that looks them
+    /// up itself.
+    pub fn samples(&self) -> &[f64] {
+        &self.values
+    }
+
     /// f at `radius_px` (linear between samples; the last sample beyond them).
     #[inline]
     pub fn at(&self, radius_px: f64) -> f64 {

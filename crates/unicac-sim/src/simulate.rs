@@ -8,8 +8,9 @@
 
 use crate::chief::ChiefRayMap;
 use crate::convolve::{
-    convolve_varying_into, node_positions, Blend, KernelGrid, Method, KERNEL_TAIL_TOLERANCE,
+    convolve_varying_laid_out, node_positions, Blend, KernelGrid, Method, TileLayout, KERNEL_TAIL_TOLERANCE,
 };
+use crate::device::{ImageBackend, ImagePass};
 use crate::error::SimResult;
 use crate::geometry::SensorGrid;
 use crate::psf_map::{RadialPsfs, RadialSampling, DEFAULT_RADIAL_SAMPLING};
@@ -46,6 +47,10 @@ pub struct SimulationSettings {
     pub illumination: bool,
     #[serde(skip)]
     pub response: SpectralResponse,
+    /// Where the image pass (blur, warp, shading) runs: the CPU path, or a device that may take it
+    /// (`device`; it falls back to the CPU path whenever it declines).
+    #[serde(skip)]
+    pub image: ImageBackend,
     /// Where traced PSF maps are kept between runs (`None`: always trace).
     #[serde(skip)]
     pub cache: Option<PsfCache>,
@@ -72,6 +77,7 @@ impl Default for SimulationSettings {
             distortion: true,
             illumination: true,
             response: SpectralResponse::default_camera(),
+            image: ImageBackend::cpu(),
             cache: None,
         }
     }
@@ -89,6 +95,8 @@ pub struct LensSimulator {
     /// Why a freshly traced map could not be stored in the cache (the simulation itself is unaffected).
     pub cache_warning: Option<String>,
     kernels: Vec<KernelGrid>,
+    /// The frame's tile layout per channel (made once: a simulator renders many images).
+    layouts: Vec<TileLayout>,
     /// ideal height / real height as a function of the real radius (pixels): the warp's scale.
     warp_scale: RadialTable,
     /// Relative illumination times vignetting, normalised by the peak transmission, over the radius.
@@ -188,11 +196,16 @@ impl LensSimulator {
             psfs_from_cache,
             cache_warning,
             kernels: Vec::new(),
+            layouts: Vec::new(),
             warp_scale,
             shading,
         };
         let frame = simulator.frame();
         simulator.kernels = (0..3).map(|c| simulator.kernel_grid(c, frame)).collect();
+        let kernel_tail = simulator.settings.kernel_tail;
+        simulator.layouts = (simulator.kernels.iter())
+            .map(|grid| TileLayout::new(width, height, grid, kernel_tail))
+            .collect();
         Ok(simulator)
     }
 
@@ -263,8 +276,15 @@ impl LensSimulator {
         (longer / self.settings.node_intervals.max(1)).max(MIN_NODE_SPACING_PX)
     }
 
-    /// Simulates the lens on a linear RGB image of the prepared size: `blur`, then `geometry`.
+    /// Simulates the lens on a linear RGB image of the prepared size: `blur`, then `geometry` (on the
+    /// settings' image device when it takes the pass).
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
+        self.check_frame(image)?;
+        let frame = self.frame();
+        let pass = self.image_pass(image, frame, frame, self.frame_grids(), self.frame_layouts());
+        if let Some(out) = self.settings.image.apply(&pass) {
+            return Ok(out);
+        }
         let blurred = self.blur(image)?;
         if !self.moves_or_shades() {
             return Ok(blurred); // no copy of a frame that `geometry` would hand back unchanged
@@ -279,18 +299,49 @@ impl LensSimulator {
         let (w, h) = (self.grid.width_px, self.grid.height_px);
         let mut blurred = Planar::new(w, h, 3);
         for c in 0..3 {
-            convolve_varying_into(
+            convolve_varying_laid_out(
                 image.plane(c),
                 w,
                 h,
                 &self.kernels[c],
+                &self.layouts[c],
                 self.settings.method,
                 self.settings.blend,
-                self.settings.kernel_tail,
                 blurred.plane_mut(c),
             );
         }
         Ok(blurred)
+    }
+
+    fn frame_grids(&self) -> [&KernelGrid; 3] {
+        [&self.kernels[0], &self.kernels[1], &self.kernels[2]]
+    }
+
+    fn frame_layouts(&self) -> [&TileLayout; 3] {
+        [&self.layouts[0], &self.layouts[1], &self.layouts[2]]
+    }
+
+    /// The optics of `region` (frame pixels `source`) for the output pixels `window`, as a device
+    /// takes them.
+    fn image_pass<'a>(
+        &'a self,
+        region: &'a Planar,
+        source: PixelWindow,
+        window: PixelWindow,
+        grids: [&'a KernelGrid; 3],
+        layouts: [&'a TileLayout; 3],
+    ) -> ImagePass<'a> {
+        ImagePass {
+            image: region,
+            source,
+            window,
+            grids,
+            layouts,
+            blend: self.settings.blend,
+            centre_px: self.grid.centre_px(),
+            warp_scale: self.settings.distortion.then_some(&self.warp_scale),
+            shading: self.settings.illumination.then_some(&self.shading),
+        }
     }
 
     /// The lens's geometry alone on a frame-sized linear RGB image: the distortion warp and the
@@ -422,17 +473,30 @@ impl LensSimulator {
     }
 
     fn apply_region(&self, region: &Planar, source: PixelWindow, window: PixelWindow) -> SimResult<Planar> {
+        let grids: Vec<KernelGrid> = (0..3).map(|c| self.kernel_grid(c, source)).collect();
+        let layouts: Vec<TileLayout> = (grids.iter())
+            .map(|grid| TileLayout::new(source.width, source.height, grid, self.settings.kernel_tail))
+            .collect();
+        let pass = self.image_pass(
+            region,
+            source,
+            window,
+            [&grids[0], &grids[1], &grids[2]],
+            [&layouts[0], &layouts[1], &layouts[2]],
+        );
+        if let Some(out) = self.settings.image.apply(&pass) {
+            return Ok(out);
+        }
         let mut blurred = Planar::new(source.width, source.height, 3);
         for c in 0..3 {
-            let grid = self.kernel_grid(c, source);
-            convolve_varying_into(
+            convolve_varying_laid_out(
                 region.plane(c),
                 source.width,
                 source.height,
-                &grid,
+                &grids[c],
+                &layouts[c],
                 self.settings.method,
                 self.settings.blend,
-                self.settings.kernel_tail,
                 blurred.plane_mut(c),
             );
         }

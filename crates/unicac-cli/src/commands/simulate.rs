@@ -12,7 +12,7 @@ use unicac_sim::{image_seed, LensSimulator, SimulationSettings, SimulatorSequenc
 
 pub fn run(args: &SimulateArgs) -> Result<()> {
     let outputs = plan_outputs(args)?;
-    let backend = super::gpu::backend(&args.device);
+    let device = super::gpu::selection(&args.device);
     let lens = load_lens(&args.lens.lens)?;
     let created = !args.out.exists();
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
@@ -22,8 +22,8 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             args.out.display()
         );
     }
-    let result = simulate_all(args, &lens, &outputs, &backend);
-    super::gpu::print_notes(backend.take_notes());
+    let result = simulate_all(args, &lens, &outputs, &device);
+    super::gpu::print_notes(unicac_psf::HitTracer::take_notes(device.as_ref()));
     // A run that failed before writing anything leaves no empty folder behind.
     if result.is_err() && created {
         let _ = std::fs::remove_dir(&args.out);
@@ -35,7 +35,7 @@ fn simulate_all(
     args: &SimulateArgs,
     lens: &unicac_optics::Lens,
     outputs: &[(PathBuf, FileFormat)],
-    backend: &unicac_psf::RayBackend,
+    device: &std::sync::Arc<unicac_gpu::DeviceSelection>,
 ) -> Result<()> {
     let bar = progress(args.images.len(), "simulate");
     let mut settings = SimulationSettings {
@@ -48,7 +48,9 @@ fn simulate_all(
         },
         ..Default::default()
     };
-    settings.psf.backend = backend.clone();
+    // One device for the PSF rays and the image pass (each falls back to the CPU on its own).
+    settings.psf.backend = unicac_gpu::DeviceSelection::ray_backend(device);
+    settings.image = unicac_gpu::DeviceSelection::image_backend(device);
     let mut simulators = SimulatorSequence::new(lens, args.pixel_um, settings);
     for (index, (path, (out, format))) in args.images.iter().zip(outputs).enumerate() {
         let loaded = read_image(path)?;

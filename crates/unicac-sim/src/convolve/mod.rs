@@ -194,6 +194,95 @@ pub fn convolve_varying_with(
     out
 }
 
+/// Where every pixel sits among the node tiles and how far each tile's corner kernels reach: the plan
+/// `convolve_varying_into` follows, made once so that a device running the same blend (unicac-gpu)
+/// reads the same tiles, weights and crops instead of re-deriving them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TileLayout {
+    /// Tiles along x and y (node intervals: nodes - 1 each).
+    pub tiles: [usize; 2],
+    /// The tile column of each pixel column, and its fractional position across that tile (0 at the
+    /// left node, 1 at the right one; the bilinear weights' tx).
+    pub column_tile: Vec<u32>,
+    pub column_t: Vec<f32>,
+    /// Likewise for rows (ty).
+    pub row_tile: Vec<u32>,
+    pub row_t: Vec<f32>,
+    /// Half-width (px) to which each tile's four corner kernels are cropped (row-major over tiles):
+    /// the largest `half_width_holding(kernel, kernel_tail)` of its corners.
+    pub tile_half_px: Vec<u32>,
+}
+
+impl TileLayout {
+    pub fn new(width: usize, height: usize, grid: &KernelGrid, kernel_tail: f64) -> TileLayout {
+        assert!(
+            grid.nodes_x >= 2 && grid.nodes_y >= 2,
+            "need at least 2 x 2 nodes"
+        );
+        let reaches: Vec<usize> = grid
+            .kernels
+            .par_iter()
+            .map(|k| half_width_holding(k, kernel_tail))
+            .collect();
+        let (column_tile, column_t) = axis_positions(&node_positions(width, grid.nodes_x), width);
+        let (row_tile, row_t) = axis_positions(&node_positions(height, grid.nodes_y), height);
+        let tiles = [grid.nodes_x - 1, grid.nodes_y - 1];
+        let tile_half_px = (0..tiles[1])
+            .flat_map(|j| (0..tiles[0]).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                let node = |di: usize, dj: usize| (j + dj) * grid.nodes_x + i + di;
+                [node(0, 0), node(1, 0), node(0, 1), node(1, 1)]
+                    .iter()
+                    .map(|&n| reaches[n])
+                    .max()
+                    .unwrap_or(0) as u32
+            })
+            .collect();
+        TileLayout {
+            tiles,
+            column_tile,
+            column_t,
+            row_tile,
+            row_t,
+            tile_half_px,
+        }
+    }
+
+    /// Pixel ranges of the tiles along x (`along_x`) or y.
+    fn ranges(&self, along_x: bool) -> Vec<Range<usize>> {
+        let (tile_of, count) = if along_x {
+            (&self.column_tile, self.tiles[0])
+        } else {
+            (&self.row_tile, self.tiles[1])
+        };
+        let mut ranges = vec![0..0; count];
+        for (pixel, &tile) in tile_of.iter().enumerate() {
+            // Pixels come in order, so a tile's range starts at its first pixel (end 0: none seen yet).
+            let range = &mut ranges[tile as usize];
+            if range.end == 0 {
+                range.start = pixel;
+            }
+            range.end = pixel + 1;
+        }
+        ranges
+    }
+}
+
+/// Each pixel's interval among `positions` (`intervals`) and its fractional position across it, clamped
+/// to 0..1 (pixels before the first node and after the last one take the end intervals' edge weights).
+fn axis_positions(positions: &[f64], length: usize) -> (Vec<u32>, Vec<f32>) {
+    let mut tile = vec![0u32; length];
+    let mut t = vec![0.0f32; length];
+    for (i, range) in intervals(positions, length).into_iter().enumerate() {
+        let (from, to) = (positions[i], positions[i + 1]);
+        for pixel in range {
+            tile[pixel] = i as u32;
+            t[pixel] = ((pixel as f64 - from) / (to - from)).clamp(0.0, 1.0) as f32;
+        }
+    }
+    (tile, t)
+}
+
 /// `convolve_varying_with` into a buffer the caller owns (every pixel of `out` is written): a 12 MP
 /// simulation writes its three planes straight into one image instead of copying them there, which
 /// spares 144 MB of freshly faulted memory per image (page faults and page clearing were ~20% of the
@@ -209,22 +298,33 @@ pub fn convolve_varying_into(
     kernel_tail: f64,
     out: &mut [f32],
 ) {
+    assert_eq!(grid.kernels.len(), grid.nodes_x * grid.nodes_y);
+    let layout = TileLayout::new(width, height, grid, kernel_tail);
+    convolve_varying_laid_out(plane, width, height, grid, &layout, method, blend, out);
+}
+
+/// `convolve_varying_into` with its tile layout made by the caller (`TileLayout::new` of the same
+/// plane size, grid and tail).
+#[allow(clippy::too_many_arguments)]
+pub fn convolve_varying_laid_out(
+    plane: &[f32],
+    width: usize,
+    height: usize,
+    grid: &KernelGrid,
+    layout: &TileLayout,
+    method: Method,
+    blend: Blend,
+    out: &mut [f32],
+) {
     assert_eq!(plane.len(), width * height);
     assert_eq!(out.len(), width * height);
-    assert!(
-        grid.nodes_x >= 2 && grid.nodes_y >= 2,
-        "need at least 2 x 2 nodes"
+    assert_eq!(
+        (layout.column_tile.len(), layout.row_tile.len()),
+        (width, height),
+        "a layout of this plane's size"
     );
-    assert_eq!(grid.kernels.len(), grid.nodes_x * grid.nodes_y);
-    let reaches: Vec<usize> = grid
-        .kernels
-        .par_iter()
-        .map(|k| half_width_holding(k, kernel_tail))
-        .collect();
-    let xs = node_positions(width, grid.nodes_x);
-    let ys = node_positions(height, grid.nodes_y);
-    let columns = intervals(&xs, width);
-    let bands = intervals(&ys, height);
+    let columns = layout.ranges(true);
+    let bands = layout.ranges(false);
     let mut slices: Vec<&mut [f32]> = Vec::with_capacity(bands.len());
     let mut rest = out;
     for rows in &bands {
@@ -241,12 +341,12 @@ pub fn convolve_varying_into(
                 let node = |di: usize, dj: usize| (j + dj) * grid.nodes_x + i + di;
                 let nodes = [node(0, 0), node(1, 0), node(0, 1), node(1, 1)];
                 let corners = nodes.map(|n| &grid.kernels[n]);
-                let size = 2 * nodes.iter().map(|&n| reaches[n]).max().unwrap_or(0) + 1;
+                let size = 2 * layout.tile_half_px[j * layout.tiles[0] + i] as usize + 1;
                 let tile = Tile {
                     columns: tile_columns,
                     rows,
-                    x: (xs[i], xs[i + 1]),
-                    y: (ys[j], ys[j + 1]),
+                    tx: &layout.column_t[tile_columns.clone()],
+                    ty: &layout.row_t[rows.clone()],
                     blend,
                 };
                 if let Some(value) = flat_value(plane, (width, height), tile_columns, rows, size) {
@@ -303,12 +403,13 @@ fn flat_value(
         .then_some(value)
 }
 
-/// The pixels between node columns x.0..x.1 and node rows y.0..y.1.
+/// The pixels between two node columns and two node rows.
 struct Tile<'a> {
     columns: &'a Range<usize>,
     rows: &'a Range<usize>,
-    x: (f64, f64),
-    y: (f64, f64),
+    /// The layout's fractional positions of the tile's columns and rows.
+    tx: &'a [f32],
+    ty: &'a [f32],
     blend: Blend,
 }
 
@@ -316,11 +417,9 @@ impl Tile<'_> {
     /// Writes sum_k w_k corner_k into the band, with `corners(column, row, weights)` giving the four
     /// corner convolutions [top-left, top-right, bottom-left, bottom-right] at a pixel.
     fn blend(&self, band: &mut [f32], width: usize, corners: impl Fn(usize, usize, [f32; 4]) -> [f32; 4]) {
-        for row in self.rows.clone() {
-            let ty = ((row as f64 - self.y.0) / (self.y.1 - self.y.0)).clamp(0.0, 1.0) as f32;
+        for (row, &ty) in self.rows.clone().zip(self.ty) {
             let target = &mut band[(row - self.rows.start) * width..][..width];
-            for column in self.columns.clone() {
-                let tx = ((column as f64 - self.x.0) / (self.x.1 - self.x.0)).clamp(0.0, 1.0) as f32;
+            for (column, &tx) in self.columns.clone().zip(self.tx) {
                 let weights = self.blend.weights(tx, ty);
                 let values = corners(column, row, weights);
                 target[column] = values.iter().zip(weights).map(|(v, w)| v * w).sum();
@@ -720,11 +819,17 @@ mod tests {
             for (i, columns) in intervals(&xs, w).iter().enumerate() {
                 let node = |di: usize, dj: usize| &grid.kernels[(j + dj) * grid.nodes_x + i + di];
                 let corners = [node(0, 0), node(1, 0), node(0, 1), node(1, 1)];
+                // The blend positions derived here again, independently of `TileLayout`.
+                let across = |pixels: &Range<usize>, from: f64, to: f64| -> Vec<f32> {
+                    let t = |p: usize| ((p as f64 - from) / (to - from)).clamp(0.0, 1.0) as f32;
+                    pixels.clone().map(t).collect()
+                };
+                let (tx, ty) = (across(columns, xs[i], xs[i + 1]), across(rows, ys[j], ys[j + 1]));
                 let tile = Tile {
                     columns,
                     rows,
-                    x: (xs[i], xs[i + 1]),
-                    y: (ys[j], ys[j + 1]),
+                    tx: &tx,
+                    ty: &ty,
                     blend: Blend::Bilinear,
                 };
                 tile.blend(band, w, |column, row, _| {
@@ -733,6 +838,28 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn the_tile_layout_holds_the_node_intervals_even_when_some_are_empty() {
+        // 9 nodes over 6 px: intervals of under a pixel, some holding no pixel at all.
+        for (length, nodes) in [(37, 3), (23, 4), (6, 9), (2, 2)] {
+            let grid = KernelGrid {
+                nodes_x: nodes,
+                nodes_y: 2,
+                kernels: (0..2 * nodes).map(|_| delta(3)).collect(),
+            };
+            let layout = TileLayout::new(length, 5, &grid, 0.0);
+            let expected = intervals(&node_positions(length, nodes), length);
+            let ranges = layout.ranges(true);
+            let nonempty = |r: &Vec<Range<usize>>| -> Vec<Range<usize>> {
+                r.iter().filter(|r| r.start < r.end).cloned().collect()
+            };
+            assert_eq!(ranges.len(), expected.len(), "{length} px, {nodes} nodes");
+            assert_eq!(nonempty(&ranges), nonempty(&expected), "{length} px, {nodes} nodes");
+            assert!(layout.column_t.iter().all(|t| (0.0..=1.0).contains(t)));
+            assert_eq!(layout.tile_half_px, vec![0; nodes - 1], "delta kernels reach nowhere");
+        }
     }
 
     #[test]

@@ -1,0 +1,95 @@
+//! The simulator's image pass on the GPU against the CPU path, on one dead-leaves frame (docs/gpu.md):
+//! the run time of each (library calls, PSF map built once beforehand), their per-sample difference and
+//! PSNR, and the blur's multiply-adds (each pixel's four corner kernels at its tile's crop), from which
+//! the device's sustained rate and a time for any other device follow.
+//!
+//! Run: cargo run --release -p unicac-gpu --example image_pass [LENS] [WIDTHxHEIGHT] (default
+//! phone_asphere 1600x1200)
+
+use std::sync::Arc;
+use std::time::Instant;
+use unicac_gpu::{GpuContext, GpuImagePass};
+use unicac_image::charts::dead_leaves;
+use unicac_image::Planar;
+use unicac_optics::builtin;
+use unicac_sim::convolve::TileLayout;
+use unicac_sim::{ImageBackend, ImageDevice, ImagePass, LensSimulator, SimulationSettings};
+
+/// The GPU pass as a device that never declines.
+struct Always(GpuImagePass);
+
+impl ImageDevice for Always {
+    fn apply(&self, pass: &ImagePass) -> Option<Planar> {
+        Some(self.0.apply(pass).expect("the GPU image pass"))
+    }
+    fn describe(&self) -> String {
+        "gpu".into()
+    }
+    fn take_notes(&self) -> Vec<String> {
+        Vec::new()
+    }
+}
+
+fn timed(sim: &LensSimulator, image: &Planar) -> (Planar, f64) {
+    let start = Instant::now();
+    let out = sim.apply(image).expect("simulation");
+    (out, start.elapsed().as_secs_f64())
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let name = args.next().unwrap_or_else(|| "phone_asphere".into());
+    let size = args.next().unwrap_or_else(|| "1600x1200".into());
+    let (width, height) = size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+        .expect("size as WIDTHxHEIGHT");
+    let lens = builtin::lens(&name).expect("a built-in lens");
+    let chart = dead_leaves(width, height, 7).expect("chart");
+    let mut sim =
+        LensSimulator::new(&lens, width, height, None, SimulationSettings::default()).expect("simulator");
+    let multiply_adds: f64 = sim
+        .kernel_grids()
+        .iter()
+        .map(|grid| {
+            let layout = TileLayout::new(width, height, grid, sim.settings.kernel_tail);
+            let mut pixels = vec![0usize; layout.tile_half_px.len()];
+            for &j in &layout.row_tile {
+                for &i in &layout.column_tile {
+                    pixels[j as usize * layout.tiles[0] + i as usize] += 1;
+                }
+            }
+            (pixels.iter().zip(&layout.tile_half_px))
+                .map(|(&n, &half)| 4.0 * n as f64 * ((2 * half + 1) as f64).powi(2))
+                .sum::<f64>()
+        })
+        .sum();
+    let (cpu, cpu_s) = timed(&sim, &chart);
+    let (_, cpu_again_s) = timed(&sim, &chart);
+    let context = Arc::new(GpuContext::new().expect("a GPU adapter"));
+    println!("adapter: {}", context.adapter.name);
+    sim.settings.image = ImageBackend::new(Arc::new(Always(GpuImagePass::new(context))));
+    let (gpu, gpu_s) = timed(&sim, &chart);
+    let (again, gpu_again_s) = timed(&sim, &chart);
+    assert!(again.data == gpu.data, "GPU runs differ");
+    let peak = cpu.data.iter().fold(0.0f32, |m, v| m.max(*v));
+    let (mut worst, mut squares) = (0.0f32, 0.0f64);
+    for (a, b) in cpu.data.iter().zip(&gpu.data) {
+        worst = worst.max((a - b).abs());
+        squares += f64::from(a - b).powi(2);
+    }
+    let psnr = 10.0 * (f64::from(peak).powi(2) / (squares / cpu.data.len() as f64).max(1e-30)).log10();
+    println!(
+        "lens {name}, {width}x{height} ({:.1} MP): kernel {} px, node spacing {} px",
+        (width * height) as f64 / 1e6,
+        sim.radial.kernel_size,
+        sim.node_spacing_px()
+    );
+    println!("CPU path: {cpu_s:.3} s, {cpu_again_s:.3} s");
+    println!("GPU path: {gpu_s:.3} s, {gpu_again_s:.3} s (identical outputs)");
+    println!(
+        "GPU vs CPU: worst {worst:.2e} (peak {peak:.3}), PSNR {psnr:.1} dB; blur {:.1} G multiply-adds, {:.2} G/s on this device",
+        multiply_adds / 1e9,
+        multiply_adds / 1e9 / gpu_again_s
+    );
+}

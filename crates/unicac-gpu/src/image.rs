@@ -1,0 +1,386 @@
+//! The simulator's image pass on the device: `unicac_sim::ImagePass` run by shaders/blur.wgsl (the
+//! spatially varying convolution) and shaders/geometry.wgsl (the distortion warp and the shading), one
+//! channel at a time, with nothing but the output coming back. The twin is the CPU path itself
+//! (`LensSimulator` with the CPU backend): the device reads the CPU's tile layout, so both blend by the
+//! same weights and crops, and differ only by f32 summation order (the blur) and by f32 pixel positions
+//! (the warp; the CPU's are f64). Limits and parity figures: docs/gpu.md.
+
+use crate::device::{GpuContext, GpuError, GpuResult};
+use bytemuck::{Pod, Zeroable};
+use std::sync::Arc;
+use unicac_image::Planar;
+use unicac_sim::convolve::Blend;
+use unicac_sim::radial_table::{RadialTable, RADIAL_TABLE_STEP_PX};
+use unicac_sim::ImagePass;
+use wgpu::util::DeviceExt;
+
+const BLUR: &str = include_str!("../../../shaders/blur.wgsl");
+const GEOMETRY: &str = include_str!("../../../shaders/geometry.wgsl");
+/// Invocations per workgroup side (`@workgroup_size(8, 8)` in both kernels).
+const TILE: u32 = 8;
+/// Multiply-adds one blur dispatch may hold (a band of rows): keeps each submission short enough for
+/// display drivers' watchdogs (~2 s) on a slow GPU, and the wait between bands bounded.
+const DISPATCH_MULTIPLY_ADDS: usize = 1 << 30;
+
+/// `blur.wgsl`'s `BlurParams`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Default)]
+struct BlurParams {
+    width: u32,
+    height: u32,
+    row_start: u32,
+    rows: u32,
+    tiles_x: u32,
+    kernel_size: u32,
+    nodes_x: u32,
+    nearest: u32,
+    row_tile_at: u32,
+    tile_half_at: u32,
+    row_t_at: u32,
+    _pad: u32,
+}
+
+/// `geometry.wgsl`'s `GeometryParams`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Default)]
+struct GeometryParams {
+    width: u32,
+    height: u32,
+    window_x0: u32,
+    window_y0: u32,
+    source_width: u32,
+    source_height: u32,
+    source_x0: u32,
+    source_y0: u32,
+    centre_x: f32,
+    centre_y: f32,
+    warp: u32,
+    shade: u32,
+    warp_samples: u32,
+    shade_samples: u32,
+    inverse_step: f32,
+    _pad: u32,
+}
+
+/// The two image kernels compiled once on a context.
+pub struct GpuImagePass {
+    context: Arc<GpuContext>,
+    blur: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    geometry: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+}
+
+fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A pipeline of `source`'s `entry_point` whose bindings are a uniform (0), `inputs` read-only storage
+/// buffers and one read-write storage buffer after them.
+fn pipeline(
+    device: &wgpu::Device,
+    source: &str,
+    entry_point: &str,
+    inputs: u32,
+) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(entry_point),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
+    entries.extend((1..=inputs).map(|b| entry(b, wgpu::BufferBindingType::Storage { read_only: true })));
+    entries.push(entry(
+        inputs + 1,
+        wgpu::BufferBindingType::Storage { read_only: false },
+    ));
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(entry_point),
+        entries: &entries,
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(entry_point),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry_point),
+        layout: Some(&pipeline_layout),
+        module: &module,
+        entry_point: Some(entry_point),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    (layout, pipeline)
+}
+
+impl GpuImagePass {
+    pub fn new(context: Arc<GpuContext>) -> GpuImagePass {
+        let device = &context.device;
+        let blur = pipeline(device, BLUR, "blur", 4);
+        let geometry = pipeline(device, GEOMETRY, "geometry", 3);
+        GpuImagePass {
+            context,
+            blur,
+            geometry,
+        }
+    }
+
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.context
+    }
+
+    /// The pass's output (`window`'s size, 3 channels), as `LensSimulator` computes it on the CPU.
+    pub fn apply(&self, pass: &ImagePass) -> GpuResult<Planar> {
+        self.check(pass)?;
+        let (source, window) = (pass.source, pass.window);
+        let mut out = Planar::new(window.width, window.height, 3);
+        let tables = self.tables(pass);
+        for c in 0..3 {
+            let blurred = self.blur_plane(pass.image.plane(c), pass, c)?;
+            let warped = self.storage(window.width * window.height);
+            let params = GeometryParams {
+                width: window.width as u32,
+                height: window.height as u32,
+                window_x0: window.x0 as u32,
+                window_y0: window.y0 as u32,
+                source_width: source.width as u32,
+                source_height: source.height as u32,
+                source_x0: source.x0 as u32,
+                source_y0: source.y0 as u32,
+                centre_x: pass.centre_px[0] as f32,
+                centre_y: pass.centre_px[1] as f32,
+                warp: u32::from(pass.warp_scale.is_some()),
+                shade: u32::from(pass.shading.is_some()),
+                warp_samples: pass.warp_scale.map_or(0, |t| t.samples().len() as u32),
+                shade_samples: pass.shading.map_or(0, |t| t.samples().len() as u32),
+                inverse_step: (1.0 / RADIAL_TABLE_STEP_PX) as f32,
+                _pad: 0,
+            };
+            let uniform = self.uniform(&params);
+            let buffers = [&uniform, &blurred, &tables[0], &tables[1], &warped];
+            self.run(&self.geometry, &buffers, [window.width, window.height]);
+            let plane = self.read(&warped, window.width * window.height)?;
+            out.plane_mut(c).copy_from_slice(&plane);
+        }
+        Ok(out)
+    }
+
+    /// Refuses, before any work, what the device cannot hold or the pass does not describe.
+    fn check(&self, pass: &ImagePass) -> GpuResult<()> {
+        let (source, window) = (pass.source, pass.window);
+        let image = pass.image;
+        if (image.width, image.height, image.channels) != (source.width, source.height, 3) {
+            return Err(GpuError::Unsupported(format!(
+                "an image of {} x {} x {} for a {} x {} RGB region",
+                image.width, image.height, image.channels, source.width, source.height
+            )));
+        }
+        let limits = &self.context.limits;
+        let binding = limits.max_storage_buffer_binding_size as usize;
+        let workgroups = limits.max_compute_workgroups_per_dimension as usize;
+        let largest_plane = (source.width * source.height).max(window.width * window.height);
+        if 4 * largest_plane > binding {
+            return Err(GpuError::Unsupported(format!(
+                "a {} x {} frame: planes above the device's {} MiB storage binding (the CPU path takes it)",
+                source.width,
+                source.height,
+                binding >> 20
+            )));
+        }
+        if source.width.max(window.width).div_ceil(TILE as usize) > workgroups
+            || window.height.div_ceil(TILE as usize) > workgroups
+        {
+            return Err(GpuError::Unsupported(format!(
+                "a {} x {} frame: more workgroups per dimension than the device's {workgroups}",
+                source.width, source.height
+            )));
+        }
+        for (grid, layout) in pass.grids.iter().zip(pass.layouts) {
+            let kernel = grid.kernels()[0].size;
+            if 4 * grid.kernels().len() * kernel * kernel > binding {
+                return Err(GpuError::Unsupported(format!(
+                    "{} node kernels of {kernel} px: above the device's {} MiB storage binding",
+                    grid.kernels().len(),
+                    binding >> 20
+                )));
+            }
+            if (layout.column_tile.len(), layout.row_tile.len()) != (source.width, source.height)
+                || layout.tiles != [grid.nodes()[0] - 1, grid.nodes()[1] - 1]
+            {
+                return Err(GpuError::Unsupported(
+                    "a tile layout made for another region or grid".into(),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The warp table as scale - 1 (`geometry.wgsl` adds the small offset to the exact pixel index) and
+    /// the shading table, in f32 (a one-sample stand-in where one is off: bindings are never empty).
+    fn tables(&self, pass: &ImagePass) -> [wgpu::Buffer; 2] {
+        let f32_samples = |table: Option<&RadialTable>, minus: f64| -> Vec<f32> {
+            table.map_or(vec![0.0], |t| {
+                t.samples().iter().map(|&v| (v - minus) as f32).collect()
+            })
+        };
+        [f32_samples(pass.warp_scale, 1.0), f32_samples(pass.shading, 0.0)]
+            .map(|values| self.input(bytemuck::cast_slice(&values)))
+    }
+
+    /// One channel's blur into a device buffer, in bands of rows.
+    fn blur_plane(&self, plane: &[f32], pass: &ImagePass, channel: usize) -> GpuResult<wgpu::Buffer> {
+        let (grid, layout) = (pass.grids[channel], pass.layouts[channel]);
+        let (width, height) = (pass.source.width, pass.source.height);
+        let kernel_size = grid.kernels()[0].size;
+        let kernels: Vec<f32> = grid
+            .kernels()
+            .iter()
+            .flat_map(|k| k.data.iter().copied())
+            .collect();
+        let mut words = layout.column_tile.clone();
+        words.extend(&layout.row_tile);
+        words.extend(&layout.tile_half_px);
+        let mut positions = layout.column_t.clone();
+        positions.extend(&layout.row_t);
+        let inputs = [
+            self.input(bytemuck::cast_slice(plane)),
+            self.input(bytemuck::cast_slice(&kernels)),
+            self.input(bytemuck::cast_slice(&words)),
+            self.input(bytemuck::cast_slice(&positions)),
+        ];
+        let blurred = self.storage(width * height);
+        let largest = 2 * layout.tile_half_px.iter().copied().max().unwrap_or(0) as usize + 1;
+        let per_row = (4 * largest * largest * width).max(1);
+        let band = (DISPATCH_MULTIPLY_ADDS / per_row).clamp(1, height);
+        for row_start in (0..height).step_by(band) {
+            let params = BlurParams {
+                width: width as u32,
+                height: height as u32,
+                row_start: row_start as u32,
+                rows: band.min(height - row_start) as u32,
+                tiles_x: layout.tiles[0] as u32,
+                kernel_size: kernel_size as u32,
+                nodes_x: grid.nodes()[0] as u32,
+                nearest: u32::from(pass.blend == Blend::Nearest),
+                row_tile_at: width as u32,
+                tile_half_at: (width + height) as u32,
+                row_t_at: width as u32,
+                _pad: 0,
+            };
+            let uniform = self.uniform(&params);
+            let buffers = [&uniform, &inputs[0], &inputs[1], &inputs[2], &inputs[3], &blurred];
+            self.run(&self.blur, &buffers, [width, params.rows as usize]);
+        }
+        Ok(blurred)
+    }
+
+    fn input(&self, bytes: &[u8]) -> wgpu::Buffer {
+        self.context
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: None,
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+    }
+
+    fn uniform<T: Pod>(&self, params: &T) -> wgpu::Buffer {
+        self.context
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: None,
+                contents: bytemuck::bytes_of(params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+    }
+
+    /// A read-write plane of `pixels` f32 samples.
+    fn storage(&self, pixels: usize) -> wgpu::Buffer {
+        self.context.device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size: (pixels.max(1) * 4) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// One dispatch of `kernel` over `size` (columns, rows) pixels with `buffers` bound in order.
+    fn run(
+        &self,
+        kernel: &(wgpu::BindGroupLayout, wgpu::ComputePipeline),
+        buffers: &[&wgpu::Buffer],
+        size: [usize; 2],
+    ) {
+        let device = &self.context.device;
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, buffer)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &kernel.0,
+            entries: &entries,
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&kernel.1);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups(
+                size[0].div_ceil(TILE as usize) as u32,
+                size[1].div_ceil(TILE as usize) as u32,
+                1,
+            );
+        }
+        self.context.queue.submit([encoder.finish()]);
+    }
+
+    /// The first `pixels` samples of `buffer`, waiting for the work before.
+    fn read(&self, buffer: &wgpu::Buffer, pixels: usize) -> GpuResult<Vec<f32>> {
+        let device = &self.context.device;
+        let size = (pixels * 4) as u64;
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: None,
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, size);
+        let index = self.context.queue.submit([encoder.finish()]);
+        let slice = readback.slice(..);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |result| {
+            let _ = sender.send(result);
+        });
+        device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
+            .map_err(|e| GpuError::Device(e.to_string()))?;
+        receiver
+            .recv()
+            .map_err(|e| GpuError::Device(e.to_string()))?
+            .map_err(|e| GpuError::Device(e.to_string()))?;
+        let samples = {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| GpuError::Device(e.to_string()))?;
+            bytemuck::pod_collect_to_vec(&view)
+        };
+        readback.unmap();
+        Ok(samples)
+    }
+}

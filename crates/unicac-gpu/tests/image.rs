@@ -1,0 +1,207 @@
+//! The simulator's image pass on the GPU (shaders/blur.wgsl, geometry.wgsl) against its twin, the CPU
+//! path, on the same simulator: the blur alone, the whole pass (warp and shading), a window, the
+//! nearest-corner blend; and against itself (bit for bit, run after run). Figures are printed.
+//!
+//! Tolerances (stated in docs/gpu.md), per sample of an image in 0..1: both paths blend by the same
+//! weights and crops in the same order, so the blur equals the CPU's direct tiles bit for bit and its
+//! FFT tiles within their rounding (`BLUR_TOLERANCE`); the warp's source positions are the exact pixel
+//! index plus an f32 offset (~1e-6 px from the CPU's f64 position) and the tables are f32, so the whole
+//! pass stays within `PASS_TOLERANCE` and above `PASS_PSNR_DB`.
+
+mod support;
+
+use std::sync::Arc;
+use support::{gpu_or_skip, lens};
+use unicac_gpu::{DeviceChoice, DeviceSelection, GpuContext, GpuImagePass, Precision};
+use unicac_image::Planar;
+use unicac_sim::convolve::{Blend, Method};
+use unicac_sim::psf_map::RadialSampling;
+use unicac_sim::{ImageBackend, ImageDevice, ImagePass, LensSimulator, PixelWindow, SimulationSettings};
+
+const BLUR_TOLERANCE: f32 = 1e-6;
+const PASS_TOLERANCE: f32 = 2e-6;
+const PASS_PSNR_DB: f64 = 130.0;
+
+/// The GPU image pass as an `ImageDevice` that never declines (a test must see the GPU's output).
+struct Always(GpuImagePass);
+
+impl ImageDevice for Always {
+    fn apply(&self, pass: &ImagePass) -> Option<Planar> {
+        Some(self.0.apply(pass).expect("the GPU image pass"))
+    }
+    fn describe(&self) -> String {
+        "gpu".into()
+    }
+    fn take_notes(&self) -> Vec<String> {
+        Vec::new()
+    }
+}
+
+fn gpu_backend(context: &Arc<GpuContext>) -> ImageBackend {
+    ImageBackend::new(Arc::new(Always(GpuImagePass::new(context.clone()))))
+}
+
+/// A fast simulator (5 wavelengths, 9 radial PSFs) of a bundled lens.
+fn simulator(name: &str, width: usize, height: usize, distortion: bool, method: Method) -> LensSimulator {
+    let settings = SimulationSettings {
+        wavelengths: 5,
+        radial: RadialSampling {
+            max_samples: 9,
+            ..SimulationSettings::default().radial
+        },
+        distortion,
+        illumination: distortion,
+        method,
+        ..SimulationSettings::default()
+    };
+    LensSimulator::new(&lens(name), width, height, None, settings).unwrap()
+}
+
+/// A sharp test scene in 0..1: checkerboard squares of several sizes, a ramp and hashed noise.
+fn scene(width: usize, height: usize) -> Planar {
+    let mut image = Planar::new(width, height, 3);
+    for c in 0..3 {
+        let plane = image.plane_mut(c);
+        for y in 0..height {
+            for x in 0..width {
+                let hash = ((x * 73_856_093) ^ (y * 19_349_663) ^ (c * 83_492_791)) % 1000;
+                let checker = ((x / (4 + 3 * c)) + (y / 7)) % 2;
+                let ramp = x as f32 / width as f32;
+                plane[y * width + x] = 0.5 * checker as f32 + 0.3 * ramp + 0.2 * hash as f32 / 1000.0;
+            }
+        }
+    }
+    image
+}
+
+/// Largest per-sample difference and PSNR (peak 1).
+fn compare(a: &Planar, b: &Planar) -> (f32, f64) {
+    assert_eq!((a.width, a.height, a.channels), (b.width, b.height, b.channels));
+    let worst = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0f32, f32::max);
+    let mse = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .map(|(x, y)| f64::from(x - y).powi(2))
+        .sum::<f64>()
+        / a.data.len() as f64;
+    (worst, 10.0 * (1.0 / mse.max(1e-30)).log10())
+}
+
+fn cpu_and_gpu(
+    sim: &mut LensSimulator,
+    context: &Arc<GpuContext>,
+    run: impl Fn(&LensSimulator) -> Planar,
+) -> (Planar, Planar) {
+    sim.settings.image = ImageBackend::cpu();
+    let cpu = run(sim);
+    sim.settings.image = gpu_backend(context);
+    let gpu = run(sim);
+    (cpu, gpu)
+}
+
+#[test]
+fn the_blur_equals_the_cpu_path_up_to_summation_order() {
+    let Some(context) = gpu_or_skip() else {
+        return;
+    };
+    for (name, method) in [
+        ("cooke_triplet", Method::Direct),
+        ("phone_asphere", Method::Auto),
+        ("cooke_triplet", Method::Fft),
+    ] {
+        let (width, height) = (240, 180);
+        let mut sim = simulator(name, width, height, false, method);
+        let image = scene(width, height);
+        let (cpu, gpu) = cpu_and_gpu(&mut sim, &context, |s| s.apply(&image).unwrap());
+        let (worst, psnr) = compare(&cpu, &gpu);
+        println!("{name} {method:?} {width}x{height} blur: worst {worst:.2e}, PSNR {psnr:.1} dB");
+        assert!(worst <= BLUR_TOLERANCE, "{name} {method:?}: worst {worst}");
+        if method == Method::Direct {
+            assert!(worst == 0.0, "direct tiles: bit for bit; worst {worst}");
+        }
+    }
+}
+
+#[test]
+fn the_whole_pass_with_warp_and_shading_matches_the_cpu_path() {
+    let Some(context) = gpu_or_skip() else {
+        return;
+    };
+    for name in ["cooke_triplet", "phone_asphere", "wide_angle"] {
+        let (width, height) = (320, 240);
+        let mut sim = simulator(name, width, height, true, Method::Auto);
+        let image = scene(width, height);
+        let (cpu, gpu) = cpu_and_gpu(&mut sim, &context, |s| s.apply(&image).unwrap());
+        let (worst, psnr) = compare(&cpu, &gpu);
+        println!("{name} {width}x{height} blur + warp + shading: worst {worst:.2e}, PSNR {psnr:.1} dB");
+        assert!(worst <= PASS_TOLERANCE, "{name}: worst {worst}");
+        assert!(psnr >= PASS_PSNR_DB, "{name}: PSNR {psnr}");
+        // A window of the frame (the dataset builder's crops) through the same pass.
+        let window = PixelWindow {
+            x0: 200,
+            y0: 30,
+            width: 96,
+            height: 80,
+        };
+        let (cpu, gpu) = cpu_and_gpu(&mut sim, &context, |s| s.apply_window(&image, window).unwrap());
+        let (worst, psnr) = compare(&cpu, &gpu);
+        println!("{name} window {window:?}: worst {worst:.2e}, PSNR {psnr:.1} dB");
+        assert!(
+            worst <= PASS_TOLERANCE && psnr >= PASS_PSNR_DB,
+            "{name} window: {worst} {psnr}"
+        );
+    }
+}
+
+#[test]
+fn the_nearest_corner_blend_matches_the_cpu_path() {
+    let Some(context) = gpu_or_skip() else {
+        return;
+    };
+    let (width, height) = (200, 150);
+    let mut sim = simulator("phone_asphere", width, height, false, Method::Direct);
+    sim.settings.blend = Blend::Nearest;
+    let image = scene(width, height);
+    let (cpu, gpu) = cpu_and_gpu(&mut sim, &context, |s| s.apply(&image).unwrap());
+    let (worst, psnr) = compare(&cpu, &gpu);
+    println!("phone_asphere nearest blend: worst {worst:.2e}, PSNR {psnr:.1} dB");
+    assert!(worst == 0.0, "direct tiles: bit for bit; worst {worst}");
+}
+
+#[test]
+fn the_gpu_pass_is_deterministic_bit_for_bit() {
+    let Some(context) = gpu_or_skip() else {
+        return;
+    };
+    let (width, height) = (240, 180);
+    let mut sim = simulator("phone_asphere", width, height, true, Method::Auto);
+    sim.settings.image = gpu_backend(&context);
+    let image = scene(width, height);
+    let first = sim.apply(&image).unwrap();
+    for _ in 0..2 {
+        assert!(sim.apply(&image).unwrap().data == first.data, "runs differ");
+    }
+}
+
+#[test]
+fn auto_leaves_small_or_software_jobs_on_the_cpu() {
+    let (width, height) = (64, 48);
+    let mut sim = simulator("cooke_triplet", width, height, true, Method::Auto);
+    let image = scene(width, height);
+    let cpu = sim.apply(&image).unwrap();
+    let selection = Arc::new(DeviceSelection::new(DeviceChoice::Auto, Precision::F32));
+    sim.settings.image = DeviceSelection::image_backend(&selection);
+    let auto = sim.apply(&image).unwrap();
+    assert!(
+        auto.data == cpu.data,
+        "auto on a small image is the CPU path, bit for bit"
+    );
+    assert_eq!(sim.settings.image.describe(), "cpu");
+    assert!(sim.settings.image.take_notes().is_empty());
+}
