@@ -114,6 +114,11 @@ pub struct DatasetBuildArgs {
     /// manifest's `flags` column)
     #[arg(long)]
     pub exclude_flagged: bool,
+    /// Where the pairs' image passes (blur, warp, shading) run: cpu (the reference, bit-reproducible on
+    /// every machine; the default), gpu (within 1e-6 of the CPU, recorded in dataset.json; refused when
+    /// no adapter opens) or auto (gpu on a machine with a hardware GPU, else cpu).
+    #[arg(long, default_value = "cpu", value_parser = parse_device)]
+    pub device: unicac_gpu::DeviceChoice,
     /// Sensor frame WxH (px); default: the first test image's size. Larger scenes are centre-cropped.
     #[arg(long)]
     pub frame: Option<String>,

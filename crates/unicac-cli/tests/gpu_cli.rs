@@ -84,3 +84,130 @@ fn bad_device_values_are_rejected_by_the_parser() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("expected cpu, gpu or auto"));
 }
+
+/// A fresh folder under the system temp dir for one test.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("unicac-gpu-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn samples(path: &std::path::Path) -> Vec<f32> {
+    unicac_image::io::read_image(path).unwrap().image.data
+}
+
+#[test]
+fn simulate_on_the_gpu_matches_the_cpu_and_falls_back_without_an_adapter() {
+    let dir = scratch("simulate");
+    let chart = dir.join("chart.png");
+    let chart_arg = chart.to_str().unwrap();
+    assert!(unicac(
+        &["chart", "dead-leaves", "--size", "200x150", "--out", chart_arg],
+        false
+    )
+    .status
+    .success());
+    let run = |device: &str, no_adapter: bool| {
+        let out = dir.join(format!("{device}-{no_adapter}"));
+        let args = [
+            "simulate",
+            "builtin:phone_asphere",
+            chart_arg,
+            "--no-isp",
+            "--no-noise",
+            "--device",
+            device,
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let output = unicac(&args, no_adapter);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        (
+            out.join("chart.png"),
+            String::from_utf8_lossy(&output.stderr).into_owned(),
+        )
+    };
+    let (cpu, _) = run("cpu", false);
+    let (gpu, stderr) = run("gpu", false);
+    let (cpu, gpu_samples) = (samples(&cpu), samples(&gpu));
+    // Within 1e-6 of the CPU in linear light: a 16-bit sRGB code apart at most (rounding).
+    let worst = cpu
+        .iter()
+        .zip(&gpu_samples)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst <= 1.5 / 65535.0, "worst {worst}; {stderr}");
+    // Without an adapter: the CPU path, bit for bit, and a note saying so.
+    let (fallback, stderr) = run("gpu", true);
+    assert!(samples(&fallback) == cpu, "the fallback is the CPU path");
+    assert!(
+        stderr.contains("no GPU adapter") && stderr.contains("CPU"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_dataset_built_on_the_gpu_records_its_device_and_resumes_only_there() {
+    let dir = scratch("dataset");
+    let build = |name: &str, device: &str, no_adapter: bool| {
+        let out = dir.join(name);
+        let args = [
+            "dataset",
+            "build",
+            "--lenses",
+            "builtin:cooke_triplet",
+            "builtin:petzval",
+            "--images",
+            "dead-leaves:1:160x120",
+            "--test-images",
+            "dead-leaves:1:160x120",
+            "--levels",
+            "1",
+            "--test-lenses-per-level",
+            "1",
+            "--val-lenses",
+            "0",
+            "--pairs-per-lens",
+            "1",
+            "--crop",
+            "64x64",
+            "--device",
+            device,
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let output = unicac(&args, no_adapter);
+        (
+            out,
+            output.status.success(),
+            String::from_utf8_lossy(&output.stderr).into_owned(),
+        )
+    };
+    // No adapter: `gpu` is refused before any work (the record must name the device that renders),
+    // `auto` builds on the CPU.
+    let (out, ok, stderr) = build("refused", "gpu", true);
+    assert!(!ok && stderr.contains("--device gpu"), "{stderr}");
+    assert!(!out.join("dataset.json").exists());
+    let (_, ok, stderr) = build("auto", "auto", true);
+    assert!(ok, "{stderr}");
+    let (gpu, ok, stderr) = build("gpu", "gpu", false);
+    assert!(ok, "{stderr}");
+    let record: Value = serde_json::from_slice(&std::fs::read(gpu.join("dataset.json")).unwrap()).unwrap();
+    assert_eq!(record["settings"]["device"], "gpu");
+    let auto: Value =
+        serde_json::from_slice(&std::fs::read(dir.join("auto").join("dataset.json")).unwrap()).unwrap();
+    assert!(
+        auto["settings"].get("device").is_none(),
+        "a CPU build's record has no device"
+    );
+    // Resuming the GPU folder on the CPU is refused, naming the setting.
+    let (_, ok, stderr) = build("gpu", "cpu", false);
+    assert!(!ok && stderr.contains("device"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -216,6 +216,7 @@ fn regenerate(dataset: &Dataset, pair: &PairRow) -> (Vec<u8>, Vec<u8>) {
         pair.distortion,
         pair.illumination,
         None,
+        unicac_sim::ImageBackend::cpu(),
     )
     .unwrap();
     // image_source is dead-leaves:SEED:WxH.

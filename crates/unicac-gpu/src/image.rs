@@ -143,7 +143,11 @@ impl GpuImagePass {
         let mut out = Planar::new(window.width, window.height, 3);
         let tables = self.tables(pass);
         for c in 0..3 {
-            let blurred = self.blur_plane(pass.image.plane(c), pass, c)?;
+            let blurred = if pass.blur {
+                self.blur_plane(pass.image.plane(c), pass, c)?
+            } else {
+                self.input(bytemuck::cast_slice(pass.image.plane(c)))
+            };
             let warped = self.storage(window.width * window.height);
             let params = GeometryParams {
                 width: window.width as u32,

@@ -152,6 +152,21 @@ impl DeviceSelection {
             .as_ref()
     }
 
+    /// The GPU image pass, opened now, for a job that must know its device before it starts (a dataset
+    /// build records it): the pass, or why there is none (`auto`: no hardware GPU).
+    pub fn image_pass_now(&self) -> Result<&GpuImagePass, String> {
+        match self.image_pass_for(usize::MAX) {
+            Some(pass) => Ok(pass),
+            None => {
+                let notes = HitTracer::take_notes(self);
+                Err(match notes.is_empty() {
+                    true => "no hardware GPU adapter".into(),
+                    false => notes.join("; "),
+                })
+            }
+        }
+    }
+
     /// The GPU image pass for `pixels` output pixels, or None for the CPU path (the rule of
     /// `tracer_for`, with `AUTO_MIN_PIXELS`).
     pub fn image_pass_for(&self, pixels: usize) -> Option<&GpuImagePass> {

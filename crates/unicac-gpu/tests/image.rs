@@ -142,7 +142,15 @@ fn the_whole_pass_with_warp_and_shading_matches_the_cpu_path() {
         println!("{name} {width}x{height} blur + warp + shading: worst {worst:.2e}, PSNR {psnr:.1} dB");
         assert!(worst <= PASS_TOLERANCE, "{name}: worst {worst}");
         assert!(psnr >= PASS_PSNR_DB, "{name}: PSNR {psnr}");
-        // A window of the frame (the dataset builder's crops) through the same pass.
+        // The two halves on their own (the dataset builder's calls): the blur, the geometry.
+        let (cpu, gpu) = cpu_and_gpu(&mut sim, &context, |s| s.blur(&image).unwrap());
+        let (worst, _) = compare(&cpu, &gpu);
+        assert!(worst <= BLUR_TOLERANCE, "{name} blur alone: worst {worst}");
+        let (cpu, gpu) = cpu_and_gpu(&mut sim, &context, |s| s.geometry(&image).unwrap());
+        let (worst, psnr) = compare(&cpu, &gpu);
+        println!("{name} geometry alone: worst {worst:.2e}, PSNR {psnr:.1} dB");
+        assert!(worst <= PASS_TOLERANCE, "{name} geometry alone: worst {worst}");
+        // A window of the frame through the same pass.
         let window = PixelWindow {
             x0: 200,
             y0: 30,

@@ -12,11 +12,13 @@ use std::sync::Arc;
 use unicac_image::Planar;
 
 /// One region's optics, as the CPU path computes them in `LensSimulator::apply_region`: each channel
-/// of `image` (the frame pixels `source`) convolved with its kernel grid by `layout` and `blend`, then
-/// every output pixel of `window` sampling the blurred region at its ideal position (the warp; the
-/// pixel itself when `warp_scale` is None) times the shading (1 when `shading` is None).
+/// of `image` (the frame pixels `source`) convolved with its kernel grid by `layout` and `blend` (when
+/// `blur` is set; else the region as it is), then every output pixel of `window` sampling the blurred
+/// region at its ideal position (the warp; the pixel itself when `warp_scale` is None) times the
+/// shading (1 when `shading` is None). `LensSimulator::blur` and `geometry` are the two halves.
 pub struct ImagePass<'a> {
     pub image: &'a Planar,
+    pub blur: bool,
     pub source: PixelWindow,
     pub window: PixelWindow,
     pub grids: [&'a KernelGrid; 3],
@@ -52,6 +54,11 @@ impl ImageBackend {
         ImageBackend(Some(device))
     }
 
+    /// Whether this is the plain CPU path (no device at all).
+    pub fn is_cpu(&self) -> bool {
+        self.0.is_none()
+    }
+
     /// The device's output, or None for the CPU path.
     pub fn apply(&self, pass: &ImagePass) -> Option<Planar> {
         self.0.as_ref()?.apply(pass)
@@ -63,6 +70,17 @@ impl ImageBackend {
 
     pub fn take_notes(&self) -> Vec<String> {
         self.0.as_ref().map(|d| d.take_notes()).unwrap_or_default()
+    }
+}
+
+/// Two backends are equal when they are the same device (or both the CPU path).
+impl PartialEq for ImageBackend {
+    fn eq(&self, other: &Self) -> bool {
+        match (&self.0, &other.0) {
+            (None, None) => true,
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
     }
 }
 

@@ -296,6 +296,15 @@ impl LensSimulator {
     /// coordinates: what `apply` does before `geometry`.
     pub fn blur(&self, image: &Planar) -> SimResult<Planar> {
         self.check_frame(image)?;
+        let frame = self.frame();
+        let pass = ImagePass {
+            warp_scale: None,
+            shading: None,
+            ..self.image_pass(image, frame, frame, self.frame_grids(), self.frame_layouts())
+        };
+        if let Some(out) = self.settings.image.apply(&pass) {
+            return Ok(out);
+        }
         let (w, h) = (self.grid.width_px, self.grid.height_px);
         let mut blurred = Planar::new(w, h, 3);
         for c in 0..3 {
@@ -333,6 +342,7 @@ impl LensSimulator {
     ) -> ImagePass<'a> {
         ImagePass {
             image: region,
+            blur: true,
             source,
             window,
             grids,
@@ -352,7 +362,15 @@ impl LensSimulator {
         if !self.moves_or_shades() {
             return Ok(image.clone());
         }
-        Ok(self.warp_and_shade(image, self.frame(), self.frame()))
+        let frame = self.frame();
+        let pass = ImagePass {
+            blur: false,
+            ..self.image_pass(image, frame, frame, self.frame_grids(), self.frame_layouts())
+        };
+        if let Some(out) = self.settings.image.apply(&pass) {
+            return Ok(out);
+        }
+        Ok(self.warp_and_shade(image, frame, frame))
     }
 
     /// Whether `geometry` changes an image: the distortion warp or the shading is switched on.

@@ -4,8 +4,11 @@ use crate::args::{DatasetBuildArgs, DatasetInfoArgs, DatasetPlotArgs, PairTaskAr
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
+use std::sync::Arc;
 use std::sync::Mutex;
-use unicac_dataset::builder::{self, sources::parse_size, BuildSettings, PairTask, Progress};
+use unicac_dataset::builder::{self, sources::parse_size, BuildSettings, PairTask, Progress, RenderDevice};
+use unicac_gpu::{DeviceChoice, DeviceSelection, Precision};
+use unicac_sim::ImageBackend;
 
 /// A bar per stage on a terminal (pairs/s and ETA); notes only otherwise.
 struct Bar {
@@ -45,6 +48,28 @@ impl Progress for Bar {
     }
 }
 
+/// `--device` of a dataset build, resolved before any work: the record names the device that renders,
+/// so `gpu` that cannot open is an error (not the CPU with a note, as for simulate) and `auto` is
+/// decided here, once.
+fn render_device(choice: DeviceChoice) -> Result<(RenderDevice, ImageBackend)> {
+    if choice == DeviceChoice::Cpu {
+        return Ok((RenderDevice::Cpu, ImageBackend::cpu()));
+    }
+    let cpu = || Ok((RenderDevice::Cpu, ImageBackend::cpu()));
+    // `auto` never opens Vulkan without a hardware GPU's device node.
+    if choice == DeviceChoice::Auto && !unicac_gpu::select::hardware_gpu_node_present() {
+        return cpu();
+    }
+    // The `gpu` policy: every pass on the device, whatever its size (auto's size rule would mix devices).
+    let selection = Arc::new(DeviceSelection::new(DeviceChoice::Gpu, Precision::F32));
+    match selection.image_pass_now() {
+        Ok(pass) if choice == DeviceChoice::Auto && pass.context().adapter.software => cpu(),
+        Ok(_) => Ok((RenderDevice::Gpu, DeviceSelection::image_backend(&selection))),
+        Err(_) if choice == DeviceChoice::Auto => cpu(),
+        Err(why) => anyhow::bail!("--device gpu: {why}"),
+    }
+}
+
 pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     let mut settings = BuildSettings::new(args.lenses.clone(), args.images.clone(), args.test_images.clone());
     settings.frame_px = args
@@ -77,6 +102,7 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     settings.psf_basis_from = args.psf_basis_from.clone();
     settings.unseen_by = args.unseen_by.clone();
     settings.exclude_flagged = args.exclude_flagged;
+    (settings.device, settings.image) = render_device(args.device)?;
     let shard = super::shard_arg(args.shard.as_deref())?;
     let threads = args.threads.unwrap_or(0);
     if threads > 1024 {
@@ -95,6 +121,7 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
         .install(|| builder::build(&settings, &args.out, shard, &progress))
         .map_err(flag_error)?;
     progress.stage("", 0);
+    super::gpu::print_notes(settings.image.take_notes());
     let seconds = start.elapsed().as_secs_f64();
     if args.json {
         let mut value = serde_json::to_value(&report)?;

@@ -50,7 +50,14 @@ impl BuildRecord {
     fn matches(&self, out: &Path, previous: &BuildRecord) -> Result<()> {
         if previous.settings != self.settings {
             let differing: Vec<String> = match (previous.settings.as_object(), self.settings.as_object()) {
-                (Some(a), Some(b)) => b.keys().filter(|k| a.get(*k) != b.get(*k)).cloned().collect(),
+                // Both sides' keys: a setting recorded only when set (`device`, `exclude_flagged`)
+                // is missing from one record.
+                (Some(a), Some(b)) => (a.keys().chain(b.keys()))
+                    .filter(|k| a.get(*k) != b.get(*k))
+                    .collect::<std::collections::BTreeSet<_>>()
+                    .into_iter()
+                    .cloned()
+                    .collect(),
                 _ => vec!["settings".into()],
             };
             return Err(DatasetError::format(

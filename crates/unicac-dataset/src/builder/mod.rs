@@ -94,6 +94,30 @@ pub struct BuildSettings {
     /// records stay valid).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub exclude_flagged: bool,
+    /// Where the pairs' image passes run: `cpu` (the reference, the default) or `gpu` (through
+    /// `image`, which the face opens). A GPU renders within 1e-6 of the CPU (docs/gpu.md), not bit
+    /// for bit, so the device is part of the record (only when it is not the CPU: older records stay
+    /// valid) and a folder resumes on the device that began it.
+    #[serde(default, skip_serializing_if = "RenderDevice::is_cpu")]
+    pub device: RenderDevice,
+    /// The image device of `device = gpu` (`unicac_sim::ImageBackend`); the CPU path otherwise.
+    #[serde(skip)]
+    pub image: unicac_sim::ImageBackend,
+}
+
+/// The device a dataset's pairs are rendered on (`BuildSettings::device`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RenderDevice {
+    #[default]
+    Cpu,
+    Gpu,
+}
+
+impl RenderDevice {
+    fn is_cpu(&self) -> bool {
+        *self == RenderDevice::Cpu
+    }
 }
 
 /// Largest `pairs_per_lens`.
@@ -136,6 +160,8 @@ impl BuildSettings {
             psf_basis_from: None,
             unseen_by: None,
             exclude_flagged: false,
+            device: RenderDevice::Cpu,
+            image: unicac_sim::ImageBackend::cpu(),
         }
     }
 
@@ -152,6 +178,12 @@ impl BuildSettings {
             }
         };
         within("levels", self.levels, 1, MAX_LEVELS, "MAX_LEVELS")?;
+        if self.device == RenderDevice::Gpu && self.image.is_cpu() {
+            return Err(DatasetError::setting(
+                "device",
+                "gpu: no image device was given (`image`); the CLI opens one for `--device gpu`",
+            ));
+        }
         within(
             "test_lenses_per_level",
             self.test_lenses_per_level,
@@ -446,6 +478,7 @@ pub fn build(
             settings.distortion,
             settings.illumination,
             cache_psf.clone(),
+            settings.image.clone(),
         )
         .map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", p.source.source)))?;
         progress.advance(1);
@@ -520,6 +553,7 @@ pub fn build(
             settings.distortion,
             settings.illumination,
             cache_psf.clone(),
+            settings.image.clone(),
         )
         .map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", p.source.source)))?;
         if needs_table {

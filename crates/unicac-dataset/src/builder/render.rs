@@ -10,7 +10,7 @@ use crate::psf_table::{PsfTable, PsfTableMeta, TABLE_FORMAT};
 use unicac_image::isp::{IspDraw, Pipeline};
 use unicac_image::Planar;
 use unicac_psf::{visible_wavelengths_um, Kernel, SpectralWeights};
-use unicac_sim::{LensSimulator, PsfCache, SimulationSettings};
+use unicac_sim::{ImageBackend, LensSimulator, PsfCache, SimulationSettings};
 
 /// The simulator of a lens on the build's sensor (`lens` already carries the build sensor).
 pub fn simulator(
@@ -20,11 +20,13 @@ pub fn simulator(
     distortion: bool,
     illumination: bool,
     cache: Option<PsfCache>,
+    image: ImageBackend,
 ) -> std::result::Result<LensSimulator, unicac_sim::SimError> {
     let settings = SimulationSettings {
         distortion,
         illumination,
         cache,
+        image,
         ..SimulationSettings::default()
     };
     LensSimulator::new(lens, frame_px[0], frame_px[1], Some(pixel_um), settings)
@@ -206,7 +208,7 @@ mod tests {
     fn turning_to_plus_x_matches_the_simulators_psf_on_the_x_axis() {
         let lens =
             unicac_optics::Lens::from_spec(&unicac_optics::builtin::spec("cooke_triplet").unwrap()).unwrap();
-        let sim = simulator(&lens, [96, 64], 8.0, true, true, None).unwrap();
+        let sim = simulator(&lens, [96, 64], 8.0, true, true, None, ImageBackend::cpu()).unwrap();
         let table = psf_table("cooke", &sim);
         let f = table.fields() - 1;
         let radius_mm = sim.radial.radii_mm[f];

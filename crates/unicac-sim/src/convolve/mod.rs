@@ -856,9 +856,17 @@ mod tests {
                 r.iter().filter(|r| r.start < r.end).cloned().collect()
             };
             assert_eq!(ranges.len(), expected.len(), "{length} px, {nodes} nodes");
-            assert_eq!(nonempty(&ranges), nonempty(&expected), "{length} px, {nodes} nodes");
+            assert_eq!(
+                nonempty(&ranges),
+                nonempty(&expected),
+                "{length} px, {nodes} nodes"
+            );
             assert!(layout.column_t.iter().all(|t| (0.0..=1.0).contains(t)));
-            assert_eq!(layout.tile_half_px, vec![0; nodes - 1], "delta kernels reach nowhere");
+            assert_eq!(
+                layout.tile_half_px,
+                vec![0; nodes - 1],
+                "delta kernels reach nowhere"
+            );
         }
     }
 
