@@ -388,3 +388,31 @@ impl GpuImagePass {
         Ok(samples)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn image_kernels_validate_with_naga_without_extra_capabilities() {
+        for (name, text) in [("blur.wgsl", BLUR), ("geometry.wgsl", GEOMETRY)] {
+            let module = naga::front::wgsl::parse_str(text)
+                .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(text)));
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::empty(),
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(text)));
+        }
+    }
+
+    #[test]
+    fn parameter_blocks_are_the_shaders_sizes() {
+        // 12 and 16 four-byte fields, as declared in the WGSL structs (uniforms: multiples of 16 bytes).
+        assert_eq!(size_of::<BlurParams>(), 48);
+        assert_eq!(size_of::<GeometryParams>(), 64);
+        assert!(BLUR.contains("row_t_at: u32,\n    _pad: u32,"));
+        assert!(GEOMETRY.contains("inverse_step: f32,\n    _pad: u32,"));
+    }
+}
