@@ -106,3 +106,22 @@ def test_simulation_errors():
         unicac.Simulator(lens, 100_000, 100_000)
     with pytest.raises(ValueError, match="positive"):
         unicac.chart("dead-leaves", 0, 10)
+
+
+def test_simulator_image_pass_on_the_gpu_matches_the_cpu():
+    """`device="gpu"`: the blur, warp and shading on the GPU within 2e-6 of the CPU path (docs/gpu.md),
+    or, without an adapter, the CPU path itself and a RuntimeWarning saying so."""
+    lens = unicac.load_lens(LENS)
+    rng = np.random.default_rng(5)
+    raw = rng.random((120, 160, 3), dtype=np.float32)
+    cpu = unicac.Simulator(lens, 160, 120, device="cpu").optics(raw)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gpu = unicac.Simulator(lens, 160, 120, device="gpu").optics(raw)
+    fell_back = any("CPU" in str(w.message) for w in caught)
+    if fell_back:
+        np.testing.assert_array_equal(gpu, cpu)
+    else:
+        assert np.abs(gpu - cpu).max() <= 2e-6

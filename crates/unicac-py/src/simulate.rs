@@ -72,7 +72,8 @@ impl PySimulator {
     /// Traces the PSFs of `lens` for `width_px` x `height_px` images. `pixel_um`: the sensor pitch;
     /// None makes the lens's largest field fill the image's half-diagonal. `distortion` and
     /// `illumination` switch the geometric warp and the relative illumination. `device`: "cpu", "gpu"
-    /// or "auto", who traces the PSF rays (as `unicac simulate --device`). GIL released.
+    /// or "auto", who traces the PSF rays and runs the image pass (blur, warp, shading) of every call
+    /// (as `unicac simulate --device`; docs/gpu.md). GIL released.
     #[new]
     #[pyo3(signature = (lens, width_px, height_px, pixel_um=None, distortion=true, illumination=true, device="cpu"))]
     #[allow(clippy::too_many_arguments)]
@@ -92,7 +93,7 @@ impl PySimulator {
             illumination,
             ..Default::default()
         };
-        settings.psf.backend = crate::device::backend(device)?;
+        (settings.psf.backend, settings.image) = crate::device::simulator_backends(device)?;
         let backend = settings.psf.backend.clone();
         let sim = crate::pool::detach(py, || {
             LensSimulator::new(&lens.lens, width_px, height_px, pixel_um, settings).or_raise()
@@ -131,6 +132,7 @@ impl PySimulator {
         let raw = planar_f32(raw, "raw", 3, &[3])?;
         self.check_dims(&raw, "raw")?;
         let out = crate::pool::detach(py, || self.sim.apply(&raw).or_raise())?;
+        crate::device::warn_image_notes(py, &self.sim.settings.image)?;
         planar_out(py, &out, false)
     }
 
@@ -153,6 +155,7 @@ impl PySimulator {
         self.check_dims(&linear, "image")?;
         let pipeline = pipeline(isp, noise, sensor_bits)?;
         let degraded = crate::pool::detach(py, || self.sim.degrade(&pipeline, &linear, seed).or_raise())?;
+        crate::device::warn_image_notes(py, &self.sim.settings.image)?;
         encoded_out(py, &degraded, kind)
     }
 
@@ -177,6 +180,7 @@ impl PySimulator {
             let degraded = self.sim.degrade(&pipeline, &linear, seed).or_raise()?;
             Ok((degraded, pipeline.finish_reference(&linear).or_raise()?))
         })?;
+        crate::device::warn_image_notes(py, &self.sim.settings.image)?;
         Ok((planar_out(py, &degraded, false)?, planar_out(py, &target, false)?))
     }
 
@@ -219,6 +223,7 @@ impl PySimulator {
                 pipeline.finish_reference(&crop(&linear, window)).or_raise()?,
             ))
         })?;
+        crate::device::warn_image_notes(py, &self.sim.settings.image)?;
         Ok((planar_out(py, &degraded, false)?, planar_out(py, &target, false)?))
     }
 
