@@ -21,7 +21,12 @@ struct BlurParams {
     tile_half_at: u32,
     // Offset into `layout_f32` of the row positions; column positions start at 0.
     row_t_at: u32,
-    _pad: u32,
+    // Offsets of the flat tiles: a flag per tile in `layout_u32`, four corner values per tile in
+    // `layout_f32` (`TileLayout::flat_tiles`: the CPU path's shortcut for tiles over flat input).
+    flat_at: u32,
+    flat_values_at: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 @group(0) @binding(0) var<uniform> blur_params: BlurParams;
@@ -88,11 +93,15 @@ fn blur(@builtin(global_invocation_id) id: vec3<u32>) {
         (j + 1u) * p.nodes_x + i,
         (j + 1u) * p.nodes_x + i + 1u,
     );
+    let tile = j * p.tiles_x + i;
+    let flat = layout_u32[p.flat_at + tile] == 1u;
     var value = 0.0;
     for (var n = 0u; n < 4u; n++) {
-        // A corner whose weight is zero here costs nothing.
+        // A corner whose weight is zero here costs nothing; over flat input it costs no convolution.
         var corner = 0.0;
-        if weights[n] != 0.0 {
+        if flat {
+            corner = layout_f32[p.flat_values_at + 4u * tile + n];
+        } else if weights[n] != 0.0 {
             corner = convolve_at(nodes[n], half, column, row);
         }
         value += corner * weights[n];

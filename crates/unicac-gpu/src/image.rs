@@ -37,7 +37,10 @@ struct BlurParams {
     row_tile_at: u32,
     tile_half_at: u32,
     row_t_at: u32,
-    _pad: u32,
+    flat_at: u32,
+    flat_values_at: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 /// `geometry.wgsl`'s `GeometryParams`.
@@ -248,11 +251,16 @@ impl GpuImagePass {
             .iter()
             .flat_map(|k| k.data.iter().copied())
             .collect();
+        let flat = layout.flat_tiles(plane, grid);
         let mut words = layout.column_tile.clone();
         words.extend(&layout.row_tile);
         words.extend(&layout.tile_half_px);
+        let flat_at = words.len();
+        words.extend(flat.iter().map(|f| u32::from(f.is_some())));
         let mut positions = layout.column_t.clone();
         positions.extend(&layout.row_t);
+        let flat_values_at = positions.len();
+        positions.extend(flat.iter().flat_map(|f| f.unwrap_or_default()));
         let inputs = [
             self.input(bytemuck::cast_slice(plane)),
             self.input(bytemuck::cast_slice(&kernels)),
@@ -276,7 +284,10 @@ impl GpuImagePass {
                 row_tile_at: width as u32,
                 tile_half_at: (width + height) as u32,
                 row_t_at: width as u32,
-                _pad: 0,
+                flat_at: flat_at as u32,
+                flat_values_at: flat_values_at as u32,
+                _pad0: 0,
+                _pad1: 0,
             };
             let uniform = self.uniform(&params);
             let buffers = [&uniform, &inputs[0], &inputs[1], &inputs[2], &inputs[3], &blurred];
@@ -409,10 +420,10 @@ mod tests {
 
     #[test]
     fn parameter_blocks_are_the_shaders_sizes() {
-        // 12 and 16 four-byte fields, as declared in the WGSL structs (uniforms: multiples of 16 bytes).
-        assert_eq!(size_of::<BlurParams>(), 48);
+        // 16 four-byte fields each, as declared in the WGSL structs (uniforms: multiples of 16 bytes).
+        assert_eq!(size_of::<BlurParams>(), 64);
         assert_eq!(size_of::<GeometryParams>(), 64);
-        assert!(BLUR.contains("row_t_at: u32,\n    _pad: u32,"));
+        assert!(BLUR.contains("flat_values_at: u32,\n    _pad0: u32,\n    _pad1: u32,"));
         assert!(GEOMETRY.contains("inverse_step: f32,\n    _pad: u32,"));
     }
 }

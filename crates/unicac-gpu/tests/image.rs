@@ -168,6 +168,35 @@ fn the_whole_pass_with_warp_and_shading_matches_the_cpu_path() {
 }
 
 #[test]
+fn flat_tiles_take_the_cpu_paths_shortcut_bit_for_bit() {
+    let Some(context) = gpu_or_skip() else {
+        return;
+    };
+    let (width, height) = (320, 240);
+    let mut sim = simulator("cooke_triplet", width, height, false, Method::Direct);
+    // The left half flat, the right half textured.
+    let mut image = scene(width, height);
+    for c in 0..3 {
+        for row in image.plane_mut(c).chunks_mut(width) {
+            row[..width / 2].fill(0.3);
+        }
+    }
+    let grid = &sim.kernel_grids()[1];
+    let layout = unicac_sim::convolve::TileLayout::new(width, height, grid, sim.settings.kernel_tail);
+    let flat = layout.flat_tiles(image.plane(1), grid);
+    let count = flat.iter().filter(|f| f.is_some()).count();
+    assert!(
+        count > 0 && count < flat.len(),
+        "{count} flat tiles of {}",
+        flat.len()
+    );
+    let (cpu, gpu) = cpu_and_gpu(&mut sim, &context, |s| s.apply(&image).unwrap());
+    let (worst, _) = compare(&cpu, &gpu);
+    println!("{count} of {} tiles flat: worst {worst:.2e}", flat.len());
+    assert!(worst == 0.0, "direct and flat tiles: bit for bit; worst {worst}");
+}
+
+#[test]
 fn the_nearest_corner_blend_matches_the_cpu_path() {
     let Some(context) = gpu_or_skip() else {
         return;

@@ -248,6 +248,24 @@ impl TileLayout {
         }
     }
 
+    /// For each tile (row-major), its four corner convolutions when the part of `plane` its kernels
+    /// read is flat (the CPU path's shortcut: a device blends these instead of convolving), else None.
+    pub fn flat_tiles(&self, plane: &[f32], grid: &KernelGrid) -> Vec<Option<[f32; 4]>> {
+        let (width, height) = (self.column_tile.len(), self.row_tile.len());
+        assert_eq!(plane.len(), width * height);
+        let (columns, rows) = (self.ranges(true), self.ranges(false));
+        (0..self.tiles[0] * self.tiles[1])
+            .into_par_iter()
+            .map(|tile| {
+                let (i, j) = (tile % self.tiles[0], tile / self.tiles[0]);
+                let node = |di: usize, dj: usize| &grid.kernels[(j + dj) * grid.nodes_x + i + di];
+                let corners = [node(0, 0), node(1, 0), node(0, 1), node(1, 1)];
+                let size = 2 * self.tile_half_px[tile] as usize + 1;
+                flat_corners(plane, (width, height), corners, &columns[i], &rows[j], size)
+            })
+            .collect()
+    }
+
     /// Pixel ranges of the tiles along x (`along_x`) or y.
     fn ranges(&self, along_x: bool) -> Vec<Range<usize>> {
         let (tile_of, count) = if along_x {
@@ -349,9 +367,7 @@ pub fn convolve_varying_laid_out(
                     ty: &layout.row_t[rows.clone()],
                     blend,
                 };
-                if let Some(value) = flat_value(plane, (width, height), tile_columns, rows, size) {
-                    // Flat input: each corner convolution is the value times the (cropped) kernel's sum.
-                    let sums = corners.map(|k| value * centre_crop(k, size).data.iter().sum::<f32>());
+                if let Some(sums) = flat_corners(plane, (width, height), corners, tile_columns, rows, size) {
                     tile.blend(band, width, |_, _, _| sums);
                     continue;
                 }
@@ -383,6 +399,20 @@ pub fn convolve_varying_laid_out(
                 }
             }
         });
+}
+
+/// The four corner convolutions of a tile whose input patch is flat (`flat_value`): the value times
+/// each cropped kernel's sum, what any convolution gives there, without convolving; None otherwise.
+fn flat_corners(
+    plane: &[f32],
+    dims: (usize, usize),
+    corners: [&Kernel; 4],
+    columns: &Range<usize>,
+    rows: &Range<usize>,
+    size: usize,
+) -> Option<[f32; 4]> {
+    let value = flat_value(plane, dims, columns, rows, size)?;
+    Some(corners.map(|k| value * centre_crop(k, size).data.iter().sum::<f32>()))
 }
 
 /// The value of the input patch a tile's `size` px kernels read (the tile grown by size / 2 on every
