@@ -195,7 +195,7 @@ impl GpuImagePass {
         let largest_plane = (source.width * source.height).max(window.width * window.height);
         if 4 * largest_plane > binding {
             return Err(GpuError::Unsupported(format!(
-                "a {} x {} frame: planes above the device's {} MiB storage binding (the CPU path takes it)",
+                "a {} x {} frame (planes above the device's {} MiB storage binding)",
                 source.width,
                 source.height,
                 binding >> 20
@@ -205,7 +205,7 @@ impl GpuImagePass {
             || window.height.div_ceil(TILE as usize) > workgroups
         {
             return Err(GpuError::Unsupported(format!(
-                "a {} x {} frame: more workgroups per dimension than the device's {workgroups}",
+                "a {} x {} frame (more workgroups per dimension than the device's {workgroups})",
                 source.width, source.height
             )));
         }
@@ -213,7 +213,7 @@ impl GpuImagePass {
             let kernel = grid.kernels()[0].size;
             if 4 * grid.kernels().len() * kernel * kernel > binding {
                 return Err(GpuError::Unsupported(format!(
-                    "{} node kernels of {kernel} px: above the device's {} MiB storage binding",
+                    "{} node kernels of {kernel} px (above the device's {} MiB storage binding)",
                     grid.kernels().len(),
                     binding >> 20
                 )));

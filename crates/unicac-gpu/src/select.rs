@@ -207,6 +207,15 @@ impl ImageDevice for DeviceSelection {
         let image = self.image_pass_for(pass.window.width * pass.window.height)?;
         match image.apply(pass) {
             Ok(out) => Some(out),
+            // A job beyond the device's limits is declined, not failed: said once per kind of reason.
+            Err(crate::GpuError::Unsupported(why)) => {
+                let note = format!("the GPU image pass does not take {why}; running it on the CPU");
+                let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
+                if !notes.0.contains(&note) {
+                    notes.0.push(note);
+                }
+                None
+            }
             Err(error) => {
                 self.fall_back("image pass", error);
                 None
