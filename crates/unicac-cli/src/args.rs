@@ -627,6 +627,10 @@ pub struct ToleranceArgs {
     /// rerun without --shard then writes the summary.
     #[arg(long)]
     pub shard: Option<String>,
+    /// Also write these units (trial numbers, comma-separated, at most 1000) as lens files
+    /// `--out`/units/NNNNNN.json, as graded: drawn errors and the compensator's focus in place.
+    #[arg(long, value_delimiter = ',', value_name = "TRIAL")]
+    pub write_units: Vec<u64>,
     /// Print the summary as JSON (what summary.json holds).
     #[arg(long)]
     pub json: bool,

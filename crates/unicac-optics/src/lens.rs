@@ -5,7 +5,8 @@ use crate::material::{find_glass, Medium, LINE_D_UM};
 use crate::placement::{Placement, MAX_TILT_DEG};
 use crate::profile::{Profile, MAX_ASPHERE_TERMS};
 use crate::spec::{
-    ApertureSpec, FieldSpec, LensSpec, MaterialSpec, SensorSpec, SurfaceType, WavelengthSpec, FORMAT_VERSION,
+    ApertureSpec, FieldSpec, LensSpec, MaterialSpec, SensorSpec, SurfaceSpec, SurfaceType, WavelengthSpec,
+    FORMAT_VERSION,
 };
 
 /// One surface of the model, with its vertex placed in global coordinates.
@@ -201,11 +202,63 @@ impl Lens {
         lens
     }
 
+    /// The lens as a lens file says it (`LensSpec`): `Lens::from_spec` of it gives this lens back,
+    /// each vertex where the thicknesses put it (an offset glass as its material plus `index_offset`;
+    /// catalogue glasses by qualified name, so no catalogue list is needed).
+    pub fn to_spec(&self) -> LensSpec {
+        let surfaces = self
+            .surfaces
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let terms = s.profile.aspheric_terms;
+                let (material, index_offset) = material_spec(&s.medium_after);
+                let mut spec = SurfaceSpec {
+                    surface_type: if terms > 0 {
+                        SurfaceType::EvenAsphere
+                    } else {
+                        SurfaceType::Standard
+                    },
+                    curvature_per_mm: Some(s.profile.curvature_per_mm),
+                    conic: s.profile.conic,
+                    aspheric_coefficients: s.profile.aspheric_coefficients[..terms].to_vec(),
+                    thickness_mm: s.thickness_mm,
+                    material,
+                    index_offset,
+                    semi_diameter_mm: s.semi_diameter_mm,
+                    stop: i == self.stop_index,
+                    label: s.label.clone(),
+                    ..SurfaceSpec::default()
+                };
+                spec.set_placement(s.placement);
+                spec
+            })
+            .collect();
+        LensSpec {
+            format_version: FORMAT_VERSION,
+            name: self.name.clone(),
+            provenance: String::new(),
+            object_distance_mm: self.object_distance_mm,
+            aperture: self.aperture,
+            fields: self.fields.clone(),
+            field_weights: Some(self.field_weights.clone()),
+            wavelengths: self.wavelengths.clone(),
+            primary_wavelength_index: Some(self.primary_wavelength_index),
+            glass_catalogs: Vec::new(),
+            surfaces,
+            sensor: self.sensor,
+        }
+    }
+
     /// The semi-diameters the file gave (None where the file left them to be computed).
     pub fn given_semi_diameters(&self) -> Vec<Option<f64>> {
         self.surfaces.iter().map(|s| s.semi_diameter_mm).collect()
     }
 }
+
+/// Largest index offset a lens file may give a glass (`SurfaceSpec::index_offset`): far beyond any
+/// melt tolerance (1e-3 is a loose one), small enough that no glass turns into air.
+pub const MAX_INDEX_OFFSET: f64 = 0.1;
 
 fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
     let mut z_mm = 0.0;
@@ -286,6 +339,25 @@ fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
                 Medium::Model { nd: *nd, vd: *vd }
             }
         };
+        let medium_after = match s.index_offset {
+            0.0 => medium_after,
+            delta_n if !(delta_n.abs() <= MAX_INDEX_OFFSET) => {
+                return Err(OpticsError::invalid(
+                    field("index_offset"),
+                    format!("{delta_n}: must lie within +-{MAX_INDEX_OFFSET}"),
+                ))
+            }
+            _ if medium_after.is_air() => {
+                return Err(OpticsError::invalid(
+                    field("index_offset"),
+                    "air has no index error: an index offset needs a glass (material)",
+                ))
+            }
+            delta_n => Medium::Offset {
+                base: Box::new(medium_after),
+                delta_n,
+            },
+        };
         surfaces.push(Surface {
             profile,
             z_mm,
@@ -298,6 +370,19 @@ fn build_surfaces(spec: &LensSpec) -> Result<Vec<Surface>> {
         z_mm += s.thickness_mm;
     }
     Ok(surfaces)
+}
+
+/// A medium as a lens file names it: the material, and the index offset of an offset glass.
+fn material_spec(medium: &Medium) -> (Option<MaterialSpec>, f64) {
+    match medium {
+        Medium::Air => (None, 0.0),
+        Medium::Catalog(glass) => (Some(MaterialSpec::Named(glass.qualified_name())), 0.0),
+        Medium::Model { nd, vd } => (Some(MaterialSpec::Model { nd: *nd, vd: *vd }), 0.0),
+        Medium::Offset { base, delta_n } => {
+            let (material, inner) = material_spec(base);
+            (material, inner + delta_n)
+        }
+    }
 }
 
 fn check_object_distance(distance: Option<f64>) -> Result<()> {

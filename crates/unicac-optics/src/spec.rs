@@ -102,6 +102,10 @@ pub struct SurfaceSpec {
     pub thickness_mm: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub material: Option<MaterialSpec>,
+    /// The glass after this surface departs from its material's index by this at every wavelength
+    /// (dispersion kept): a melt's index error, as `unicac tolerance` writes built units; absent: 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub index_offset: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub semi_diameter_mm: Option<f64>,
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]

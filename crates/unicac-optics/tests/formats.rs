@@ -367,3 +367,41 @@ fn a_zmx_whose_image_surface_cannot_be_one_is_refused() {
     assert!(message.contains("`DISZ 0`"), "{message}");
     zmx::parse(format!("{ZEMAX_SAMPLE}\n  \n").as_bytes(), Path::new("ok.zmx")).unwrap();
 }
+
+#[test]
+fn a_lens_written_from_its_model_reads_back_as_the_same_model() {
+    for name in unicac_optics::builtin::names() {
+        let lens = unicac_optics::builtin::lens(name).unwrap();
+        let again = Lens::from_spec(&lens.to_spec()).unwrap();
+        assert_eq!(format!("{again:?}"), format!("{lens:?}"), "{name}");
+        let text = unicac_optics::format::json::to_string(&lens.to_spec());
+        let read = Lens::from_spec(&unicac_optics::format::json::parse(text.as_bytes(), Path::new("x.json")).unwrap())
+            .unwrap();
+        assert_eq!(format!("{read:?}"), format!("{lens:?}"), "{name} through JSON");
+    }
+}
+
+#[test]
+fn an_index_offset_shifts_every_wavelength_and_is_refused_on_air_or_out_of_range() {
+    let lens = unicac_optics::builtin::lens("cooke_triplet").unwrap();
+    let mut spec = lens.to_spec();
+    spec.surfaces[0].index_offset = 0.002;
+    let offset = Lens::from_spec(&spec).unwrap();
+    for w in [0.45, 0.5876, 0.65] {
+        let (a, b) = (
+            offset.surfaces[0].medium_after.index(w).unwrap(),
+            lens.surfaces[0].medium_after.index(w).unwrap(),
+        );
+        assert!((a - b - 0.002).abs() < 1e-15, "{w} um: {a} vs {b}");
+    }
+    assert_eq!(offset.to_spec().surfaces[0].index_offset, 0.002);
+    for (surface, value, words) in [(1, 0.002, "air"), (0, 0.5, "within")] {
+        let mut bad = lens.to_spec();
+        bad.surfaces[surface].index_offset = value;
+        let error = Lens::from_spec(&bad).unwrap_err().to_string();
+        assert!(
+            error.contains(&format!("surfaces[{surface}].index_offset")) && error.contains(words),
+            "{error}"
+        );
+    }
+}

@@ -21,5 +21,7 @@ pub mod spec;
 pub use error::{ToleranceError, ToleranceResult};
 pub use evaluate::{field_points, score, FieldPoint, Grading, Score};
 pub use perturb::{apply, draw, elements, Change, ChangeKind};
-pub use run::{run_folder, run_trial, Better, MonteCarlo, RunRecord, Statistic, Summary, Trial, MAX_TRIALS};
+pub use run::{
+    run_folder, run_trial, unit_lens, Better, MonteCarlo, RunRecord, Statistic, Summary, Trial, MAX_TRIALS,
+};
 pub use spec::{Compensator, Distribution, ToleranceSpec};

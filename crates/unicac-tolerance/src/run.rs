@@ -70,6 +70,20 @@ pub fn run_trial(nominal: &Lens, record: &RunRecord, trial: u64) -> Trial {
     }
 }
 
+/// The lens of built unit `trial` as it was graded: its drawn errors applied and the compensator's
+/// image shift in place (what `--write-units` writes as a lens file).
+pub fn unit_lens(nominal: &Lens, request: &MonteCarlo, trial: u64) -> ToleranceResult<Lens> {
+    let changes = draw(nominal, &request.spec, request.seed, trial);
+    let built = apply(nominal, &changes);
+    let graded = score(
+        &built,
+        &field_points(nominal)?,
+        &request.grading,
+        request.spec.compensator,
+    )?;
+    Ok(unicac_analysis::refocused(&built, graded.focus_shift_mm))
+}
+
 /// What to run: the same request on the same folder continues the same trials.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MonteCarlo {

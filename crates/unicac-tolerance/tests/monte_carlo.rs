@@ -265,3 +265,56 @@ fn a_lens_without_field_weight_is_refused_not_graded_as_nan() {
         other => panic!("expected a refusal, got {other:?}"),
     }
 }
+
+#[test]
+fn a_written_unit_is_the_graded_lens_read_back() {
+    let lens = cooke();
+    let spec = ToleranceSpec::from_json(
+        r#"{"radius_fraction": 0.002, "thickness_mm": 0.05, "surface_decentre_mm": 0.01,
+            "element_decentre_mm": 0.025, "element_tilt_deg": 0.05, "index": 0.001}"#,
+    )
+    .unwrap();
+    let request = MonteCarlo {
+        lens_identity: "cooke".into(),
+        spec: spec.clone(),
+        grading: grading(),
+        seed: 3,
+        trials: 8,
+    };
+    let points = field_points(&lens).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for trial in [0, 5] {
+        let graded = unicac_tolerance::run_trial(&lens, &run_record(&request, &points), trial);
+        let expected = graded.score.expect("a graded unit");
+        let unit = unicac_tolerance::unit_lens(&lens, &request, trial).unwrap();
+        assert!(!unit.is_rotationally_symmetric(), "a decentred unit");
+        // Through a lens file and back: the unit at its compensated focus grades as the trial did.
+        let path = dir.path().join(format!("unit-{trial}.json"));
+        unicac_optics::format::write_spec(&unit.to_spec(), &path).unwrap();
+        let (read, _) = unicac_optics::format::load_lens(&path).unwrap();
+        let again = score(&read, &points, &grading(), Compensator::None).unwrap();
+        for (a, b) in again.rms_um.iter().zip(&expected.rms_um) {
+            assert!((a - b).abs() <= 1e-9 * b, "trial {trial}: RMS {a} um read back, {b} um graded");
+        }
+        assert!(
+            (again.boresight_um - expected.boresight_um).abs() <= 1e-9,
+            "trial {trial}: boresight"
+        );
+        // An index error survives as `index_offset`; a .zmx file cannot hold it.
+        assert!(std::fs::read_to_string(&path).unwrap().contains("index_offset"));
+        let zmx = dir.path().join("unit.zmx");
+        let refused = unicac_optics::format::write_spec(&unit.to_spec(), &zmx).unwrap_err();
+        assert!(refused.to_string().contains("index_offset"), "{refused}");
+    }
+}
+
+fn run_record(request: &MonteCarlo, points: &[FieldPoint]) -> unicac_tolerance::RunRecord {
+    unicac_tolerance::RunRecord {
+        format: 1,
+        lens: request.lens_identity.clone(),
+        spec: request.spec.clone(),
+        grading: request.grading.clone(),
+        seed: request.seed,
+        field_points: points.to_vec(),
+    }
+}

@@ -12,6 +12,10 @@ use unicac_tolerance::{
 
 /// Largest tolerance file read.
 const MAX_SPEC_BYTES: u64 = 1 << 20;
+/// Most units `--write-units` writes in one call.
+const MAX_WRITTEN_UNITS: usize = 1000;
+/// Where `--write-units` puts them, inside the run folder.
+const UNITS_DIR: &str = "units";
 const PLOT_FILE: &str = "yield.png";
 
 pub fn run(args: &ToleranceArgs) -> Result<()> {
@@ -21,6 +25,10 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         plan.output("--out", path);
     }
     plan.output("--out", args.out.join(PLOT_FILE));
+    check_write_units(args)?;
+    for &trial in &args.write_units {
+        plan.output("--out", unit_path(&args.out, trial));
+    }
     plan.check()?;
     let bytes = unicac_io::read_capped(&args.spec, MAX_SPEC_BYTES, "MAX_SPEC_BYTES")
         .with_context(|| format!("--spec {}", args.spec.display()))?;
@@ -60,6 +68,7 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         other => anyhow::Error::new(other).context(args.lens.lens.clone()),
     })?;
     bar.finish_and_clear();
+    write_units(&lens, &request, args)?;
     let Some(summary) = summary else {
         eprintln!(
             "shard {}/{} done in {}; run the command without --shard for the summary",
@@ -80,6 +89,50 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         args.out.join(unicac_tolerance::run::SUMMARY_FILE).display(),
         plot.display()
     );
+    Ok(())
+}
+
+fn unit_path(out: &std::path::Path, trial: u64) -> std::path::PathBuf {
+    out.join(UNITS_DIR).join(format!("{trial:06}.json"))
+}
+
+fn check_write_units(args: &ToleranceArgs) -> Result<()> {
+    if args.write_units.len() > MAX_WRITTEN_UNITS {
+        anyhow::bail!(
+            "--write-units: {} units; at most {MAX_WRITTEN_UNITS} per call",
+            args.write_units.len()
+        );
+    }
+    if let Some(trial) = args.write_units.iter().find(|&&t| t >= args.trials as u64) {
+        anyhow::bail!(
+            "--write-units {trial}: trials are numbered 0 to {} (--trials {})",
+            args.trials.saturating_sub(1),
+            args.trials
+        );
+    }
+    Ok(())
+}
+
+/// `--write-units`: each named unit as a lens file (JSON: an index error has no .zmx form).
+fn write_units(nominal: &Lens, request: &MonteCarlo, args: &ToleranceArgs) -> Result<()> {
+    for &trial in &args.write_units {
+        let unit = unicac_tolerance::unit_lens(nominal, request, trial)
+            .with_context(|| format!("--write-units {trial}"))?;
+        let mut spec = unit.to_spec();
+        spec.name = format!("{} unit {trial}", nominal.name);
+        spec.provenance = format!(
+            "unicac tolerance {} --spec {} --seed {} --pupil-grid {}: unit {trial}, as graded",
+            args.lens.lens,
+            args.spec.display(),
+            args.seed,
+            args.pupil_grid
+        );
+        let path = unit_path(&args.out, trial);
+        std::fs::create_dir_all(args.out.join(UNITS_DIR))
+            .with_context(|| format!("--out {}", args.out.display()))?;
+        unicac_optics::format::write_spec(&spec, &path).with_context(|| format!("--write-units {trial}"))?;
+        eprintln!("wrote {}", path.display());
+    }
     Ok(())
 }
 

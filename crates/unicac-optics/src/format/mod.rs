@@ -47,7 +47,19 @@ pub fn read_spec(path: &Path) -> Result<LoadedSpec> {
 pub fn write_spec(spec: &LensSpec, path: &Path) -> Result<()> {
     let text = match extension(path).as_str() {
         "json" => json::to_string(spec),
-        "zmx" => zmx::to_string(spec),
+        "zmx" => {
+            // A .zmx GLAS line names the glass; the index error of a built unit would be lost.
+            if let Some(i) = spec.surfaces.iter().position(|s| s.index_offset != 0.0) {
+                return Err(OpticsError::invalid(
+                    format!("surfaces[{i}].index_offset"),
+                    format!(
+                        "{}: a .zmx file has no form for an index offset; write the lens as .json",
+                        path.display()
+                    ),
+                ));
+            }
+            zmx::to_string(spec)
+        }
         _ => {
             return Err(OpticsError::UnknownFormat {
                 path: path.to_path_buf(),
