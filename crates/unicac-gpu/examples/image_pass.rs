@@ -14,22 +14,7 @@ use unicac_image::charts::dead_leaves;
 use unicac_image::Planar;
 use unicac_optics::builtin;
 use unicac_sim::convolve::TileLayout;
-use unicac_sim::{ImageBackend, ImageDevice, ImagePass, LensSimulator, SimulationSettings};
-
-/// The GPU pass as a device that never declines.
-struct Always(GpuImagePass);
-
-impl ImageDevice for Always {
-    fn apply(&self, pass: &ImagePass) -> Option<Planar> {
-        Some(self.0.apply(pass).expect("the GPU image pass"))
-    }
-    fn describe(&self) -> String {
-        "gpu".into()
-    }
-    fn take_notes(&self) -> Vec<String> {
-        Vec::new()
-    }
-}
+use unicac_sim::{ImageBackend, LensSimulator, SimulationSettings};
 
 fn timed(sim: &LensSimulator, image: &Planar) -> (Planar, f64) {
     let start = Instant::now();
@@ -80,9 +65,11 @@ fn main() {
     }
     let context = Arc::new(GpuContext::new().expect("a GPU adapter"));
     println!("adapter: {}", context.adapter.name);
-    sim.settings.image = ImageBackend::new(Arc::new(Always(GpuImagePass::new(context))));
+    sim.settings.image = ImageBackend::new(Arc::new(GpuImagePass::new(context)));
     let (gpu, gpu_s) = timed(&sim, &chart);
     let (again, gpu_again_s) = timed(&sim, &chart);
+    let notes = sim.settings.image.take_notes();
+    assert!(notes.is_empty(), "the GPU pass failed: {notes:?}");
     assert!(again.data == gpu.data, "GPU runs differ");
     let peak = cpu.data.iter().fold(0.0f32, |m, v| m.max(*v));
     let (mut worst, mut squares) = (0.0f32, 0.0f64);

@@ -126,6 +126,48 @@ impl GpuContext {
         })
     }
 
+    /// The first `bytes` of `from`, copied through `staging` (MAP_READ | COPY_DST) one staging-sized
+    /// piece at a time after the work submitted before: device memory for read-back stays bounded.
+    pub(crate) fn read_through(
+        &self,
+        from: &wgpu::Buffer,
+        bytes: u64,
+        staging: &wgpu::Buffer,
+    ) -> GpuResult<Vec<u8>> {
+        let device_error = |e: &dyn std::fmt::Display| GpuError::Device(e.to_string());
+        let mut out = Vec::with_capacity(bytes as usize);
+        let step = staging.size();
+        let mut offset = 0;
+        while offset < bytes {
+            let size = step.min(bytes - offset);
+            let mut encoder = self.device.create_command_encoder(&Default::default());
+            encoder.copy_buffer_to_buffer(from, offset, staging, 0, size);
+            let index = self.queue.submit([encoder.finish()]);
+            let slice = staging.slice(..size);
+            let (sender, receiver) = std::sync::mpsc::channel();
+            slice.map_async(wgpu::MapMode::Read, move |result| {
+                let _ = sender.send(result);
+            });
+            self.device
+                .poll(wgpu::PollType::Wait {
+                    submission_index: Some(index),
+                    timeout: None,
+                })
+                .map_err(|e| device_error(&e))?;
+            receiver
+                .recv()
+                .map_err(|e| device_error(&e))?
+                .map_err(|e| device_error(&e))?;
+            {
+                let view = slice.get_mapped_range().map_err(|e| device_error(&e))?;
+                out.extend_from_slice(&view);
+            }
+            staging.unmap();
+            offset += size;
+        }
+        Ok(out)
+    }
+
     pub fn supports(&self, precision: Precision) -> bool {
         match precision {
             Precision::F32 => true,

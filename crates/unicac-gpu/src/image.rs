@@ -7,11 +7,11 @@
 
 use crate::device::{GpuContext, GpuError, GpuResult};
 use bytemuck::{Pod, Zeroable};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use unicac_image::Planar;
 use unicac_sim::convolve::Blend;
 use unicac_sim::radial_table::{RadialTable, RADIAL_TABLE_STEP_PX};
-use unicac_sim::ImagePass;
+use unicac_sim::{ImageDevice, ImagePass};
 use wgpu::util::DeviceExt;
 
 const BLUR: &str = include_str!("../../../shaders/blur.wgsl");
@@ -21,6 +21,8 @@ const TILE: u32 = 8;
 /// Multiply-adds one blur dispatch may hold (a band of rows): keeps each submission short enough for
 /// display drivers' watchdogs (~2 s) on a slow GPU, and the wait between bands bounded.
 const DISPATCH_MULTIPLY_ADDS: usize = 1 << 30;
+/// Largest staging buffer of a read-back (a 12 MP plane comes back in 3 pieces).
+const READ_BACK_BYTES: u64 = 16 << 20;
 
 /// `blur.wgsl`'s `BlurParams`.
 #[repr(C)]
@@ -70,6 +72,8 @@ pub struct GpuImagePass {
     context: Arc<GpuContext>,
     blur: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
     geometry: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    /// Failures since the last `take_notes` (the `ImageDevice` face).
+    notes: Mutex<Vec<String>>,
 }
 
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
@@ -132,6 +136,7 @@ impl GpuImagePass {
             context,
             blur,
             geometry,
+            notes: Mutex::new(Vec::new()),
         }
     }
 
@@ -363,40 +368,38 @@ impl GpuImagePass {
 
     /// The first `pixels` samples of `buffer`, waiting for the work before.
     fn read(&self, buffer: &wgpu::Buffer, pixels: usize) -> GpuResult<Vec<f32>> {
-        let device = &self.context.device;
-        let size = (pixels * 4) as u64;
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        let bytes = (pixels * 4) as u64;
+        let staging = self.context.device.create_buffer(&wgpu::BufferDescriptor {
             label: None,
-            size,
+            size: bytes.clamp(4, READ_BACK_BYTES),
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mut encoder = device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, size);
-        let index = self.context.queue.submit([encoder.finish()]);
-        let slice = readback.slice(..);
-        let (sender, receiver) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |result| {
-            let _ = sender.send(result);
-        });
-        device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| GpuError::Device(e.to_string()))?;
-        receiver
-            .recv()
-            .map_err(|e| GpuError::Device(e.to_string()))?
-            .map_err(|e| GpuError::Device(e.to_string()))?;
-        let samples = {
-            let view = slice
-                .get_mapped_range()
-                .map_err(|e| GpuError::Device(e.to_string()))?;
-            bytemuck::pod_collect_to_vec(&view)
-        };
-        readback.unmap();
-        Ok(samples)
+        let read = self.context.read_through(buffer, bytes, &staging)?;
+        Ok(bytemuck::pod_collect_to_vec(&read))
+    }
+}
+
+/// The pass as an image device that always takes the pass: for a caller that chose this device
+/// (tests, examples, benchmarks). A failure is kept as a note and leaves the pass to the CPU path.
+impl ImageDevice for GpuImagePass {
+    fn apply(&self, pass: &ImagePass) -> Option<Planar> {
+        match GpuImagePass::apply(self, pass) {
+            Ok(out) => Some(out),
+            Err(error) => {
+                let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
+                notes.push(format!("GPU image pass failed ({error}); the CPU path ran"));
+                None
+            }
+        }
+    }
+
+    fn describe(&self) -> String {
+        format!("gpu (f32, {})", self.context.adapter.name)
+    }
+
+    fn take_notes(&self) -> Vec<String> {
+        std::mem::take(&mut self.notes.lock().unwrap_or_else(|e| e.into_inner()))
     }
 }
 

@@ -292,41 +292,7 @@ impl GpuTracer {
 
     /// Copies `bytes` of `from` into the readback buffer and maps them.
     fn read_back(&self, buffers: &Buffers, from: &wgpu::Buffer, bytes: u64) -> GpuResult<Vec<u8>> {
-        let context = &self.context;
-        let mut out = Vec::with_capacity(bytes as usize);
-        let step = buffers.readback.size();
-        let mut offset = 0;
-        while offset < bytes {
-            let size = step.min(bytes - offset);
-            let mut encoder = context.device.create_command_encoder(&Default::default());
-            encoder.copy_buffer_to_buffer(from, offset, &buffers.readback, 0, size);
-            let index = context.queue.submit([encoder.finish()]);
-            let slice = buffers.readback.slice(..size);
-            let (sender, receiver) = std::sync::mpsc::channel();
-            slice.map_async(wgpu::MapMode::Read, move |result| {
-                let _ = sender.send(result);
-            });
-            context
-                .device
-                .poll(wgpu::PollType::Wait {
-                    submission_index: Some(index),
-                    timeout: None,
-                })
-                .map_err(|e| GpuError::Device(e.to_string()))?;
-            receiver
-                .recv()
-                .map_err(|e| GpuError::Device(e.to_string()))?
-                .map_err(|e| GpuError::Device(e.to_string()))?;
-            {
-                let view = slice
-                    .get_mapped_range()
-                    .map_err(|e| GpuError::Device(e.to_string()))?;
-                out.extend_from_slice(&view);
-            }
-            buffers.readback.unmap();
-            offset += size;
-        }
-        Ok(out)
+        self.context.read_through(from, bytes, &buffers.readback)
     }
 
     pub(crate) fn read_counters(&self, buffers: &Buffers) -> GpuResult<StatusCounts> {

@@ -375,8 +375,10 @@ fn a_lens_written_from_its_model_reads_back_as_the_same_model() {
         let again = Lens::from_spec(&lens.to_spec()).unwrap();
         assert_eq!(format!("{again:?}"), format!("{lens:?}"), "{name}");
         let text = unicac_optics::format::json::to_string(&lens.to_spec());
-        let read = Lens::from_spec(&unicac_optics::format::json::parse(text.as_bytes(), Path::new("x.json")).unwrap())
-            .unwrap();
+        let read = Lens::from_spec(
+            &unicac_optics::format::json::parse(text.as_bytes(), Path::new("x.json")).unwrap(),
+        )
+        .unwrap();
         assert_eq!(format!("{read:?}"), format!("{lens:?}"), "{name} through JSON");
     }
 }

@@ -294,7 +294,10 @@ fn a_written_unit_is_the_graded_lens_read_back() {
         let (read, _) = unicac_optics::format::load_lens(&path).unwrap();
         let again = score(&read, &points, &grading(), Compensator::None).unwrap();
         for (a, b) in again.rms_um.iter().zip(&expected.rms_um) {
-            assert!((a - b).abs() <= 1e-9 * b, "trial {trial}: RMS {a} um read back, {b} um graded");
+            assert!(
+                (a - b).abs() <= 1e-9 * b,
+                "trial {trial}: RMS {a} um read back, {b} um graded"
+            );
         }
         assert!(
             (again.boresight_um - expected.boresight_um).abs() <= 1e-9,
