@@ -26,10 +26,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let name = args.next().unwrap_or_else(|| "phone_asphere".into());
     let size = args.next().unwrap_or_else(|| "1600x1200".into());
-    let (width, height) = size
-        .split_once('x')
-        .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
-        .expect("size as WIDTHxHEIGHT");
+    let [width, height] = unicac_image::size::parse_wxh(&size).expect("size as WIDTHxHEIGHT");
     let lens = builtin::lens(&name).expect("a built-in lens");
     let chart = dead_leaves(width, height, 7).expect("chart");
     let mut sim =
