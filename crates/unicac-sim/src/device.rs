@@ -6,8 +6,8 @@
 //! the shape of `unicac_psf::RayBackend` for the rays.
 
 use crate::convolve::{Blend, KernelGrid, TileLayout};
+use crate::geometry::PixelWindow;
 use crate::radial_table::RadialTable;
-use crate::simulate::PixelWindow;
 use std::sync::Arc;
 use unicac_image::Planar;
 

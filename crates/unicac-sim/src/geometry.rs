@@ -1,8 +1,10 @@
-//! Where pixels sit on the sensor. Pixel centres: column c, row r of a W x H image sit at
+//! Where pixels sit on the sensor, and the rectangle of them a job takes (`PixelWindow`). Pixel centres: column c, row r of a W x H image sit at
 //! x = (c - (W-1)/2) p, y = -(r - (H-1)/2) p (sensor +y up, rows down), p the pixel pitch.
 
 use crate::chief::ChiefRayMap;
+use crate::error::SimResult;
 use serde::Serialize;
+use unicac_trace::InvalidParameter;
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SensorGrid {
@@ -48,5 +50,34 @@ impl SensorGrid {
             height_px,
             pitch_um: chief.max_height_mm() * 1e3 / half_diagonal_px,
         }
+    }
+}
+
+/// A rectangle of frame pixels: columns `x0 .. x0 + width`, rows `y0 .. y0 + height`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PixelWindow {
+    pub x0: usize,
+    pub y0: usize,
+    pub width: usize,
+    pub height: usize,
+}
+
+impl PixelWindow {
+    pub(crate) fn check_inside(&self, width: usize, height: usize) -> SimResult<()> {
+        let fits = self.width >= 2
+            && self.height >= 2
+            && self.x0.checked_add(self.width).is_some_and(|end| end <= width)
+            && self.y0.checked_add(self.height).is_some_and(|end| end <= height);
+        if !fits {
+            return Err(InvalidParameter::new(
+                "window",
+                format!(
+                    "{} x {} px at ({}, {}) does not fit in the {width} x {height} px frame (at least 2 x 2 px)",
+                    self.width, self.height, self.x0, self.y0
+                ),
+            )
+            .into());
+        }
+        Ok(())
     }
 }

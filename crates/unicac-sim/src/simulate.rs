@@ -12,7 +12,7 @@ use crate::convolve::{
 };
 use crate::device::{ImageBackend, ImagePass};
 use crate::error::SimResult;
-use crate::geometry::SensorGrid;
+use crate::geometry::{PixelWindow, SensorGrid};
 use crate::psf_map::{RadialPsfs, RadialSampling, DEFAULT_RADIAL_SAMPLING};
 use crate::radial_table::RadialTable;
 use rayon::prelude::*;
@@ -565,35 +565,6 @@ fn exact_shading(chief: &ChiefRayMap, radial: &RadialPsfs, grid: &SensorGrid, ra
     let radius_mm = radius_px * grid.pitch_um * 1e-3;
     let axis = radial.peak_transmission().max(1e-12);
     chief.illumination_factor(radius_mm) * radial.transmission_at(radius_mm) / axis
-}
-
-/// A rectangle of frame pixels: columns `x0 .. x0 + width`, rows `y0 .. y0 + height`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PixelWindow {
-    pub x0: usize,
-    pub y0: usize,
-    pub width: usize,
-    pub height: usize,
-}
-
-impl PixelWindow {
-    fn check_inside(&self, width: usize, height: usize) -> SimResult<()> {
-        let fits = self.width >= 2
-            && self.height >= 2
-            && self.x0.checked_add(self.width).is_some_and(|end| end <= width)
-            && self.y0.checked_add(self.height).is_some_and(|end| end <= height);
-        if !fits {
-            return Err(InvalidParameter::new(
-                "window",
-                format!(
-                    "{} x {} px at ({}, {}) does not fit in the {width} x {height} px frame (at least 2 x 2 px)",
-                    self.width, self.height, self.x0, self.y0
-                ),
-            )
-            .into());
-        }
-        Ok(())
-    }
 }
 
 /// The pixels of `window` of `image`.
