@@ -27,6 +27,7 @@ struct BlurParams {
     flat_values_at: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> blur_params: BlurParams;

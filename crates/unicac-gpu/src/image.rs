@@ -43,6 +43,7 @@ struct BlurParams {
     flat_values_at: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 /// `geometry.wgsl`'s `GeometryParams`.
@@ -293,6 +294,7 @@ impl GpuImagePass {
                 flat_values_at: flat_values_at as u32,
                 _pad0: 0,
                 _pad1: 0,
+                _pad2: 0,
             };
             let uniform = self.uniform(&params);
             let buffers = [&uniform, &inputs[0], &inputs[1], &inputs[2], &inputs[3], &blurred];
@@ -426,7 +428,7 @@ mod tests {
         // 16 four-byte fields each, as declared in the WGSL structs (uniforms: multiples of 16 bytes).
         assert_eq!(size_of::<BlurParams>(), 64);
         assert_eq!(size_of::<GeometryParams>(), 64);
-        assert!(BLUR.contains("flat_values_at: u32,\n    _pad0: u32,\n    _pad1: u32,"));
+        assert!(BLUR.contains("flat_values_at: u32,\n    _pad0: u32,\n    _pad1: u32,\n    _pad2: u32,\n}"));
         assert!(GEOMETRY.contains("inverse_step: f32,\n    _pad: u32,"));
     }
 }
