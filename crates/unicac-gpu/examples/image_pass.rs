@@ -3,9 +3,10 @@
 //! PSNR, and the blur's multiply-adds (each pixel's four corner kernels at its tile's crop), from which
 //! the device's sustained rate and a time for any other device follow.
 //!
-//! Run: cargo run --release -p unicac-gpu --example image_pass [LENS] [WIDTHxHEIGHT] [count] (default
-//! phone_asphere 1600x1200; `count`: the CPU path and the multiply-adds only, no GPU run: a 12 MP
-//! frame takes ~15 min per run on lavapipe)
+//! Run: cargo run --release -p unicac-gpu --example image_pass [LENS] [WIDTHxHEIGHT] [count|sweep]
+//! (default phone_asphere 1600x1200; `count`: the CPU path and the multiply-adds only, no GPU run: a
+//! 12 MP frame takes ~15 min per run on lavapipe; `sweep`: the GPU's run time against its error over
+//! the kernel crop `kernel_tail`, the one fidelity setting it has, against the CPU path at tail 0)
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -22,17 +23,10 @@ fn timed(sim: &LensSimulator, image: &Planar) -> (Planar, f64) {
     (out, start.elapsed().as_secs_f64())
 }
 
-fn main() {
-    let mut args = std::env::args().skip(1);
-    let name = args.next().unwrap_or_else(|| "phone_asphere".into());
-    let size = args.next().unwrap_or_else(|| "1600x1200".into());
-    let [width, height] = unicac_image::size::parse_wxh(&size).expect("size as WIDTHxHEIGHT");
-    let lens = builtin::lens(&name).expect("a built-in lens");
-    let chart = dead_leaves(width, height, 7).expect("chart");
-    let mut sim =
-        LensSimulator::new(&lens, width, height, None, SimulationSettings::default()).expect("simulator");
-    let multiply_adds: f64 = sim
-        .kernel_grids()
+/// The blur's multiply-adds: each pixel's four corner kernels at its tile's crop.
+fn multiply_adds(sim: &LensSimulator) -> f64 {
+    let (width, height) = (sim.grid.width_px, sim.grid.height_px);
+    sim.kernel_grids()
         .iter()
         .map(|grid| {
             let layout = TileLayout::new(width, height, grid, sim.settings.kernel_tail);
@@ -46,7 +40,60 @@ fn main() {
                 .map(|(&n, &half)| 4.0 * n as f64 * ((2 * half + 1) as f64).powi(2))
                 .sum::<f64>()
         })
-        .sum();
+        .sum()
+}
+
+/// Largest difference and PSNR (peak: the reference's largest value).
+fn difference(reference: &Planar, other: &Planar) -> (f32, f64) {
+    let peak = reference.data.iter().fold(0.0f32, |m, v| m.max(*v));
+    let (mut worst, mut squares) = (0.0f32, 0.0f64);
+    for (a, b) in reference.data.iter().zip(&other.data) {
+        worst = worst.max((a - b).abs());
+        squares += f64::from(a - b).powi(2);
+    }
+    let mse = squares / reference.data.len() as f64;
+    (worst, 10.0 * (f64::from(peak).powi(2) / mse.max(1e-30)).log10())
+}
+
+fn sweep(lens: &unicac_optics::Lens, chart: &Planar, context: Arc<GpuContext>) {
+    let (width, height) = (chart.width, chart.height);
+    let simulator = |tail: f64| {
+        let settings = SimulationSettings {
+            kernel_tail: tail,
+            ..SimulationSettings::default()
+        };
+        LensSimulator::new(lens, width, height, None, settings).expect("simulator")
+    };
+    let (reference, _) = timed(&simulator(0.0), chart);
+    println!("kernel_tail | blur G multiply-adds | GPU s | worst vs CPU at tail 0 | PSNR dB");
+    for tail in [0.0, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2] {
+        let mut sim = simulator(tail);
+        sim.settings.image = ImageBackend::new(Arc::new(GpuImagePass::new(context.clone())));
+        let (out, seconds) = timed(&sim, chart);
+        let (worst, psnr) = difference(&reference, &out);
+        println!(
+            "{tail:e} | {:.2} | {seconds:.2} | {worst:.2e} | {psnr:.1}",
+            multiply_adds(&sim) / 1e9
+        );
+    }
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let name = args.next().unwrap_or_else(|| "phone_asphere".into());
+    let size = args.next().unwrap_or_else(|| "1600x1200".into());
+    let [width, height] = unicac_image::size::parse_wxh(&size).expect("size as WIDTHxHEIGHT");
+    let lens = builtin::lens(&name).expect("a built-in lens");
+    let chart = dead_leaves(width, height, 7).expect("chart");
+    let mode = args.next();
+    if mode.as_deref() == Some("sweep") {
+        let context = Arc::new(GpuContext::new().expect("a GPU adapter"));
+        println!("adapter: {}; lens {name}, {width}x{height}", context.adapter.name);
+        return sweep(&lens, &chart, context);
+    }
+    let mut sim =
+        LensSimulator::new(&lens, width, height, None, SimulationSettings::default()).expect("simulator");
+    let multiply_adds = multiply_adds(&sim);
     let (cpu, cpu_s) = timed(&sim, &chart);
     let (_, cpu_again_s) = timed(&sim, &chart);
     println!(
@@ -57,7 +104,7 @@ fn main() {
     );
     println!("CPU path: {cpu_s:.3} s, {cpu_again_s:.3} s");
     println!("blur: {:.1} G multiply-adds", multiply_adds / 1e9);
-    if args.next().as_deref() == Some("count") {
+    if mode.as_deref() == Some("count") {
         return;
     }
     let context = Arc::new(GpuContext::new().expect("a GPU adapter"));
@@ -68,16 +115,10 @@ fn main() {
     let notes = sim.settings.image.take_notes();
     assert!(notes.is_empty(), "the GPU pass failed: {notes:?}");
     assert!(again.data == gpu.data, "GPU runs differ");
-    let peak = cpu.data.iter().fold(0.0f32, |m, v| m.max(*v));
-    let (mut worst, mut squares) = (0.0f32, 0.0f64);
-    for (a, b) in cpu.data.iter().zip(&gpu.data) {
-        worst = worst.max((a - b).abs());
-        squares += f64::from(a - b).powi(2);
-    }
-    let psnr = 10.0 * (f64::from(peak).powi(2) / (squares / cpu.data.len() as f64).max(1e-30)).log10();
+    let (worst, psnr) = difference(&cpu, &gpu);
     println!("GPU path: {gpu_s:.3} s, {gpu_again_s:.3} s (identical outputs)");
     println!(
-        "GPU vs CPU: worst {worst:.2e} (peak {peak:.3}), PSNR {psnr:.1} dB; {:.2} G multiply-adds/s on this device",
+        "GPU vs CPU: worst {worst:.2e}, PSNR {psnr:.1} dB; {:.2} G multiply-adds/s on this device",
         multiply_adds / 1e9 / gpu_again_s
     );
 }
