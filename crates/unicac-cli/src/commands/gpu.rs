@@ -18,9 +18,10 @@ fn info(args: &GpuInfoArgs) -> Result<()> {
     let adapters = unicac_gpu::device::list_adapters();
     let auto = match adapters.iter().find(|a| !a.software) {
         Some(a) => format!(
-            "gpu ({}) for batches of at least {} rays, else cpu",
+            "gpu ({}) for ray batches of at least {} rays and image passes of at least {} pixels, else cpu",
             a.name,
-            unicac_gpu::AUTO_MIN_RAYS
+            unicac_gpu::AUTO_MIN_RAYS,
+            unicac_gpu::AUTO_MIN_PIXELS
         ),
         None => "cpu (no hardware GPU adapter)".into(),
     };
@@ -29,6 +30,7 @@ fn info(args: &GpuInfoArgs) -> Result<()> {
             "adapters": adapters,
             "auto": auto,
             "auto_min_rays": unicac_gpu::AUTO_MIN_RAYS,
+            "auto_min_pixels": unicac_gpu::AUTO_MIN_PIXELS,
         }));
     }
     if adapters.is_empty() {
