@@ -150,37 +150,44 @@ impl GpuImagePass {
         self.check(pass)?;
         let (source, window) = (pass.source, pass.window);
         let mut out = Planar::new(window.width, window.height, 3);
+        let pixels = window.width * window.height;
+        // A pass whose geometry is the identity on the whole region (the blur alone) reads the blur back
+        // as it is: the geometry kernel would copy it sample for sample.
+        let identity = pass.warp_scale.is_none() && pass.shading.is_none() && source == window;
         let tables = self.tables(pass);
+        let geometry = self.uniform(&GeometryParams {
+            width: window.width as u32,
+            height: window.height as u32,
+            window_x0: window.x0 as u32,
+            window_y0: window.y0 as u32,
+            source_width: source.width as u32,
+            source_height: source.height as u32,
+            source_x0: source.x0 as u32,
+            source_y0: source.y0 as u32,
+            centre_x: pass.centre_px[0] as f32,
+            centre_y: pass.centre_px[1] as f32,
+            warp: u32::from(pass.warp_scale.is_some()),
+            shade: u32::from(pass.shading.is_some()),
+            warp_samples: pass.warp_scale.map_or(0, |t| t.samples().len() as u32),
+            shade_samples: pass.shading.map_or(0, |t| t.samples().len() as u32),
+            inverse_step: (1.0 / RADIAL_TABLE_STEP_PX) as f32,
+            _pad: 0,
+        });
         for c in 0..3 {
             let blurred = if pass.blur {
                 self.blur_plane(pass.image.plane(c), pass, c)?
             } else {
                 self.input(bytemuck::cast_slice(pass.image.plane(c)))
             };
-            let warped = self.storage(window.width * window.height);
-            let params = GeometryParams {
-                width: window.width as u32,
-                height: window.height as u32,
-                window_x0: window.x0 as u32,
-                window_y0: window.y0 as u32,
-                source_width: source.width as u32,
-                source_height: source.height as u32,
-                source_x0: source.x0 as u32,
-                source_y0: source.y0 as u32,
-                centre_x: pass.centre_px[0] as f32,
-                centre_y: pass.centre_px[1] as f32,
-                warp: u32::from(pass.warp_scale.is_some()),
-                shade: u32::from(pass.shading.is_some()),
-                warp_samples: pass.warp_scale.map_or(0, |t| t.samples().len() as u32),
-                shade_samples: pass.shading.map_or(0, |t| t.samples().len() as u32),
-                inverse_step: (1.0 / RADIAL_TABLE_STEP_PX) as f32,
-                _pad: 0,
+            let result = if identity {
+                blurred
+            } else {
+                let warped = self.storage(pixels);
+                let buffers = [&geometry, &blurred, &tables[0], &tables[1], &warped];
+                self.run(&self.geometry, &buffers, [window.width, window.height]);
+                warped
             };
-            let uniform = self.uniform(&params);
-            let buffers = [&uniform, &blurred, &tables[0], &tables[1], &warped];
-            self.run(&self.geometry, &buffers, [window.width, window.height]);
-            let plane = self.read(&warped, window.width * window.height)?;
-            out.plane_mut(c).copy_from_slice(&plane);
+            out.plane_mut(c).copy_from_slice(&self.read(&result, pixels)?);
         }
         Ok(out)
     }

@@ -106,13 +106,21 @@ impl DeviceSelection {
 
     /// The GPU tracer for a batch of `rays` rays, or None for the CPU.
     pub fn tracer_for(&self, rays: usize) -> Option<&GpuTracer> {
+        self.uses_gpu(rays, AUTO_MIN_RAYS).then(|| self.open()).flatten()
+    }
+
+    /// The policy for a job of `size` (rays, pixels) against `auto`'s smallest GPU job `auto_min`:
+    /// `gpu` always (a missing device is noted when it is opened); `auto` only for jobs of at least
+    /// `auto_min` on a hardware GPU, and without its device node Vulkan is never touched.
+    fn uses_gpu(&self, size: usize, auto_min: usize) -> bool {
         match self.choice {
-            DeviceChoice::Cpu => None,
-            DeviceChoice::Auto if rays < AUTO_MIN_RAYS => None,
-            // Only a hardware GPU pays; without a device node for one, Vulkan is never touched.
-            DeviceChoice::Auto if !hardware_gpu_node_present() => None,
-            DeviceChoice::Auto => self.open().filter(|t| !t.context().adapter.software),
-            DeviceChoice::Gpu => self.open(),
+            DeviceChoice::Cpu => false,
+            DeviceChoice::Auto => {
+                size >= auto_min
+                    && hardware_gpu_node_present()
+                    && self.context().is_some_and(|c| !c.adapter.software)
+            }
+            DeviceChoice::Gpu => true,
         }
     }
 
@@ -167,17 +175,9 @@ impl DeviceSelection {
         }
     }
 
-    /// The GPU image pass for `pixels` output pixels, or None for the CPU path (the rule of
-    /// `tracer_for`, with `AUTO_MIN_PIXELS`).
+    /// The GPU image pass for `pixels` output pixels, or None for the CPU path.
     pub fn image_pass_for(&self, pixels: usize) -> Option<&GpuImagePass> {
-        let usable = match self.choice {
-            DeviceChoice::Cpu => false,
-            DeviceChoice::Auto if pixels < AUTO_MIN_PIXELS => false,
-            DeviceChoice::Auto if !hardware_gpu_node_present() => false,
-            DeviceChoice::Auto => self.context().is_some_and(|c| !c.adapter.software),
-            DeviceChoice::Gpu => true,
-        };
-        if !usable {
+        if !self.uses_gpu(pixels, AUTO_MIN_PIXELS) {
             return None;
         }
         self.image

@@ -280,31 +280,35 @@ impl LensSimulator {
     /// settings' image device when it takes the pass).
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
         self.check_frame(image)?;
-        let frame = self.frame();
-        let pass = self.image_pass(image, frame, frame, self.frame_grids(), self.frame_layouts());
-        if let Some(out) = self.settings.image.apply(&pass) {
+        if let Some(out) = self.settings.image.apply(&self.frame_pass(image)) {
             return Ok(out);
         }
-        let blurred = self.blur(image)?;
+        // The CPU path, without asking the device again for each half.
+        let blurred = self.blur_on_cpu(image);
         if !self.moves_or_shades() {
             return Ok(blurred); // no copy of a frame that `geometry` would hand back unchanged
         }
-        self.geometry(&blurred)
+        let frame = self.frame();
+        Ok(self.warp_and_shade(&blurred, frame, frame))
     }
 
     /// The lens's spatially varying blur alone (no distortion, no shading), in the ideal image's
     /// coordinates: what `apply` does before `geometry`.
     pub fn blur(&self, image: &Planar) -> SimResult<Planar> {
         self.check_frame(image)?;
-        let frame = self.frame();
         let pass = ImagePass {
             warp_scale: None,
             shading: None,
-            ..self.image_pass(image, frame, frame, self.frame_grids(), self.frame_layouts())
+            ..self.frame_pass(image)
         };
         if let Some(out) = self.settings.image.apply(&pass) {
             return Ok(out);
         }
+        Ok(self.blur_on_cpu(image))
+    }
+
+    /// `blur` on the CPU path (the frame checked by the caller).
+    fn blur_on_cpu(&self, image: &Planar) -> Planar {
         let (w, h) = (self.grid.width_px, self.grid.height_px);
         let mut blurred = Planar::new(w, h, 3);
         for c in 0..3 {
@@ -319,15 +323,15 @@ impl LensSimulator {
                 blurred.plane_mut(c),
             );
         }
-        Ok(blurred)
+        blurred
     }
 
-    fn frame_grids(&self) -> [&KernelGrid; 3] {
-        [&self.kernels[0], &self.kernels[1], &self.kernels[2]]
-    }
-
-    fn frame_layouts(&self) -> [&TileLayout; 3] {
-        [&self.layouts[0], &self.layouts[1], &self.layouts[2]]
+    /// The whole frame's optics, as a device takes them.
+    fn frame_pass<'a>(&'a self, image: &'a Planar) -> ImagePass<'a> {
+        let frame = self.frame();
+        let grids = [&self.kernels[0], &self.kernels[1], &self.kernels[2]];
+        let layouts = [&self.layouts[0], &self.layouts[1], &self.layouts[2]];
+        self.image_pass(image, frame, frame, grids, layouts)
     }
 
     /// The optics of `region` (frame pixels `source`) for the output pixels `window`, as a device
@@ -362,14 +366,14 @@ impl LensSimulator {
         if !self.moves_or_shades() {
             return Ok(image.clone());
         }
-        let frame = self.frame();
         let pass = ImagePass {
             blur: false,
-            ..self.image_pass(image, frame, frame, self.frame_grids(), self.frame_layouts())
+            ..self.frame_pass(image)
         };
         if let Some(out) = self.settings.image.apply(&pass) {
             return Ok(out);
         }
+        let frame = self.frame();
         Ok(self.warp_and_shade(image, frame, frame))
     }
 

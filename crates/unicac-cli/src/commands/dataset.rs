@@ -52,12 +52,11 @@ impl Progress for Bar {
 /// so `gpu` that cannot open is an error (not the CPU with a note, as for simulate) and `auto` is
 /// decided here, once.
 fn render_device(choice: DeviceChoice) -> Result<(RenderDevice, ImageBackend)> {
-    if choice == DeviceChoice::Cpu {
-        return Ok((RenderDevice::Cpu, ImageBackend::cpu()));
-    }
     let cpu = || Ok((RenderDevice::Cpu, ImageBackend::cpu()));
     // `auto` never opens Vulkan without a hardware GPU's device node.
-    if choice == DeviceChoice::Auto && !unicac_gpu::select::hardware_gpu_node_present() {
+    if choice == DeviceChoice::Cpu
+        || (choice == DeviceChoice::Auto && !unicac_gpu::select::hardware_gpu_node_present())
+    {
         return cpu();
     }
     // The `gpu` policy: every pass on the device, whatever its size (auto's size rule would mix devices).

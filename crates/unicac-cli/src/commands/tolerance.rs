@@ -115,6 +115,11 @@ fn check_write_units(args: &ToleranceArgs) -> Result<()> {
 
 /// `--write-units`: each named unit as a lens file (JSON: an index error has no .zmx form).
 fn write_units(nominal: &Lens, request: &MonteCarlo, args: &ToleranceArgs) -> Result<()> {
+    if args.write_units.is_empty() {
+        return Ok(());
+    }
+    std::fs::create_dir_all(args.out.join(UNITS_DIR))
+        .with_context(|| format!("--out {}", args.out.display()))?;
     for &trial in &args.write_units {
         let unit = unicac_tolerance::unit_lens(nominal, request, trial)
             .with_context(|| format!("--write-units {trial}"))?;
@@ -128,8 +133,6 @@ fn write_units(nominal: &Lens, request: &MonteCarlo, args: &ToleranceArgs) -> Re
             args.pupil_grid
         );
         let path = unit_path(&args.out, trial);
-        std::fs::create_dir_all(args.out.join(UNITS_DIR))
-            .with_context(|| format!("--out {}", args.out.display()))?;
         unicac_optics::format::write_spec(&spec, &path).with_context(|| format!("--write-units {trial}"))?;
         eprintln!("wrote {}", path.display());
     }

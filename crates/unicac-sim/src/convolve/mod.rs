@@ -211,6 +211,9 @@ pub struct TileLayout {
     /// Half-width (px) to which each tile's four corner kernels are cropped (row-major over tiles):
     /// the largest `half_width_holding(kernel, kernel_tail)` of its corners.
     pub tile_half_px: Vec<u32>,
+    /// The pixel ranges of the tile columns and the tile rows (`intervals`).
+    columns: Vec<Range<usize>>,
+    rows: Vec<Range<usize>>,
 }
 
 impl TileLayout {
@@ -224,8 +227,8 @@ impl TileLayout {
             .par_iter()
             .map(|k| half_width_holding(k, kernel_tail))
             .collect();
-        let (column_tile, column_t) = axis_positions(&node_positions(width, grid.nodes_x), width);
-        let (row_tile, row_t) = axis_positions(&node_positions(height, grid.nodes_y), height);
+        let (columns, column_tile, column_t) = axis_positions(&node_positions(width, grid.nodes_x), width);
+        let (rows, row_tile, row_t) = axis_positions(&node_positions(height, grid.nodes_y), height);
         let tiles = [grid.nodes_x - 1, grid.nodes_y - 1];
         let tile_half_px = (0..tiles[1])
             .flat_map(|j| (0..tiles[0]).map(move |i| (i, j)))
@@ -245,6 +248,8 @@ impl TileLayout {
             row_tile,
             row_t,
             tile_half_px,
+            columns,
+            rows,
         }
     }
 
@@ -253,7 +258,7 @@ impl TileLayout {
     pub fn flat_tiles(&self, plane: &[f32], grid: &KernelGrid) -> Vec<Option<[f32; 4]>> {
         let (width, height) = (self.column_tile.len(), self.row_tile.len());
         assert_eq!(plane.len(), width * height);
-        let (columns, rows) = (self.ranges(true), self.ranges(false));
+        let (columns, rows) = (&self.columns, &self.rows);
         (0..self.tiles[0] * self.tiles[1])
             .into_par_iter()
             .map(|tile| {
@@ -265,40 +270,23 @@ impl TileLayout {
             })
             .collect()
     }
-
-    /// Pixel ranges of the tiles along x (`along_x`) or y.
-    fn ranges(&self, along_x: bool) -> Vec<Range<usize>> {
-        let (tile_of, count) = if along_x {
-            (&self.column_tile, self.tiles[0])
-        } else {
-            (&self.row_tile, self.tiles[1])
-        };
-        let mut ranges = vec![0..0; count];
-        for (pixel, &tile) in tile_of.iter().enumerate() {
-            // Pixels come in order, so a tile's range starts at its first pixel (end 0: none seen yet).
-            let range = &mut ranges[tile as usize];
-            if range.end == 0 {
-                range.start = pixel;
-            }
-            range.end = pixel + 1;
-        }
-        ranges
-    }
 }
 
-/// Each pixel's interval among `positions` (`intervals`) and its fractional position across it, clamped
-/// to 0..1 (pixels before the first node and after the last one take the end intervals' edge weights).
-fn axis_positions(positions: &[f64], length: usize) -> (Vec<u32>, Vec<f32>) {
+/// The intervals among `positions` (`intervals`), each pixel's interval, and its fractional position
+/// across it, clamped to 0..1 (pixels before the first node and after the last one take the end
+/// intervals' edge weights).
+fn axis_positions(positions: &[f64], length: usize) -> (Vec<Range<usize>>, Vec<u32>, Vec<f32>) {
+    let ranges = intervals(positions, length);
     let mut tile = vec![0u32; length];
     let mut t = vec![0.0f32; length];
-    for (i, range) in intervals(positions, length).into_iter().enumerate() {
+    for (i, range) in ranges.iter().enumerate() {
         let (from, to) = (positions[i], positions[i + 1]);
-        for pixel in range {
+        for pixel in range.clone() {
             tile[pixel] = i as u32;
             t[pixel] = ((pixel as f64 - from) / (to - from)).clamp(0.0, 1.0) as f32;
         }
     }
-    (tile, t)
+    (ranges, tile, t)
 }
 
 /// `convolve_varying_with` into a buffer the caller owns (every pixel of `out` is written): a 12 MP
@@ -341,11 +329,10 @@ pub fn convolve_varying_laid_out(
         (width, height),
         "a layout of this plane's size"
     );
-    let columns = layout.ranges(true);
-    let bands = layout.ranges(false);
+    let (columns, bands) = (&layout.columns, &layout.rows);
     let mut slices: Vec<&mut [f32]> = Vec::with_capacity(bands.len());
     let mut rest = out;
-    for rows in &bands {
+    for rows in bands {
         let (band, tail) = rest.split_at_mut(rows.len() * width);
         slices.push(band);
         rest = tail;
@@ -880,17 +867,23 @@ mod tests {
                 kernels: (0..2 * nodes).map(|_| delta(3)).collect(),
             };
             let layout = TileLayout::new(length, 5, &grid, 0.0);
-            let expected = intervals(&node_positions(length, nodes), length);
-            let ranges = layout.ranges(true);
-            let nonempty = |r: &Vec<Range<usize>>| -> Vec<Range<usize>> {
-                r.iter().filter(|r| r.start < r.end).cloned().collect()
-            };
-            assert_eq!(ranges.len(), expected.len(), "{length} px, {nodes} nodes");
             assert_eq!(
-                nonempty(&ranges),
-                nonempty(&expected),
+                layout.columns,
+                intervals(&node_positions(length, nodes), length),
                 "{length} px, {nodes} nodes"
             );
+            // Every pixel lies in exactly the tile its per-pixel entry (the GPU's view) names.
+            for (pixel, &tile) in layout.column_tile.iter().enumerate() {
+                let holding: Vec<usize> = (layout.columns.iter().enumerate())
+                    .filter(|(_, r)| r.contains(&pixel))
+                    .map(|(i, _)| i)
+                    .collect();
+                assert_eq!(
+                    holding,
+                    vec![tile as usize],
+                    "{length} px, {nodes} nodes, pixel {pixel}"
+                );
+            }
             assert!(layout.column_t.iter().all(|t| (0.0..=1.0).contains(t)));
             assert_eq!(
                 layout.tile_half_px,
