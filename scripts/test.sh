@@ -7,6 +7,16 @@ source scripts/setup.sh
 source scripts/setup_python.sh dev   # PyTorch, onnx, onnxruntime (ORT_DYLIB_PATH for the bench tests), ...
 # One clean build: incremental caches would only take disk (several GB for the optimised test profile).
 export CARGO_INCREMENTAL=0
+# A first build of the tests takes ~4.6 GB (measured on a clean clone): a smaller disk is named here,
+# not by a linker error ten minutes in.
+if [ ! -d target/debug/deps ]; then
+  free_kb=$(df -Pk . | awk 'NR == 2 { print $4 }')
+  if [ "$free_kb" -lt $((5 * 1048576)) ]; then
+    echo "test: $(awk -v kb="$free_kb" 'BEGIN { printf "%.1f", kb / 1048576 }') GB free here, but building the tests" \
+      "needs about 5 GB; free some disk and retry" >&2
+    exit 1
+  fi
+fi
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --quiet -- -D warnings
 # The totals line is printed whether or not a test failed (so CI's log always ends with the counts);
