@@ -5,6 +5,7 @@
 //! (`Digest::raw`). The rules of each existing key (which parts, prefixed or raw) are part of its
 //! format: a change there is a cache miss or a different dataset, so callers keep theirs.
 
+use serde::Serialize;
 use sha2::{Digest as _, Sha256};
 
 /// Lower-case hex of bytes.
@@ -20,6 +21,20 @@ pub fn sha256(bytes: &[u8]) -> [u8; 32] {
 /// Hex SHA-256 of bytes (what `sha256sum` prints).
 pub fn sha256_hex(bytes: &[u8]) -> String {
     hex(&sha256(bytes))
+}
+
+/// The canonical bytes of a value for a key: its JSON, fields by name in declaration order and every
+/// f64 in its shortest round-trip form, so two values share them only if every serialised field is
+/// equal, and renaming a field is a miss rather than an alias (what a key built from `Debug` text could
+/// not promise: a hand-written `Debug` may leave fields out). Keyed values are validated first: JSON
+/// writes a non-finite number as `null`.
+pub fn canonical_json(value: &impl Serialize) -> Vec<u8> {
+    serde_json::to_vec(value).expect("keyed values are plain data (no maps with non-string keys)")
+}
+
+/// Hex SHA-256 of a value's canonical bytes (`canonical_json`).
+pub fn canonical_sha256_hex(value: &impl Serialize) -> String {
+    sha256_hex(&canonical_json(value))
 }
 
 /// A SHA-256 fed part by part.
@@ -42,6 +57,11 @@ impl Digest {
         self.0.update((bytes.len() as u64).to_le_bytes());
         self.0.update(bytes);
         self
+    }
+
+    /// One part holding a value's canonical bytes (`canonical_json`).
+    pub fn canonical(self, value: &impl Serialize) -> Digest {
+        self.part(&canonical_json(value))
     }
 
     /// Every part of a list (`part` each).
@@ -81,5 +101,30 @@ mod tests {
         manual.extend(1u64.to_le_bytes());
         manual.extend(b"c");
         assert_eq!(a, sha256_hex(&manual));
+    }
+
+    #[derive(Serialize)]
+    struct Settings {
+        pixel_um: f64,
+        rays: usize,
+    }
+
+    #[test]
+    fn canonical_bytes_name_every_field_and_keep_every_digit() {
+        let a = Settings {
+            pixel_um: 0.1 + 0.2,
+            rays: 2048,
+        };
+        assert_eq!(
+            canonical_json(&a),
+            br#"{"pixel_um":0.30000000000000004,"rays":2048}"#.to_vec()
+        );
+        // One unit in the last place is another key.
+        let b = Settings { pixel_um: 0.3, ..a };
+        assert_ne!(canonical_sha256_hex(&a), canonical_sha256_hex(&b));
+        assert_eq!(
+            Digest::new().canonical(&a).hex(),
+            Digest::new().part(&canonical_json(&a)).hex()
+        );
     }
 }

@@ -8,9 +8,11 @@ use crate::spec::{
     ApertureSpec, FieldSpec, LensSpec, MaterialSpec, SensorSpec, SurfaceSpec, SurfaceType, WavelengthSpec,
     FORMAT_VERSION,
 };
+use serde::Serialize;
 
-/// One surface of the model, with its vertex placed in global coordinates.
-#[derive(Clone, PartialEq)]
+/// One surface of the model, with its vertex placed in global coordinates. Serialised for keys only
+/// (`unicac_psf::lens_fingerprint`); lens files are `LensSpec`s.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Surface {
     pub profile: Profile,
     /// Global z of the vertex (surface 1 at 0).
@@ -24,27 +26,9 @@ pub struct Surface {
     pub placement: Placement,
 }
 
-/// The derived form, with `placement` only when the surface is not centred: the lens fingerprint
-/// (`unicac_psf::lens_fingerprint`, a hash of `{lens:?}`) of a centred lens stays what it was before
-/// lenses had placements, and so do PSF cache keys and the provenance written with PSFs.
-impl std::fmt::Debug for Surface {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let mut s = f.debug_struct("Surface");
-        s.field("profile", &self.profile)
-            .field("z_mm", &self.z_mm)
-            .field("thickness_mm", &self.thickness_mm)
-            .field("semi_diameter_mm", &self.semi_diameter_mm)
-            .field("medium_after", &self.medium_after)
-            .field("label", &self.label);
-        if !self.placement.is_centred() {
-            s.field("placement", &self.placement);
-        }
-        s.finish()
-    }
-}
-
-/// A validated lens. Index 0 of `surfaces` is surface 1; the last entry is the image surface.
-#[derive(Debug, Clone, PartialEq)]
+/// A validated lens. Index 0 of `surfaces` is surface 1; the last entry is the image surface. Its
+/// serialised form (every number the tracer reads, glass data included) is its identity in cache keys.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Lens {
     pub name: String,
     pub surfaces: Vec<Surface>,

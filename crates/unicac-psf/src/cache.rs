@@ -4,9 +4,10 @@
 //! Key: SHA-256 over everything the PSFs depend on (the validated lens model, the sensor pitch, the
 //! PSF settings, the wavelengths and camera curves, the field points), plus the cache format and the
 //! unicac version, so a change to any of them, or to the code, is a miss rather than a stale hit.
-//! The lens enters through `lens_fingerprint`: the model's full debug form, in which every f64 is
-//! printed in its shortest round-trip form, so two lenses share a fingerprint only if every number
-//! that reaches the tracer is equal.
+//! The lens enters through `lens_fingerprint`: the model's canonical serialised form
+//! (`unicac_io::digest::canonical_json`: every field by name, every f64 in its shortest round-trip
+//! form, catalogue glasses with their dispersion coefficients), so two lenses share a fingerprint only
+//! if every number that reaches the tracer is equal; the settings enter the same way.
 //!
 //! File: `<dir>/<key>.psf`: a magic line, the JSON metadata of the PSFs (length-prefixed), then every
 //! kernel's samples as little-endian f32 in order, then the SHA-256 of everything before it. Written
@@ -16,7 +17,7 @@
 
 use crate::geometric::FieldPsf;
 use std::path::{Path, PathBuf};
-use unicac_io::digest::{sha256, sha256_hex, Digest};
+use unicac_io::digest::{canonical_sha256_hex, sha256, Digest};
 use unicac_optics::Lens;
 
 const MAGIC: &[u8] = b"unicac-psf-cache 2\n";
@@ -32,7 +33,7 @@ pub struct PsfCache {
 
 /// A hex SHA-256 of the lens model (see the module docs); also written into PSF metadata as provenance.
 pub fn lens_fingerprint(lens: &Lens) -> String {
-    sha256_hex(format!("{lens:?}").as_bytes())
+    canonical_sha256_hex(lens)
 }
 
 /// unicac's cache folder (PSFs, converted metric weights): `$UNICAC_CACHE_DIR`, else

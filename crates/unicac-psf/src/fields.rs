@@ -285,22 +285,19 @@ impl FieldPsfRequest {
             .with_backend(self.backend.clone())
     }
 
-    /// Everything besides the lens the PSFs of `lens` depend on, the tracing device included, as text
-    /// for a cache key (see `cache::PsfCache::key`).
-    pub fn key_text(&self, lens: &Lens) -> PsfResult<String> {
+    /// Everything besides the lens the PSFs of `lens` depend on, the tracing device included, as the
+    /// canonical bytes of a cache key's part (see `cache::PsfCache::key`).
+    pub fn key_bytes(&self, lens: &Lens) -> PsfResult<Vec<u8>> {
         let pixel_um = self.pixel_um_for(lens)?;
-        Ok(format!(
-            "{:?}",
-            (
-                self.mode,
-                &self.fields_deg,
-                pixel_um,
-                self.weights(),
-                self.monochromatic(),
-                &self.backend,
-                self.max_kernel_px
-            )
-        ))
+        Ok(unicac_io::digest::canonical_json(&(
+            self.mode,
+            &self.fields_deg,
+            pixel_um,
+            self.weights(),
+            self.monochromatic(),
+            &self.backend,
+            self.max_kernel_px,
+        )))
     }
 
     /// Traces the PSFs: geometric ones sized to the largest spot (dark fields refused); wave ones sized

@@ -36,8 +36,8 @@ impl HitTracer for CpuHitTracer {
     }
 }
 
-/// The ray backend of a job: a shared `HitTracer`, cheap to clone. Its `Debug` form is its description,
-/// so a cache key built from the settings that trace names the device that traced.
+/// The ray backend of a job: a shared `HitTracer`, cheap to clone. Its `Debug` and serialised forms are
+/// its description, so a cache key that holds it names the device that traced.
 #[derive(Clone)]
 pub struct RayBackend(Arc<dyn HitTracer>);
 
@@ -75,6 +75,12 @@ impl Default for RayBackend {
 impl std::fmt::Debug for RayBackend {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{:?}", self.describe())
+    }
+}
+
+impl serde::Serialize for RayBackend {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(&self.describe())
     }
 }
 

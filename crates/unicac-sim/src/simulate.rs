@@ -19,6 +19,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use unicac_image::isp::Pipeline;
 use unicac_image::Planar;
+use unicac_io::digest::canonical_json;
 use unicac_optics::Lens;
 use unicac_psf::{lens_fingerprint, PsfCache};
 use unicac_psf::{visible_wavelengths_um, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights};
@@ -147,12 +148,14 @@ impl LensSimulator {
         // The cache key covers everything the radial PSFs depend on, the tracing device included (a GPU f32
         // map is not served to a CPU run): the settings' backend is the one that traces.
         let cache_entry = settings.cache.as_ref().map(|cache| {
-            let inputs = (&psf_settings, tracer.weights(), corner, settings.radial);
-            let key = PsfCache::key(&[
-                b"radial",
-                lens_sha256.as_bytes(),
-                format!("{inputs:?}").as_bytes(),
-            ]);
+            let inputs = (
+                &psf_settings,
+                &psf_settings.backend,
+                tracer.weights(),
+                corner,
+                settings.radial,
+            );
+            let key = PsfCache::key(&[b"radial", lens_sha256.as_bytes(), &canonical_json(&inputs)]);
             (cache, key)
         });
         let cached = cache_entry

@@ -21,7 +21,7 @@ pub fn run(args: &PsfArgs) -> Result<()> {
     let key = PsfCache::key(&[
         b"field",
         lens_sha256.as_bytes(),
-        request.key_text(&lens).map_err(flag_error)?.as_bytes(),
+        &request.key_bytes(&lens).map_err(flag_error)?,
     ]);
     let cache = (!args.no_cache).then(PsfCache::default_location).flatten();
     let cached = cache

@@ -5,6 +5,7 @@ use crate::error::{DatasetError, Result};
 use crate::seeds::parts_sha256_hex;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+use unicac_io::digest::canonical_json;
 use unicac_ode::{OdeReport, OdeScores, OdeSettings};
 use unicac_optics::Lens;
 
@@ -54,7 +55,7 @@ impl GradeCache {
             b"unicac-dataset-ode 2",
             env!("CARGO_PKG_VERSION").as_bytes(),
             model_fingerprint(lens).as_bytes(),
-            format!("{settings:?}").as_bytes(),
+            &canonical_json(&(settings, &settings.backend)),
         ])
     }
 

@@ -3,13 +3,14 @@
 
 use super::formula::Formula;
 use crate::error::{OpticsError, Result};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::sync::{Arc, OnceLock};
 
 /// One catalogue glass.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Glass {
-    #[serde(skip)]
+    /// Set from the catalogue file's own name when it is read.
+    #[serde(skip_deserializing)]
     pub catalog: String,
     pub name: String,
     #[serde(flatten)]

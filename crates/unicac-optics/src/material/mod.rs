@@ -17,7 +17,7 @@ pub const RANGE_SLACK_UM: f64 = 0.02;
 pub const VISIBLE_BAND_UM: [f64; 2] = [0.4, 0.7];
 
 /// The medium after a surface.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub enum Medium {
     Air,
     Catalog(Arc<Glass>),
