@@ -58,10 +58,14 @@ pub struct BenchSettings {
     pub onnxruntime: Search,
 }
 
-/// Progress reports: (work done, total work, what is being done). Work is counted in pixels (each test
-/// pair's and edge patch's, through every method), to which a run's time is about proportional, so
-/// `done / total` gives a fair estimate of the time left even though pairs are larger than patches.
-pub type Progress<'a> = &'a mut dyn FnMut(usize, usize, &str);
+/// Progress of a run (`unicac_io::progress`): one stage, "test pixels", whose work is counted in pixels
+/// (each test pair's and edge patch's, through every method), to which a run's time is about
+/// proportional, so the share done gives a fair estimate of the time left even though pairs are larger
+/// than patches.
+pub use unicac_io::progress::Progress;
+
+/// The name of the bench's one progress stage.
+pub const PROGRESS_STAGE: &str = "test pixels";
 
 fn invalid(message: String) -> BenchError {
     BenchError::InvalidInput(message)
@@ -134,7 +138,7 @@ fn wanted(s: &BenchSettings, metric: Metric) -> bool {
 }
 
 /// The whole benchmark; returns the report and the files written.
-pub fn run_bench(s: &BenchSettings, progress: Progress) -> Result<(Report, Vec<PathBuf>)> {
+pub fn run_bench(s: &BenchSettings, progress: &dyn Progress) -> Result<(Report, Vec<PathBuf>)> {
     check_settings(s)?;
     let mut notices = Vec::new();
     // Models first: a bad file is refused before anything else happens.
@@ -426,7 +430,7 @@ struct Checked {
 }
 
 /// Every pair and edge patch through every method, then the report.
-fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<(Report, Vec<PathBuf>)> {
+fn benchmark(s: &BenchSettings, progress: &dyn Progress, checked: Checked) -> Result<(Report, Vec<PathBuf>)> {
     let Checked {
         mut notices,
         loaded,
@@ -471,26 +475,23 @@ fn benchmark(s: &BenchSettings, progress: Progress, checked: Checked) -> Result<
     };
     let pairs_px: usize = pairs.iter().map(pair_px).sum();
     let total = pairs_px + edge_lenses.iter().map(|(_, g)| edge_px(g)).sum::<usize>();
-    let mut done = 0;
+    progress.stage(PROGRESS_STAGE, total);
     let mut scores = Scores::default();
     for pair in &pairs {
-        progress(done, total, &pair.pair_id);
-        done += pair_px(pair);
         pass.score_pair(pair, &mut entries, &mut scores)?;
+        progress.advance(pair_px(pair));
     }
     // OIQE of the restored edge patches, a lens at a time: each model runs a lens's patches as batches.
     let mut edge_scores = EdgeScores::new();
     for (rows, groups) in &edge_lenses {
-        progress(done, total, &rows[0].edge_id);
-        done += edge_px(groups);
         pass.score_lens_edges(rows, groups, &mut entries, &mut edge_scores)?;
+        progress.advance(edge_px(groups));
     }
     for (key, summaries) in edge_scores {
         if let Ok(v) = unicac_metrics::oiqe::oiqe_mean(&summaries, &unicac_metrics::OiqeWeights::default()) {
             scores.oiqe.insert(key, v);
         }
     }
-    progress(total, total, "report");
     let names: Vec<String> = entries.iter().map(|e| e.info.name.clone()).collect();
     for e in &entries {
         if !e.info.failures.is_empty() {

@@ -14,6 +14,7 @@ use unicac_bench::tiling::Tiling;
 use unicac_bench::{BenchError, Benchmark, ClassicalMethod, Metric, Split};
 use unicac_dataset::FrameCrop;
 use unicac_image::Planar;
+use unicac_io::progress::Silent;
 use unicac_metrics::{psnr_pyiqa, ssim_pyiqa, PYIQA_PSNR_CAP_DB};
 
 fn write_model(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
@@ -42,10 +43,6 @@ fn settings(dataset: &Path, out: &Path) -> BenchSettings {
     }
 }
 
-fn quiet() -> impl FnMut(usize, usize, &str) {
-    |_, _, _| {}
-}
-
 #[test]
 fn contract_violations_are_refused_by_name() {
     let dir = support::scratch("contract");
@@ -68,7 +65,7 @@ fn bad_inputs_are_refused_before_any_work() {
     let dir = support::scratch("refusals");
     let dataset = dir.join("train_only");
     support::dataset::write(&dataset, false);
-    let error = run_bench(&settings(&dataset, &dir.join("out")), &mut quiet())
+    let error = run_bench(&settings(&dataset, &dir.join("out")), &Silent)
         .unwrap_err()
         .to_string();
     assert!(error.contains("no `test` split"), "{error}");
@@ -76,7 +73,7 @@ fn bad_inputs_are_refused_before_any_work() {
     // A model file that is not ONNX is refused even before the dataset is read.
     let mut s = settings(&dir.join("missing"), &dir.join("out"));
     s.models = vec![("m".into(), write_model(&dir, "bad.onnx", b"nope"))];
-    let error = run_bench(&s, &mut quiet()).unwrap_err().to_string();
+    let error = run_bench(&s, &Silent).unwrap_err().to_string();
     assert!(
         error.contains("bad.onnx") && error.contains("not an ONNX model"),
         "{error}"
@@ -87,7 +84,7 @@ fn bad_inputs_are_refused_before_any_work() {
         overlap_px: 20,
     };
     // The library names the setting in its own words; the CLI says `--tile-overlap`.
-    match run_bench(&s, &mut quiet()).unwrap_err() {
+    match run_bench(&s, &Silent).unwrap_err() {
         BenchError::InvalidParameter(p) => assert_eq!(p.field, "overlap_px", "{p}"),
         other => panic!("expected a parameter error, got {other}"),
     }
@@ -113,7 +110,7 @@ fn a_model_asking_for_a_missing_input_is_refused_by_name() {
         "psfnet".into(),
         write_model(&dir, "psf.onnx", &support::psf_model()),
     )];
-    let error = run_bench(&s, &mut quiet()).unwrap_err().to_string();
+    let error = run_bench(&s, &Silent).unwrap_err().to_string();
     assert!(
         error.contains("psfnet") && error.contains("input `psf`"),
         "{error}"
@@ -215,7 +212,7 @@ fn full_run_reports_rows_overall_analysis_and_files() {
     ];
     s.methods = vec![ClassicalMethod::Wiener];
     s.save_images = true;
-    let (report, written) = run_bench(&s, &mut quiet()).unwrap();
+    let (report, written) = run_bench(&s, &Silent).unwrap();
     let json = read_json(&out.join("results.json"));
     // The library the models ran on, and how it was found.
     let library = json["onnxruntime"]["library"].as_str().unwrap();
@@ -407,7 +404,7 @@ fn a_contract_2_model_gets_the_wiener_estimate_and_the_code_of_its_basis() {
             write_model(&dir, "v1.onnx", &support::identity_model()),
         ),
     ];
-    let (report, _) = run_bench(&s, &mut quiet()).unwrap();
+    let (report, _) = run_bench(&s, &Silent).unwrap();
     assert!(
         report.models.iter().all(|m| m.failures.is_empty()),
         "{:?}",
@@ -448,7 +445,7 @@ fn a_contract_2_model_gets_the_wiener_estimate_and_the_code_of_its_basis() {
             &support::wiener_code_model(&"cd".repeat(32), "2"),
         ),
     )];
-    let error = run_bench(&s, &mut quiet()).unwrap_err().to_string();
+    let error = run_bench(&s, &Silent).unwrap_err().to_string();
     assert!(
         error.contains("stranger") && error.contains(&"cd".repeat(32)) && error.contains(&basis.meta.sha256),
         "{error}"

@@ -7,6 +7,7 @@ mod args;
 mod commands;
 mod lens_input;
 mod outputs;
+mod progress_display;
 
 use clap::Parser;
 use std::ffi::OsString;

@@ -25,6 +25,7 @@ mod atomic;
 pub mod counter_random;
 pub mod digest;
 mod plan;
+pub mod progress;
 mod read;
 pub mod shard;
 

@@ -96,15 +96,15 @@ pub struct MonteCarlo {
     pub trials: usize,
 }
 
-/// Runs (or resumes) `shard`'s part of a Monte Carlo run in `folder`, reporting (done, total) trials
-/// of the shard after each chunk. The unsharded run (`Shard::ALL`) returns the summary, also written
+/// Runs (or resumes) `shard`'s part of a Monte Carlo run in `folder`, reporting the shard's trials
+/// done after each chunk (one stage, "trials"). The unsharded run (`Shard::ALL`) returns the summary, also written
 /// to `summary.json`; a shard returns None (the summary needs every shard's chunks).
 pub fn run_folder(
     nominal: &Lens,
     request: &MonteCarlo,
     folder: &Path,
     shard: Shard,
-    progress: &mut dyn FnMut(usize, usize),
+    progress: &dyn unicac_io::progress::Progress,
 ) -> ToleranceResult<Option<Summary>> {
     let MonteCarlo {
         lens_identity,
@@ -149,8 +149,7 @@ pub fn run_folder(
         .filter(|&c| shard.owns(c))
         .collect();
     let total: usize = mine.iter().map(|&c| chunk_range(c, trials).count()).sum();
-    let mut done = 0;
-    progress(done, total);
+    progress.stage("trials", total);
     // The unsharded run owns every chunk, in order: it keeps them for the summary as it goes.
     let mut all = Vec::with_capacity(if shard.is_all() { trials } else { 0 });
     for &c in &mine {
@@ -176,8 +175,7 @@ pub fn run_folder(
         if shard.is_all() {
             all.extend(chunk);
         }
-        done += range.len();
-        progress(done, total);
+        progress.advance(range.len());
     }
     if !shard.is_all() {
         return Ok(None);

@@ -213,7 +213,7 @@ fn killed_grown_and_sharded_runs_end_with_the_bytes_of_one_run_and_a_foreign_fol
             &request,
             folder,
             Shard::parse(shard).unwrap(),
-            &mut |_, _| {},
+            &unicac_io::progress::Silent,
         )
     };
     // Three chunk files: 64 + 64 + 2 trials.

@@ -1,9 +1,9 @@
 //! `unicac bench`, `unicac metrics` and `unicac weights fetch`.
 
 use anyhow::{bail, Context, Result};
-use std::io::IsTerminal;
 
 use crate::args::{BenchArgs, MetricsArgs, WeightsCommand};
+use crate::progress_display::ProgressDisplay;
 use crate::Host;
 use unicac_bench::lpips::fetch;
 use unicac_bench::ort_library::Search;
@@ -46,33 +46,9 @@ pub fn run(args: &BenchArgs, host: &Host) -> Result<()> {
         memory_limit_bytes,
         onnxruntime: Search::from_environment(host.python.as_deref()),
     };
-    let bar = super::progress(0, "bench");
-    // Work is counted in pixels: a percentage, not a count, means something to the user.
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {percent}% {elapsed_precise} eta {eta}")
-            .expect("template")
-            .progress_chars("=> "),
-    );
-    let terminal = std::io::stderr().is_terminal();
-    if !terminal {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
-    // Without a terminal (a log file, a script), a plain line at most every LOG_EVERY, so a long run
-    // still shows that it moves and how far it is.
-    const LOG_EVERY: std::time::Duration = std::time::Duration::from_secs(30);
-    let mut last_line = std::time::Instant::now();
-    let started = std::time::Instant::now();
-    let mut progress = |done: usize, total: usize, what: &str| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-        bar.set_message(what.to_string());
-        if !terminal && (last_line.elapsed() >= LOG_EVERY || done == total) {
-            eprintln!("bench: {}", progress_line(done, total, what, started.elapsed()));
-            last_line = std::time::Instant::now();
-        }
-    };
-    let (report, written) = run_bench(&settings, &mut progress).map_err(bench_error)?;
-    bar.finish_and_clear();
+    let progress = ProgressDisplay::new("bench");
+    let (report, written) = run_bench(&settings, &progress).map_err(bench_error)?;
+    progress.finish();
     for notice in &report.notices {
         eprintln!("notice: {notice}");
     }
@@ -259,57 +235,4 @@ fn pip_download(python: &str, into: &std::path::Path) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// "37% (pair-id), 5 min 10 s elapsed, about 8 min 48 s left": the estimate assumes the rest of the
-/// work (pixels) goes at the rate so far.
-fn progress_line(done: usize, total: usize, what: &str, elapsed: std::time::Duration) -> String {
-    let share = if total == 0 {
-        1.0
-    } else {
-        done as f64 / total as f64
-    };
-    let elapsed_s = elapsed.as_secs_f64();
-    let left = if share > 0.0 && share < 1.0 {
-        format!(
-            ", about {} left",
-            minutes_seconds(elapsed_s * (1.0 - share) / share)
-        )
-    } else {
-        String::new()
-    };
-    format!(
-        "{:.0}% ({what}), {} elapsed{left}",
-        100.0 * share,
-        minutes_seconds(elapsed_s)
-    )
-}
-
-fn minutes_seconds(seconds: f64) -> String {
-    let whole = seconds.round() as u64;
-    if whole >= 60 {
-        format!("{} min {} s", whole / 60, whole % 60)
-    } else {
-        format!("{whole} s")
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::progress_line;
-    use std::time::Duration;
-
-    #[test]
-    fn the_log_line_estimates_the_time_left_from_the_rate_so_far() {
-        let line = progress_line(25, 100, "pair-7", Duration::from_secs(70));
-        assert_eq!(line, "25% (pair-7), 1 min 10 s elapsed, about 3 min 30 s left");
-        assert_eq!(
-            progress_line(100, 100, "report", Duration::from_secs(9)),
-            "100% (report), 9 s elapsed"
-        );
-        assert_eq!(
-            progress_line(0, 100, "pair-1", Duration::ZERO),
-            "0% (pair-1), 0 s elapsed"
-        );
-    }
 }

@@ -1,52 +1,12 @@
 //! `unicac dataset build|info|plot` (docs/dataset.md).
 
 use crate::args::{DatasetBuildArgs, DatasetInfoArgs, DatasetPlotArgs, PairTaskArg};
+use crate::progress_display::ProgressDisplay;
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
-use std::io::IsTerminal;
 use std::sync::Arc;
-use std::sync::Mutex;
-use unicac_dataset::builder::{self, sources::parse_size, BuildSettings, PairTask, Progress, RenderDevice};
+use unicac_dataset::builder::{self, sources::parse_size, BuildSettings, PairTask, RenderDevice};
 use unicac_gpu::{DeviceChoice, DeviceSelection, Precision};
 use unicac_sim::ImageBackend;
-
-/// A bar per stage on a terminal (pairs/s and ETA); notes only otherwise.
-struct Bar {
-    bar: Mutex<Option<ProgressBar>>,
-    terminal: bool,
-}
-
-impl Progress for Bar {
-    fn stage(&self, name: &str, total: usize) {
-        let mut slot = self.bar.lock().expect("progress lock");
-        if let Some(old) = slot.take() {
-            old.finish_and_clear();
-        }
-        if self.terminal && total > 0 {
-            let bar = ProgressBar::new(total as u64);
-            bar.set_style(
-                ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {per_sec} eta {eta}")
-                    .expect("template")
-                    .progress_chars("=> "),
-            );
-            bar.set_message(name.to_string());
-            *slot = Some(bar);
-        }
-    }
-
-    fn advance(&self, done: usize) {
-        if let Some(bar) = self.bar.lock().expect("progress lock").as_ref() {
-            bar.inc(done as u64);
-        }
-    }
-
-    fn note(&self, message: &str) {
-        match self.bar.lock().expect("progress lock").as_ref() {
-            Some(bar) => bar.suspend(|| eprintln!("{message}")),
-            None => eprintln!("{message}"),
-        }
-    }
-}
 
 /// `--device` of a dataset build, resolved before any work: the record names the device that renders,
 /// so `gpu` that cannot open is an error (not the CPU with a note, as for simulate) and `auto` is
@@ -111,15 +71,12 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
         .num_threads(threads)
         .build()
         .context("starting the worker threads")?;
-    let progress = Bar {
-        bar: Mutex::new(None),
-        terminal: std::io::stderr().is_terminal(),
-    };
+    let progress = ProgressDisplay::new("dataset build");
     let start = std::time::Instant::now();
     let report = pool
         .install(|| builder::build(&settings, &args.out, shard, &progress))
         .map_err(flag_error)?;
-    progress.stage("", 0);
+    progress.finish();
     super::gpu::print_notes(settings.image.take_notes());
     let seconds = start.elapsed().as_secs_f64();
     if args.json {

@@ -1,8 +1,9 @@
 //! `unicac tolerance`: Monte Carlo tolerancing into a resumable folder, with the yield curves drawn.
 
-use super::{flag_error, named_flag_error, print_json, progress};
+use super::{flag_error, named_flag_error, print_json};
 use crate::args::ToleranceArgs;
 use crate::lens_input::load_spec;
+use crate::progress_display::ProgressDisplay;
 use anyhow::{Context, Result};
 use unicac_optics::Lens;
 use unicac_plot::{line_panels, Line, LineColour, LinePanel};
@@ -43,7 +44,7 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         pupil_grid: args.pupil_grid,
         mtf_frequencies_cy_mm: args.mtf_cy_mm.clone(),
     };
-    let bar = progress(args.trials, "units");
+    let progress = ProgressDisplay::new("tolerance");
     let shard = super::shard_arg(args.shard.as_deref())?;
     let request = MonteCarlo {
         lens_identity: identity,
@@ -52,11 +53,7 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         seed: args.seed,
         trials: args.trials,
     };
-    let summary = run_folder(&lens, &request, &args.out, shard, &mut |done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64)
-    })
-    .map_err(|e| match e {
+    let summary = run_folder(&lens, &request, &args.out, shard, &progress).map_err(|e| match e {
         ToleranceError::InvalidParameter(p) if p.field == "mtf_frequencies_cy_mm" => {
             named_flag_error("--mtf-cy-mm", p)
         }
@@ -67,7 +64,7 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         }
         other => anyhow::Error::new(other).context(args.lens.lens.clone()),
     })?;
-    bar.finish_and_clear();
+    progress.finish();
     write_units(&lens, &request, args)?;
     let Some(summary) = summary else {
         eprintln!(

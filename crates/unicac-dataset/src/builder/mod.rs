@@ -265,22 +265,8 @@ impl BuildSettings {
 /// Which part of the work a run does (`unicac_io::shard`): lens k in use is shard (k mod N) + 1's.
 pub use unicac_io::shard::{Shard, MAX_SHARDS};
 
-/// Progress of a build: stages with a known amount of work.
-pub trait Progress: Sync {
-    fn stage(&self, name: &str, total: usize);
-    fn advance(&self, done: usize);
-    /// A message for the user (cache hits, warnings); printed above any bar.
-    fn note(&self, message: &str);
-}
-
-/// Progress that goes nowhere (tests, libraries).
-pub struct Silent;
-
-impl Progress for Silent {
-    fn stage(&self, _: &str, _: usize) {}
-    fn advance(&self, _: usize) {}
-    fn note(&self, _: &str) {}
-}
+/// Progress of a build: stages with a known amount of work (the protocol every long job shares).
+pub use unicac_io::progress::{Progress, Silent};
 
 /// What a run did.
 #[derive(Debug, Clone, Serialize)]
