@@ -6,8 +6,8 @@
 
 use std::time::Instant;
 
-use unicac_bench::contract::load_model;
-use unicac_bench::runtime::{Runtime, Tensor};
+use unicac_onnx::contract::load_model;
+use unicac_onnx::runtime::{Runtime, Tensor};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
@@ -50,7 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect::<Result<_, _>>()?;
         times.sort_by(f64::total_cmp);
         let median = times[times.len() / 2];
-        let params = unicac_bench::cost::parameter_count(&model);
+        let params = unicac_onnx::cost::parameter_count(&model);
         println!(
             "{path}: params {params}, session {load_ms:.0} ms, median {:.1} ms = {:.1} images/s (1x3x256x256, {threads} threads)",
             median * 1e3,

@@ -2,53 +2,7 @@
 //! the split scored. Each name is the one the report and the faces use (`results.json`, the tables,
 //! `--metrics psnr,ssim`), so parsing and printing are the same table read both ways.
 
-/// A name outside a choice's list.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{given}: unknown ({})", known.join(", "))]
-pub struct UnknownName {
-    pub given: String,
-    pub known: Vec<&'static str>,
-}
-
-/// An enum of named unit variants: `ALL` in the order reports list them, `name()`, `Display`, `FromStr`
-/// and serde as the name. Used across the crate (`#[macro_use]` in lib.rs; e.g. contract's `ModelInput`).
-macro_rules! named_choice {
-    ($(#[$doc:meta])* $ty:ident { $($(#[$vdoc:meta])* $variant:ident = $text:literal),+ $(,)? }) => {
-        $(#[$doc])*
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-        #[derive(serde::Serialize, serde::Deserialize)]
-        pub enum $ty {
-            $($(#[$vdoc])* #[serde(rename = $text)] $variant),+
-        }
-
-        impl $ty {
-            pub const ALL: &'static [$ty] = &[$($ty::$variant),+];
-
-            pub fn name(self) -> &'static str {
-                match self {
-                    $($ty::$variant => $text),+
-                }
-            }
-        }
-
-        impl std::fmt::Display for $ty {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                f.write_str(self.name())
-            }
-        }
-
-        impl std::str::FromStr for $ty {
-            type Err = $crate::choices::UnknownName;
-
-            fn from_str(text: &str) -> std::result::Result<$ty, $crate::choices::UnknownName> {
-                $ty::ALL.iter().copied().find(|v| v.name() == text).ok_or_else(|| $crate::choices::UnknownName {
-                    given: text.to_string(),
-                    known: $ty::ALL.iter().map(|v| v.name()).collect(),
-                })
-            }
-        }
-    };
-}
+use unicac_io::named_choice;
 
 named_choice! {
     /// A benchmark: the main ODE levels or one of the two uniformity sub-benchmarks.

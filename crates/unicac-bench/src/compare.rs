@@ -12,7 +12,7 @@ use unicac_image::io::{read_image, Encoding};
 use unicac_image::Planar;
 
 use crate::error::{BenchError, Result};
-use crate::lpips::Lpips;
+use unicac_learned_metrics::lpips::Lpips;
 
 /// Largest number of pairs one call compares (a stated limit).
 pub const MAX_PAIRS: usize = 100_000;

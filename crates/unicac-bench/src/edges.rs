@@ -14,9 +14,9 @@ use unicac_dataset::psf_basis::FieldCodes;
 use unicac_dataset::{EdgeRow, PsfTable};
 use unicac_image::Planar;
 
-use crate::contract::ModelContract;
 use crate::error::{BenchError, Result};
 use crate::inputs::{dataset_error, read_rgb, wiener_at, wiener_input, InputMaps, WienerEstimates};
+use unicac_onnx::contract::ModelContract;
 
 /// Most pixels of edge images run through a model in one batch (2^18: a 512 x 512 image's worth, so a
 /// batch needs no more memory than a test pair of that size; 2^20 doubled the small run's peak to 1.2 GB).

@@ -14,18 +14,12 @@ pub enum BenchError {
         #[source]
         source: std::io::Error,
     },
-    #[error("{path}: not an ONNX model: {why}")]
-    NotOnnx { path: PathBuf, why: String },
-    #[error("{path}: does not follow the model contract (docs/models.md): {why}")]
-    Contract { path: PathBuf, why: String },
-    #[error("{0}")]
-    RuntimeMissing(String),
-    #[error("onnxruntime: {context}: {message}")]
-    Ort { context: String, message: String },
-    #[error("{path}: {why}")]
-    Weights { path: PathBuf, why: String },
-    #[error("pickle {what}: {why}")]
-    Pickle { what: String, why: String },
+    /// A model file, its contract or onnxruntime (`unicac-onnx`), kind kept.
+    #[error(transparent)]
+    Onnx(#[from] unicac_onnx::OnnxError),
+    /// LPIPS, FID or ClipIQA (`unicac-learned-metrics`), kind kept.
+    #[error(transparent)]
+    LearnedMetric(#[from] unicac_learned_metrics::LearnedMetricError),
     #[error("{0}")]
     InvalidInput(String),
     /// The run's estimated peak memory exceeds its limit (refused before any work).
@@ -124,13 +118,6 @@ impl BenchError {
         BenchError::Io {
             path: path.into(),
             source,
-        }
-    }
-
-    pub fn ort(context: impl Into<String>, error: impl std::fmt::Display) -> BenchError {
-        BenchError::Ort {
-            context: context.into(),
-            message: error.to_string(),
         }
     }
 

@@ -7,8 +7,8 @@ use std::path::Path;
 use unicac_image::io::read_image;
 use unicac_image::Planar;
 
-use crate::contract::ModelContract;
 use crate::error::{BenchError, Result};
+use unicac_onnx::contract::ModelContract;
 
 /// An RGB image in [0, 1] as stored (sRGB-encoded), named in errors.
 pub fn read_rgb(path: &Path) -> Result<Planar> {
@@ -38,7 +38,7 @@ pub(crate) fn wiener_input<'a>(
     estimates: &'a WienerEstimates,
 ) -> Option<&'a Planar> {
     contract
-        .wiener_input_nsr()
+        .wiener_input_nsr(crate::wiener::DEFAULT_NSR)
         .and_then(|nsr| estimates.get(&nsr.to_bits()))
 }
 

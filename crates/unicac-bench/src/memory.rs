@@ -19,8 +19,9 @@ pub const PAIR_BYTES_PER_PX: u64 = 107;
 /// LPIPS, per pixel of the image or of its largest tile, whichever is smaller.
 pub const LPIPS_BYTES_PER_PX: u64 = 69;
 /// The largest LPIPS tile (px): a core plus its margins on both sides, squared.
-pub const LPIPS_TILE_MAX_PX: u64 = ((crate::lpips::TILE_CORE_PX + 2 * crate::lpips::TILE_MARGIN_PX)
-    * (crate::lpips::TILE_CORE_PX + 2 * crate::lpips::TILE_MARGIN_PX))
+pub const LPIPS_TILE_MAX_PX: u64 = ((unicac_learned_metrics::lpips::TILE_CORE_PX
+    + 2 * unicac_learned_metrics::lpips::TILE_MARGIN_PX)
+    * (unicac_learned_metrics::lpips::TILE_CORE_PX + 2 * unicac_learned_metrics::lpips::TILE_MARGIN_PX))
     as u64;
 /// A model run on tiles (inputs, maps and accumulators; one tile of activations), per pixel.
 pub const TILED_MODEL_BYTES_PER_PX: u64 = 159;

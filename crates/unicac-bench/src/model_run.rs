@@ -1,12 +1,12 @@
 //! Running one ONNX restoration model on an image (tiled) or a batch of images: the graph inputs its
 //! contract declares, the session call, and the contract's reading of `restored`.
 
-use crate::contract::{ModelContract, ModelInput};
 use crate::error::{BenchError, Result};
 use crate::inputs::InputMaps;
-use crate::runtime::{Session, Tensor};
 use crate::tiling::{run_tiled, Tiling};
 use unicac_image::Planar;
+use unicac_onnx::contract::{ModelContract, ModelInput};
+use unicac_onnx::runtime::{Session, Tensor};
 
 fn invalid(message: String) -> BenchError {
     BenchError::InvalidInput(message)

@@ -9,22 +9,22 @@ use unicac_dataset::folder::Dataset;
 use unicac_dataset::PairRow;
 
 use crate::choices::{Benchmark, ClassicalMethod, Metric, Split};
-use crate::clipiqa::ClipIqa;
-use crate::contract::{load_model, ModelContract, ModelInput};
 use crate::edges::edge_groups;
 use crate::error::{BenchError, Result};
-use crate::fid::FidNetwork;
 use crate::inputs::dataset_error;
 pub use crate::inputs::{read_rgb, InputMaps};
-use crate::lpips::Lpips;
 pub use crate::model_run::{run_onnx, run_onnx_batch, run_onnx_with};
-use crate::onnx::proto::ModelProto;
-use crate::ort_library::Search;
 use crate::report::write::{write_report, Report};
 use crate::report::{summarise, LensInfo, Scores};
-use crate::runtime::Runtime;
 use crate::scoring::{method_entries, EdgeScores, Judges, LensTables, Needs, Pass, Running};
 use crate::tiling::Tiling;
+use unicac_learned_metrics::clipiqa::ClipIqa;
+use unicac_learned_metrics::fid::FidNetwork;
+use unicac_learned_metrics::lpips::Lpips;
+use unicac_onnx::contract::{load_model, ModelContract, ModelInput};
+use unicac_onnx::ort_library::Search;
+use unicac_onnx::proto::ModelProto;
+use unicac_onnx::runtime::Runtime;
 use unicac_trace::InvalidParameter;
 
 /// Largest `threads`.
@@ -293,7 +293,10 @@ pub fn run_bench(s: &BenchSettings, progress: &dyn Progress) -> Result<(Report, 
                 Some(net) => fid = Some(net),
                 None => unavailable(
                     Metric::Fid,
-                    format!("no {} in the weights folder", crate::fid::FID_NETWORK),
+                    format!(
+                        "no {} in the weights folder",
+                        unicac_learned_metrics::fid::FID_NETWORK
+                    ),
                     &mut notices,
                 )?,
             },
@@ -312,8 +315,8 @@ pub fn run_bench(s: &BenchSettings, progress: &dyn Progress) -> Result<(Report, 
                     Metric::ClipIqa,
                     format!(
                         "no {} and {} in the weights folder",
-                        crate::clipiqa::CLIPIQA_ENCODER,
-                        crate::clipiqa::CLIPIQA_PROMPTS
+                        unicac_learned_metrics::clipiqa::CLIPIQA_ENCODER,
+                        unicac_learned_metrics::clipiqa::CLIPIQA_PROMPTS
                     ),
                     &mut notices,
                 )?,

@@ -11,18 +11,18 @@ use unicac_image::io::{write_png, SampleDepth};
 use unicac_image::Planar;
 
 use crate::choices::Benchmark;
-use crate::clipiqa::ClipIqa;
-use crate::contract::{ModelContract, ModelInput};
 use crate::edges::{EdgeGroup, EdgePatch, MapNeeds};
 use crate::error::{BenchError, Result};
-use crate::fid::FidNetwork;
 use crate::inputs::{dataset_error, read_rgb, wiener_at, wiener_input, InputMaps, WienerEstimates};
-use crate::lpips::Lpips;
 use crate::model_run::{run_onnx_batch, run_onnx_with};
 use crate::report::write::ModelInfo;
 use crate::report::{LensInfo, PairScore, Scores};
-use crate::runtime::{Runtime, Session};
 use crate::tiling::Tiling;
+use unicac_learned_metrics::clipiqa::ClipIqa;
+use unicac_learned_metrics::fid::FidNetwork;
+use unicac_learned_metrics::lpips::Lpips;
+use unicac_onnx::contract::{ModelContract, ModelInput};
+use unicac_onnx::runtime::{Runtime, Session};
 
 pub(crate) enum Method {
     Identity,
@@ -48,7 +48,7 @@ fn invalid(message: String) -> BenchError {
 /// model whose cost cannot be measured gets a notice.
 pub(crate) fn method_entries(
     wiener_nsr: Option<f64>,
-    loaded: Vec<(String, ModelContract, crate::onnx::proto::ModelProto, Vec<u8>)>,
+    loaded: Vec<(String, ModelContract, unicac_onnx::proto::ModelProto, Vec<u8>)>,
     runtime: Option<&'static Runtime>,
     threads: usize,
     notices: &mut Vec<String>,
@@ -81,7 +81,7 @@ pub(crate) fn method_entries(
     }
     for (name, contract, model, bytes) in loaded {
         let rt = runtime.expect("checked above");
-        let cost = match crate::cost::measure(rt, &contract, &model, threads) {
+        let cost = match unicac_onnx::cost::measure(rt, &contract, &model, threads) {
             Ok(c) => Some(c),
             Err(e) => {
                 notices.push(format!("model {name}: cost not measured ({e})"));
@@ -134,7 +134,7 @@ impl Needs {
         let mut wiener_nsrs: Vec<f64> = entries
             .iter()
             .filter_map(|e| match &e.method {
-                Method::Onnx { contract, .. } => contract.wiener_input_nsr(),
+                Method::Onnx { contract, .. } => contract.wiener_input_nsr(crate::wiener::DEFAULT_NSR),
                 _ => None,
             })
             .collect();

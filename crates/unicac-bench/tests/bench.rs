@@ -6,7 +6,6 @@ mod support;
 
 use std::path::{Path, PathBuf};
 
-use unicac_bench::contract::{load_model, ModelInput};
 use unicac_bench::run::{
     read_rgb, run_bench, run_onnx, run_onnx_batch, run_onnx_with, BenchSettings, InputMaps,
 };
@@ -16,6 +15,7 @@ use unicac_dataset::FrameCrop;
 use unicac_image::Planar;
 use unicac_io::progress::Silent;
 use unicac_metrics::{psnr_pyiqa, ssim_pyiqa, PYIQA_PSNR_CAP_DB};
+use unicac_onnx::contract::{load_model, ModelInput};
 
 fn write_model(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     let path = dir.join(name);
@@ -39,7 +39,7 @@ fn settings(dataset: &Path, out: &Path) -> BenchSettings {
         save_images: false,
         wiener_nsr: 0.01,
         memory_limit_bytes: None,
-        onnxruntime: unicac_bench::ort_library::Search::from_environment(None),
+        onnxruntime: unicac_onnx::ort_library::Search::from_environment(None),
     }
 }
 
@@ -48,7 +48,7 @@ fn contract_violations_are_refused_by_name() {
     let dir = support::scratch("contract");
     let text = write_model(&dir, "notes.onnx", b"this is not a model\n");
     let error = load_model(&text).unwrap_err();
-    assert!(matches!(error, BenchError::NotOnnx { .. }), "{error}");
+    assert!(matches!(error, unicac_onnx::OnnxError::NotOnnx { .. }), "{error}");
     assert!(error.to_string().contains("notes.onnx"), "{error}");
     let bad_out = write_model(&dir, "out.onnx", &support::wrong_output_model());
     let error = load_model(&bad_out).unwrap_err().to_string();
@@ -501,7 +501,7 @@ fn a_batch_of_images_restores_as_each_image_alone() {
 
 #[test]
 fn a_model_fixed_at_one_image_per_run_is_known_from_its_graph() {
-    use unicac_bench::onnx::builder::{Dim, GraphBuilder};
+    use unicac_onnx::builder::{Dim, GraphBuilder};
     let dims = [Dim::Fixed(1), Dim::Fixed(3), Dim::Named("H"), Dim::Named("W")];
     let mut g = GraphBuilder::new("fixed_batch");
     g.input("lq", &dims).output("restored", &dims);

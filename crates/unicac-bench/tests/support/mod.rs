@@ -5,9 +5,9 @@
 
 pub mod dataset;
 
-use unicac_bench::onnx::builder::{float_tensor, image_dims, Attr, GraphBuilder};
-use unicac_bench::runtime::Runtime;
 use unicac_image::Planar;
+use unicac_onnx::builder::{float_tensor, image_dims, Attr, GraphBuilder};
+use unicac_onnx::runtime::Runtime;
 
 /// onnxruntime, or None with the reason printed once. With `CI` set a missing library fails the run:
 /// CI installs the onnxruntime wheel and exports ORT_DYLIB_PATH, so its absence there is a broken setup.

@@ -5,11 +5,11 @@ use anyhow::{bail, Context, Result};
 use crate::args::{BenchArgs, MetricsArgs, WeightsCommand};
 use crate::progress_display::ProgressDisplay;
 use crate::Host;
-use unicac_bench::lpips::fetch;
-use unicac_bench::ort_library::Search;
 use unicac_bench::run::{run_bench, BenchSettings};
-use unicac_bench::runtime::Runtime;
 use unicac_bench::tiling::Tiling;
+use unicac_learned_metrics::lpips::fetch;
+use unicac_onnx::ort_library::Search;
+use unicac_onnx::runtime::Runtime;
 
 fn cache_root() -> Result<std::path::PathBuf> {
     unicac_sim::cache_root().context("no cache folder: set UNICAC_CACHE_DIR (or XDG_CACHE_HOME or HOME)")
@@ -103,7 +103,7 @@ fn bench_error(error: unicac_bench::BenchError) -> anyhow::Error {
 #[derive(serde::Serialize)]
 struct MetricsReport {
     pairs: Vec<unicac_bench::compare::PairMetrics>,
-    onnxruntime: Option<unicac_bench::ort_library::Located>,
+    onnxruntime: Option<unicac_onnx::ort_library::Located>,
     notices: Vec<String>,
 }
 
@@ -125,12 +125,12 @@ pub fn metrics(args: &MetricsArgs, host: &Host) -> Result<()> {
     let mut notices = Vec::new();
     if metrics.iter().any(|m| m == "lpips") {
         let search = Search::from_environment(host.python.as_deref());
-        let loaded = Runtime::load_with(&search).and_then(|rt| {
-            let root = unicac_sim::cache_root().ok_or_else(|| {
-                unicac_bench::BenchError::InvalidInput("no cache folder: set UNICAC_CACHE_DIR".into())
-            })?;
-            Ok((rt, unicac_bench::lpips::Lpips::load(rt, &root, 2)?))
-        });
+        let loaded = (|| -> Result<_> {
+            let rt = Runtime::load_with(&search)?;
+            let root = unicac_sim::cache_root()
+                .ok_or_else(|| anyhow::anyhow!("no cache folder: set UNICAC_CACHE_DIR"))?;
+            Ok((rt, unicac_learned_metrics::lpips::Lpips::load(rt, &root, 2)?))
+        })();
         match loaded {
             Ok((rt, l)) => {
                 lpips = Some(l);

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::io::{Read, Write};
 use std::path::Path;
 
-use crate::error::{BenchError, Result};
+use crate::error::{LearnedMetricError, Result};
 
 /// A named float32 array.
 #[derive(Debug, Clone, PartialEq)]
@@ -20,7 +20,7 @@ pub struct NamedArray {
 
 /// The NPZ bytes of `arrays`, in the given order.
 pub fn encode(arrays: &[NamedArray]) -> Result<Vec<u8>> {
-    let invalid = |e: String| BenchError::InvalidInput(format!("NPZ encoding: {e}"));
+    let invalid = |e: String| LearnedMetricError::InvalidInput(format!("NPZ encoding: {e}"));
     let mut cursor = std::io::Cursor::new(Vec::new());
     {
         let mut zip = zip::ZipWriter::new(&mut cursor);
@@ -46,17 +46,17 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(folder).map_err(|e| BenchError::io(folder, e))?;
-    unicac_io::write_atomically(path, bytes).map_err(|e| BenchError::io(path, e))
+    std::fs::create_dir_all(folder).map_err(|e| LearnedMetricError::io(folder, e))?;
+    unicac_io::write_atomically(path, bytes).map_err(|e| LearnedMetricError::io(path, e))
 }
 
 /// Reads every member of an NPZ file as float32 arrays, keyed by name (without `.npy`).
 pub fn read(path: &Path) -> Result<BTreeMap<String, NamedArray>> {
-    let bad = |why: String| BenchError::Weights {
+    let bad = |why: String| LearnedMetricError::Weights {
         path: path.to_path_buf(),
         why,
     };
-    let file = std::fs::File::open(path).map_err(|e| BenchError::io(path, e))?;
+    let file = std::fs::File::open(path).map_err(|e| LearnedMetricError::io(path, e))?;
     let mut archive = zip::ZipArchive::new(file).map_err(|e| bad(format!("not an NPZ (ZIP) file: {e}")))?;
     let mut out = BTreeMap::new();
     for index in 0..archive.len() {
@@ -67,10 +67,11 @@ pub fn read(path: &Path) -> Result<BTreeMap<String, NamedArray>> {
         let mut bytes = Vec::new();
         member
             .read_to_end(&mut bytes)
-            .map_err(|e| BenchError::io(path, e))?;
+            .map_err(|e| LearnedMetricError::io(path, e))?;
         // The one NPY reader takes a path: the member goes through a temporary file.
-        let temp = tempfile::NamedTempFile::new().map_err(|e| BenchError::io(std::env::temp_dir(), e))?;
-        std::fs::write(temp.path(), &bytes).map_err(|e| BenchError::io(temp.path(), e))?;
+        let temp =
+            tempfile::NamedTempFile::new().map_err(|e| LearnedMetricError::io(std::env::temp_dir(), e))?;
+        std::fs::write(temp.path(), &bytes).map_err(|e| LearnedMetricError::io(temp.path(), e))?;
         let (shape, data) = unicac_dataset::npy::read_f32(temp.path())
             .map_err(|why| bad(format!("member `{name}`: {why}")))?;
         out.insert(name.clone(), NamedArray { name, shape, data });

@@ -17,8 +17,8 @@ use std::path::{Path, PathBuf};
 
 use unicac_image::Planar;
 
-use crate::error::{BenchError, Result};
-use crate::runtime::{Runtime, Session, Tensor};
+use crate::error::{LearnedMetricError, Result};
+use unicac_onnx::runtime::{Runtime, Session, Tensor};
 
 pub const CLIPIQA_ENCODER: &str = "clipiqa/image_encoder.onnx";
 pub const CLIPIQA_PROMPTS: &str = "clipiqa/prompts.npy";
@@ -67,18 +67,18 @@ impl ClipIqa {
             return Ok(None);
         }
         let (shape, data) =
-            unicac_dataset::npy::read_f32(&prompts_path).map_err(|e| BenchError::Weights {
+            unicac_dataset::npy::read_f32(&prompts_path).map_err(|e| LearnedMetricError::Weights {
                 path: prompts_path.clone(),
                 why: e.to_string(),
             })?;
         if shape.len() != 2 || shape[0] == 0 || shape[0] % 2 != 0 {
-            return Err(BenchError::Weights {
+            return Err(LearnedMetricError::Weights {
                 path: prompts_path,
                 why: format!("shape {shape:?} is not [2P, D]"),
             });
         }
         let prompts: Vec<Vec<f32>> = data.chunks_exact(shape[1]).map(<[f32]>::to_vec).collect();
-        let bytes = crate::contract::read_model_bytes(&path)?;
+        let bytes = unicac_onnx::contract::read_model_bytes(&path)?;
         let (input, output) = crate::fid::io_names(&path, &bytes)?;
         let session = runtime.session(&bytes, threads, &path.display().to_string())?;
         Ok(Some(ClipIqa {
@@ -99,7 +99,7 @@ impl ClipIqa {
         let out = self.session.run(vec![(&self.input, tensor)], &[&self.output])?;
         let embedding = &out[0].data;
         if embedding.len() != self.prompts[0].len() {
-            return Err(BenchError::Weights {
+            return Err(LearnedMetricError::Weights {
                 path: self.path.clone(),
                 why: format!(
                     "image embedding of {} values, prompt embeddings of {}",

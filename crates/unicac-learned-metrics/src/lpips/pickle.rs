@@ -10,7 +10,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use crate::error::{BenchError, Result};
+use crate::error::{LearnedMetricError, Result};
 
 /// A float32 array from the pickle, C order.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,7 +71,7 @@ fn flatten(value: Value, prefix: String, out: &mut BTreeMap<String, Array>, what
             out.insert(prefix, array);
             Ok(())
         }
-        other => Err(BenchError::Pickle {
+        other => Err(LearnedMetricError::Pickle {
             what: what.to_string(),
             why: format!("`{prefix}` holds {other:?}, expected a dict of arrays"),
         }),
@@ -98,7 +98,7 @@ impl<'a> Machine<'a> {
     }
 
     fn fail<T>(&self, why: impl Into<String>) -> Result<T> {
-        Err(BenchError::Pickle {
+        Err(LearnedMetricError::Pickle {
             what: self.what.to_string(),
             why: format!("at byte {}: {}", self.pos, why.into()),
         })

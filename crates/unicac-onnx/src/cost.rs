@@ -17,7 +17,7 @@ use serde::Serialize;
 
 use crate::contract::{ModelContract, ModelInput};
 use crate::error::Result;
-use crate::onnx::proto::{data_type, type_proto, ModelProto, TypeProto, ValueInfoProto};
+use crate::proto::{data_type, type_proto, ModelProto, TypeProto, ValueInfoProto};
 use crate::runtime::{Runtime, Tensor};
 
 /// The side of the latency and MAC measurements (px).

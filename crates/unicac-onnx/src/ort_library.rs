@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use crate::error::{BenchError, Result};
+use crate::error::{OnnxError, Result};
 
 /// The onnxruntime minor version whose API this build uses (`ort`'s `api-31` feature): older
 /// libraries lack functions it calls.
@@ -111,7 +111,7 @@ pub struct Located {
 pub fn locate(search: &Search) -> Result<Located> {
     if let Some(path) = &search.dylib_path {
         if !path.is_file() {
-            return Err(BenchError::RuntimeMissing(format!(
+            return Err(OnnxError::RuntimeMissing(format!(
                 "onnxruntime not found: ORT_DYLIB_PATH={} is not a file; {HINT}",
                 path.display()
             )));
@@ -130,7 +130,7 @@ pub fn locate(search: &Search) -> Result<Located> {
             Err(why) => tried.push(format!("{asked}: {why}")),
         }
     }
-    Err(BenchError::RuntimeMissing(format!(
+    Err(OnnxError::RuntimeMissing(format!(
         "onnxruntime not found: ORT_DYLIB_PATH is not set and no Python asked has a usable onnxruntime package ({}); {HINT}",
         tried.join("; ")
     )))

@@ -18,8 +18,8 @@ use std::path::{Path, PathBuf};
 use nalgebra::{DMatrix, DVector};
 use unicac_image::Planar;
 
-use crate::error::{BenchError, Result};
-use crate::runtime::{Runtime, Session, Tensor};
+use crate::error::{LearnedMetricError, Result};
+use unicac_onnx::runtime::{Runtime, Session, Tensor};
 
 /// The feature network's file inside `--weights-dir`.
 pub const FID_NETWORK: &str = "fid/inception.onnx";
@@ -36,13 +36,13 @@ impl Gaussian {
     pub fn fit(features: &[Vec<f32>]) -> Result<Gaussian> {
         let n = features.len();
         if n < 2 {
-            return Err(BenchError::InvalidInput(format!(
+            return Err(LearnedMetricError::InvalidInput(format!(
                 "FID needs at least 2 images, got {n}"
             )));
         }
         let d = features[0].len();
         if features.iter().any(|f| f.len() != d) {
-            return Err(BenchError::InvalidInput(
+            return Err(LearnedMetricError::InvalidInput(
                 "feature vectors of different lengths".into(),
             ));
         }
@@ -86,7 +86,7 @@ pub struct FidNetwork {
 
 /// The name of the first graph input and output of an ONNX file.
 pub(crate) fn io_names(path: &Path, bytes: &[u8]) -> Result<(String, String)> {
-    let model = crate::contract::decode(path, bytes)?;
+    let model = unicac_onnx::contract::decode(path, bytes)?;
     let graph = model.graph.expect("decode checked the graph");
     let initializers: Vec<&str> = graph.initializer.iter().map(|t| t.name.as_str()).collect();
     let input = graph
@@ -97,10 +97,11 @@ pub(crate) fn io_names(path: &Path, bytes: &[u8]) -> Result<(String, String)> {
     let output = graph.output.first().map(|v| v.name.clone());
     match (input, output) {
         (Some(i), Some(o)) => Ok((i, o)),
-        _ => Err(BenchError::Contract {
+        _ => Err(unicac_onnx::OnnxError::Contract {
             path: path.to_path_buf(),
             why: "a feature network needs one input and one output".into(),
-        }),
+        }
+        .into()),
     }
 }
 
@@ -111,7 +112,7 @@ impl FidNetwork {
         if !path.is_file() {
             return Ok(None);
         }
-        let bytes = crate::contract::read_model_bytes(&path)?;
+        let bytes = unicac_onnx::contract::read_model_bytes(&path)?;
         let (input, output) = io_names(&path, &bytes)?;
         let session = runtime.session(&bytes, threads, &path.display().to_string())?;
         Ok(Some(FidNetwork {
@@ -131,7 +132,7 @@ impl FidNetwork {
         let out = self.session.run(vec![(&self.input, tensor)], &[&self.output])?;
         let features = out.into_iter().next().expect("one output").data;
         if features.iter().any(|v| !v.is_finite()) {
-            return Err(BenchError::InvalidInput(format!(
+            return Err(LearnedMetricError::InvalidInput(format!(
                 "{}: non-finite features",
                 self.path.display()
             )));

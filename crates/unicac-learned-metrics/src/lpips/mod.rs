@@ -30,10 +30,10 @@ use std::path::Path;
 
 use unicac_image::Planar;
 
-use crate::error::{BenchError, Result};
+use crate::error::{LearnedMetricError, Result};
 use crate::npz;
-use crate::onnx::builder::{float_tensor, image_dims, Attr, Dim, GraphBuilder};
-use crate::runtime::{Runtime, Session, Tensor};
+use unicac_onnx::builder::{float_tensor, image_dims, Attr, Dim, GraphBuilder};
+use unicac_onnx::runtime::{Runtime, Session, Tensor};
 
 const SHIFT: [f32; 3] = [-0.030, -0.088, -0.188];
 const SCALE: [f32; 3] = [0.458, 0.448, 0.450];
@@ -93,7 +93,7 @@ pub fn lpips_alex_graph(
     path: &Path,
 ) -> Result<Vec<u8>> {
     let get = |name: &str| {
-        weights.get(name).ok_or_else(|| BenchError::Weights {
+        weights.get(name).ok_or_else(|| LearnedMetricError::Weights {
             path: path.to_path_buf(),
             why: format!("no array `{name}`; run `unicac weights fetch lpips` again"),
         })
@@ -135,7 +135,7 @@ pub fn lpips_alex_graph(
         }
         let (w, bias) = (get(&format!("conv{i}.weight"))?, get(&format!("conv{i}.bias"))?);
         if w.shape.len() != 4 || w.shape[2] != *k as usize || bias.shape != [w.shape[0]] {
-            return Err(BenchError::Weights {
+            return Err(LearnedMetricError::Weights {
                 path: path.to_path_buf(),
                 why: format!("conv{i} has shapes {:?} / {:?}", w.shape, bias.shape),
             });
@@ -172,7 +172,7 @@ fn distance_head(
     path: &Path,
 ) -> Result<()> {
     if lin.shape != [1, channels as usize, 1, 1] {
-        return Err(BenchError::Weights {
+        return Err(LearnedMetricError::Weights {
             path: path.to_path_buf(),
             why: format!(
                 "lin{i}.weight has shape {:?}, expected [1, {channels}, 1, 1]",
@@ -220,7 +220,7 @@ impl Lpips {
     pub fn load(runtime: &Runtime, cache_root: &Path, threads: usize) -> Result<Lpips> {
         let path = fetch::npz_path(cache_root, &fetch::ALEXNET);
         if !path.is_file() {
-            return Err(BenchError::Weights {
+            return Err(LearnedMetricError::Weights {
                 path,
                 why: "LPIPS weights are not installed; run `unicac weights fetch lpips` once".into(),
             });
@@ -238,7 +238,7 @@ impl Lpips {
             || (image.width, image.height, image.channels)
                 != (reference.width, reference.height, reference.channels)
         {
-            return Err(BenchError::InvalidInput(format!(
+            return Err(LearnedMetricError::InvalidInput(format!(
                 "LPIPS needs two RGB images of one size, got {}x{}x{} and {}x{}x{}",
                 image.width,
                 image.height,
@@ -249,7 +249,7 @@ impl Lpips {
             )));
         }
         if image.width < 32 || image.height < 32 {
-            return Err(BenchError::InvalidInput(format!(
+            return Err(LearnedMetricError::InvalidInput(format!(
                 "LPIPS needs at least 32 x 32 px, got {}x{}",
                 image.width, image.height
             )));

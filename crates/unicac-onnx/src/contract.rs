@@ -17,8 +17,10 @@ use std::path::{Path, PathBuf};
 use prost::Message;
 use serde::Serialize;
 
-use crate::error::{BenchError, Result};
-use crate::onnx::proto::{data_type, tensor_shape_proto, type_proto, ModelProto, ValueInfoProto};
+use crate::error::{OnnxError, Result};
+use unicac_io::named_choice;
+
+use crate::proto::{data_type, tensor_shape_proto, type_proto, ModelProto, ValueInfoProto};
 
 /// The contract version this reader knows (`unicac_contract` metadata).
 pub const CONTRACT_VERSION: u32 = 2;
@@ -86,10 +88,10 @@ impl ModelContract {
     }
 
     /// The noise-to-signal ratio of the Wiener estimate this model takes as its `wiener` input (its
-    /// `wiener_nsr`, else the bench default); `None` when it takes none.
-    pub fn wiener_input_nsr(&self) -> Option<f64> {
+    /// `wiener_nsr`, else `default_nsr`, the bench's); `None` when it takes none.
+    pub fn wiener_input_nsr(&self, default_nsr: f64) -> Option<f64> {
         self.wants(ModelInput::Wiener)
-            .then(|| self.wiener_nsr.unwrap_or(crate::wiener::DEFAULT_NSR))
+            .then(|| self.wiener_nsr.unwrap_or(default_nsr))
     }
 }
 
@@ -100,7 +102,7 @@ pub const MAX_MODEL_FILE_BYTES: u64 = 2 << 30;
 /// The bytes of an ONNX file (a restoration model or a metric network), within [`MAX_MODEL_FILE_BYTES`].
 pub fn read_model_bytes(path: &Path) -> Result<Vec<u8>> {
     unicac_io::read_capped(path, MAX_MODEL_FILE_BYTES, "MAX_MODEL_FILE_BYTES").map_err(|source| {
-        BenchError::Io {
+        OnnxError::Io {
             path: path.to_path_buf(),
             source,
         }
@@ -117,7 +119,7 @@ pub fn load_model(path: &Path) -> Result<(ModelContract, ModelProto, Vec<u8>)> {
 
 /// Decodes ONNX bytes; a file that is not a protobuf `ModelProto` with a graph is refused.
 pub fn decode(path: &Path, bytes: &[u8]) -> Result<ModelProto> {
-    let refuse = |why: String| BenchError::NotOnnx {
+    let refuse = |why: String| OnnxError::NotOnnx {
         path: path.to_path_buf(),
         why,
     };
@@ -134,7 +136,7 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<ModelProto> {
 
 /// Checks a decoded model against docs/models.md.
 pub fn check(path: &Path, model: &ModelProto) -> Result<ModelContract> {
-    let refuse = |why: String| BenchError::Contract {
+    let refuse = |why: String| OnnxError::Contract {
         path: path.to_path_buf(),
         why,
     };

