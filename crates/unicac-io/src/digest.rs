@@ -59,11 +59,6 @@ impl Digest {
         self
     }
 
-    /// One part holding a value's canonical bytes (`canonical_json`).
-    pub fn canonical(self, value: &impl Serialize) -> Digest {
-        self.part(&canonical_json(value))
-    }
-
     /// Every part of a list (`part` each).
     pub fn parts(self, parts: &[&[u8]]) -> Digest {
         parts.iter().fold(self, |d, p| d.part(p))
@@ -122,9 +117,5 @@ mod tests {
         // One unit in the last place is another key.
         let b = Settings { pixel_um: 0.3, ..a };
         assert_ne!(canonical_sha256_hex(&a), canonical_sha256_hex(&b));
-        assert_eq!(
-            Digest::new().canonical(&a).hex(),
-            Digest::new().part(&canonical_json(&a)).hex()
-        );
     }
 }

@@ -20,7 +20,7 @@
 //! - [`progress`]: the one progress protocol of long library work;
 //! - [`choice`]: `named_choice!`, enums parsed from and printed as one table of names.
 //!
-//! std, thiserror, sha2 and serde only, so that every crate (optics, image, plot, sim, dataset, bench)
+//! std, thiserror, sha2 and serde (JSON) only, so that every crate (optics, image, plot, sim, dataset, bench)
 //! can depend on it.
 
 mod atomic;
