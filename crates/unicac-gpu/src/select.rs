@@ -253,10 +253,27 @@ impl HitTracer for DeviceSelection {
         std::mem::take(&mut self.notes.lock().unwrap_or_else(|e| e.into_inner()).0)
     }
 
+    /// The device this policy traces on, decided now: cache keys are made before the first trace, and a
+    /// description that waited for it said "cpu" for a GPU run, so GPU f32 PSFs were stored under (and
+    /// served to) CPU keys. `gpu` opens the device here; `auto` names the GPU when it could take a
+    /// batch (a hardware adapter), so its results never share the CPU's key either.
     fn describe(&self) -> String {
-        match self.tracer.get() {
-            Some(Some(t)) => format!("gpu ({}, {})", t.precision(), t.context().adapter.name),
-            _ => "cpu".into(),
+        let tracer = match self.choice {
+            DeviceChoice::Cpu => None,
+            DeviceChoice::Gpu => self.open(),
+            DeviceChoice::Auto => self
+                .uses_gpu(AUTO_MIN_RAYS, AUTO_MIN_RAYS)
+                .then(|| self.open())
+                .flatten(),
+        };
+        match (tracer, self.choice) {
+            (None, _) => "cpu".into(),
+            (Some(t), DeviceChoice::Auto) => format!(
+                "auto (gpu ({}, {}) for batches of at least {AUTO_MIN_RAYS} rays)",
+                t.precision(),
+                t.context().adapter.name
+            ),
+            (Some(t), _) => format!("gpu ({}, {})", t.precision(), t.context().adapter.name),
         }
     }
 }

@@ -193,3 +193,22 @@ fn psf_tracer_with_the_gpu_hit_tracer_matches_the_cpu() {
     assert!(l1 < 2e-3, "{l1}");
     assert_eq!(got.transmission, expected.transmission);
 }
+
+#[test]
+fn a_device_backend_names_its_device_before_its_first_trace() {
+    // PSF cache keys are made before any ray is traced: a `--device gpu` run described itself as
+    // "cpu" until then, so its f32 PSFs were stored under the CPU's key and served to CPU runs.
+    if support::gpu_or_skip().is_none() {
+        return;
+    }
+    let gpu = unicac_gpu::DeviceSelection::backend(unicac_gpu::DeviceChoice::Gpu, Precision::F32);
+    let described = gpu.describe();
+    eprintln!("--device gpu before any trace: {described}");
+    assert!(described.starts_with("gpu (f32, "), "{described}");
+    assert_ne!(gpu, unicac_psf::RayBackend::cpu());
+    // `auto` takes a GPU only with a hardware adapter; without one it traces on the CPU, and says so.
+    if !unicac_gpu::select::hardware_gpu_node_present() {
+        let auto = unicac_gpu::DeviceSelection::backend(unicac_gpu::DeviceChoice::Auto, Precision::F32);
+        assert_eq!(auto.describe(), "cpu");
+    }
+}
