@@ -258,15 +258,8 @@ impl HitTracer for DeviceSelection {
     /// served to) CPU keys. `gpu` opens the device here; `auto` names the GPU when it could take a
     /// batch (a hardware adapter), so its results never share the CPU's key either.
     fn describe(&self) -> String {
-        let tracer = match self.choice {
-            DeviceChoice::Cpu => None,
-            DeviceChoice::Gpu => self.open(),
-            DeviceChoice::Auto => self
-                .uses_gpu(AUTO_MIN_RAYS, AUTO_MIN_RAYS)
-                .then(|| self.open())
-                .flatten(),
-        };
-        match (tracer, self.choice) {
+        // The tracer a batch just large enough for `auto` would get (`gpu`: always; `cpu`: none).
+        match (self.tracer_for(AUTO_MIN_RAYS), self.choice) {
             (None, _) => "cpu".into(),
             (Some(t), DeviceChoice::Auto) => format!(
                 "auto (gpu ({}, {}) for batches of at least {AUTO_MIN_RAYS} rays)",
