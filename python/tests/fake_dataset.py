@@ -1,6 +1,8 @@
 """A tiny dataset folder laid out as docs/dataset.md describes (what `unicac dataset build` writes),
 made in numpy for the reader and training tests: two lenses (train / val), a few crops of frames of
-two sizes, Gaussian PSF tables that widen with the field radius, LQ = GT blurred + noise."""
+two sizes, Gaussian PSF tables that widen with the field radius, LQ = GT blurred + noise. Its manifests
+carry every field of the format, so the one reader (Rust's, through `unicac.DatasetFolder`) accepts it
+as it accepts a built dataset."""
 
 from __future__ import annotations
 
@@ -12,6 +14,10 @@ import unicac
 
 FIELDS = np.linspace(0.0, 1.0, 5)
 KERNEL_PX = 7
+# A pair's sensor/ISP draws as `pairs.jsonl` records them (the default sensor, no noise seed).
+ISP_DRAW = {"white_balance_gains": [2.0, 1.0, 1.6], "white_balance_jitter": 0.0, "noise_seed": None, "isp": True,
+            "noise": True, "bit_depth": 10, "black_level_dn": 64.0, "iso": 100.0, "iso_base": 100.0,
+            "dn_per_electron_at_base_iso": 0.16, "read_noise_dn_at_base_iso": 0.5}
 
 
 def _kernels(spread: float) -> np.ndarray:
@@ -85,7 +91,7 @@ def make_dataset(root: Path, *, psf: bool = True, gt_is_lq: bool = False, pairs_
                 "image_source": f"dead-leaves:{i}:{fw}x{fh}", "lq": f"{split}/lq/{pair_id}.png",
                 "gt": f"{split}/gt/{pair_id}.png", "seed": i, "frame_px": [fw, fh], "scene_crop": [0, 0, fw, fh],
                 "crop": [x0, y0, crop_px, crop_px], "pixel_pitch_um": 2.0, "distortion": True, "illumination": True,
-                "isp_draw": {}, "psf": table, "fov": f"fov/{fw}x{fh}.npy",
+                "isp_draw": ISP_DRAW, "psf": table, "fov": f"fov/{fw}x{fh}.npy",
                 "task": "full" if misaligned else "aligned",
             })
             if checks:
@@ -96,7 +102,8 @@ def make_dataset(root: Path, *, psf: bool = True, gt_is_lq: bool = False, pairs_
     manifest = {"format": "unicac-dataset", "format_version": 1, "unicac_version": unicac.__version__,
                 "settings": {}, "seed": seed, "task": "full" if misaligned else "aligned",
                 "comparable_by_ode_level": not misaligned, "frame_px": [128, 96], "stratifications": [],
-                "counts": {"lenses": {"train": 1, "val": 1}, "pairs": {"train": pairs_per_split, "val": pairs_per_split}}}
+                "counts": {"lenses": {"train": 1, "val": 1}, "pairs": {"train": pairs_per_split, "val": pairs_per_split},
+                           "edges": 0, "train_images": pairs_per_split, "test_images": 0}}
     (root / "dataset.json").write_text(json.dumps(manifest))
     (root / "lenses.jsonl").write_text("".join(json.dumps(r) + "\n" for r in lens_rows))
     (root / "pairs.jsonl").write_text("".join(json.dumps(r) + "\n" for r in pair_rows))

@@ -92,16 +92,42 @@ def test_a_damaged_pairs_manifest_is_named_not_half_read(tmp_path):
     row = json.loads(pairs[0])
     del row["crop"]
     (root / "pairs.jsonl").write_text(json.dumps(row) + "\n" + "".join(pairs[1:]))
-    with pytest.raises(DatasetFolderError, match=r"pairs.jsonl:1: field 'crop' is missing"):
+    with pytest.raises(DatasetFolderError, match=r"pairs.jsonl: line 1: missing field `crop`"):
         DatasetFolder(root)  # was a KeyError traceback when the pair was loaded
     (root / "pairs.jsonl").write_text("[1, 2]\n" + "".join(pairs[1:]))
-    with pytest.raises(DatasetFolderError, match=r"pairs.jsonl:1: expected a JSON object, got list"):
+    with pytest.raises(DatasetFolderError, match=r"pairs.jsonl: line 1: invalid type: sequence"):
         DatasetFolder(root)
     (root / "dataset.json").unlink()
     (root / "dataset.json").mkdir()
     with pytest.raises(DatasetFolderError) as unreadable:
         DatasetFolder(root)
     assert str(unreadable.value).count(str(root)) == 1, unreadable.value  # the path once
+
+
+def test_the_folder_reader_reads_a_built_dataset_as_the_cli_does(cli, tmp_path):
+    from unicac.dataset import DatasetFolder, DatasetFolderError
+
+    root = tmp_path / "built"
+    cli("dataset", "build", "--lenses", "builtin:achromat", "builtin:cooke_triplet", "builtin:petzval",
+        "--images", "dead-leaves:2:80x60", "--test-images", "dead-leaves:1", "--frame", "64x48", "--levels", "1",
+        "--test-lenses-per-level", "1", "--val-lenses", "1", "--pairs-per-lens", "1", "--crop", "32x24",
+        "--seed", "5", "--out", str(root))
+    folder = DatasetFolder(root)
+    on_disk = [json.loads(line) for line in (root / "pairs.jsonl").read_text().splitlines()]
+    assert folder.pairs() == on_disk  # every field, as written
+    assert [row["lens_id"] for row in folder.lenses()] == [
+        json.loads(line)["lens_id"] for line in (root / "lenses.jsonl").read_text().splitlines()]
+    info = cli("dataset", "info", str(root), "--json")
+    expected = {row["lens_id"]: row for row in info["pair_checks"] if row["split"] == "train"}
+    got = folder.pair_checks("train")
+    assert got.keys() == expected.keys() and got
+    for lens_id, checks in got.items():
+        assert checks == {k: v for k, v in expected[lens_id].items() if k != "lens_id"}
+    assert folder.path("test/lq") == root / "test" / "lq"
+    for bad in ("../outside", "/etc/passwd", "", "./a"):
+        with pytest.raises(DatasetFolderError, match="must be relative to the dataset folder"):
+            folder.path(bad)
+    assert isinstance(DatasetFolderError("x"), unicac.DatasetError)  # catchable as the package's own kind
 
 
 # -- unicac-train ----------------------------------------------------------------------------------

@@ -27,7 +27,6 @@ patch centre.
 
 from __future__ import annotations
 
-import json
 import os
 from collections import OrderedDict
 from pathlib import Path
@@ -296,64 +295,21 @@ def torch_dataset(generator: PairGenerator, length: Optional[int] = None) -> Any
 # ----------------------------------------------------------------------------------------------
 # Built datasets (`unicac dataset build`, docs/dataset.md)
 
-DATASET_FORMAT = "unicac-dataset"
-#: The newest `dataset.json` format_version this reader knows.
-DATASET_FORMAT_VERSION = 1
 
-
-class DatasetFolderError(ValueError):
+class DatasetFolderError(_native.DatasetError, ValueError):
     """A folder that is not a readable unicac dataset, or a request it cannot serve (the message names
-    the folder and what is missing)."""
+    the folder or file and what is missing). A :class:`unicac.DatasetError` (what Rust's reader raises)
+    and, for callers that catch argument errors, a ``ValueError``."""
 
 
-#: The fields of a `pairs.jsonl` row this reader uses, with their JSON types (docs/dataset.md).
-PAIR_FIELDS: dict[str, type] = {"pair_id": str, "split": str, "lens_id": str, "lq": str, "gt": str,
-                                "frame_px": list, "crop": list}
-LENS_FIELDS: dict[str, type] = {"lens_id": str, "split": str}
-
-
-def _read_jsonl(path: Path, fields: dict[str, type]) -> list[dict[str, Any]]:
-    """The rows of a manifest, each checked to be an object holding `fields` of their types (so a
-    damaged row is named here, not met later as a missing key)."""
+def _rust(call: Any, *args: Any) -> Any:
+    """A call into the dataset reader, its ``DatasetError`` raised as :class:`DatasetFolderError`."""
     try:
-        lines = path.read_text().splitlines()
-    except OSError as error:
-        raise DatasetFolderError(f"{path}: cannot read ({error.strerror})") from error
-    rows = []
-    for number, line in enumerate(lines, 1):
-        if not line.strip():
-            continue
-        try:
-            row = json.loads(line)
-        except json.JSONDecodeError as error:
-            raise DatasetFolderError(f"{path}:{number}: not valid JSON ({error.msg})") from error
-        if not isinstance(row, dict):
-            raise DatasetFolderError(f"{path}:{number}: expected a JSON object, got {type(row).__name__}")
-        for key, kind in fields.items():
-            if not isinstance(row.get(key), kind):
-                raise DatasetFolderError(f"{path}:{number}: field '{key}' is missing or not a {kind.__name__}")
-        for key, length in (("frame_px", 2), ("crop", 4)):
-            value = row.get(key)
-            if key in fields and not (len(value) == length and all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in value)):
-                raise DatasetFolderError(f"{path}:{number}: field '{key}' must be {length} non-negative integers, got {value!r}")
-        rows.append(row)
-    return rows
-
-
-def _check_counts(path: Path, rows: list[dict[str, Any]], counts: Any, what: str) -> None:
-    """Every split's row count equals `dataset.json`'s (a truncated manifest is not a smaller dataset)."""
-    if not isinstance(counts, dict):
-        return
-    found: dict[str, int] = {}
-    for row in rows:
-        found[row["split"]] = found.get(row["split"], 0) + 1
-    for split in sorted(set(found) | set(counts)):
-        expected = counts.get(split, 0)
-        if found.get(split, 0) != expected:
-            raise DatasetFolderError(
-                f"{path}: {found.get(split, 0)} {split} {what}, but dataset.json counts {expected} "
-                "(the manifest is incomplete or belongs to another build)"
-            )
+        return call(*args)
+    except DatasetFolderError:
+        raise
+    except _native.DatasetError as error:
+        raise DatasetFolderError(str(error)) from None
 
 
 def _image_float(path: Path) -> np.ndarray:
@@ -364,11 +320,6 @@ def _image_float(path: Path) -> np.ndarray:
     if codes.dtype == np.uint16:
         return codes.astype(np.float32) / np.float32(65535)
     raise DatasetFolderError(f"{path}: expected an 8- or 16-bit sRGB image, got {codes.dtype}")
-
-
-# The pair checks of `pairs.jsonl`; the rule that flags a lens by their means is Rust's
-# (`_native.pair_check_flag`, the one `unicac dataset info` applies).
-PAIR_CHECK_FIELDS = ("lq_gt_psnr_db", "registration_px", "blur_share")
 
 
 class DatasetFolder:
@@ -385,35 +336,14 @@ class DatasetFolder:
 
     def __init__(self, root: Union[str, "os.PathLike[str]"]) -> None:
         self.root = Path(root)
-        manifest_path = self.root / "dataset.json"
         if not self.root.is_dir():
             raise DatasetFolderError(f"{self.root}: no such folder (expected a unicac dataset)")
-        try:
-            manifest = json.loads(manifest_path.read_text())
-        except FileNotFoundError:
-            raise DatasetFolderError(
-                f"{self.root}: not a unicac dataset (no dataset.json; build one with `unicac dataset build`)"
-            ) from None
-        except OSError as error:
-            raise DatasetFolderError(f"{manifest_path}: cannot read the dataset manifest ({error.strerror})") from error
-        except json.JSONDecodeError as error:
-            raise DatasetFolderError(f"{manifest_path}: not valid JSON ({error.msg})") from error
-        if not isinstance(manifest, dict) or manifest.get("format") != DATASET_FORMAT:
-            raise DatasetFolderError(f"{self.root}: not a unicac dataset (dataset.json has no format '{DATASET_FORMAT}')")
-        version = manifest.get("format_version")
-        if not isinstance(version, int) or version > DATASET_FORMAT_VERSION:
-            raise DatasetFolderError(
-                f"{manifest_path}: format_version {version!r} is newer than this reader ({DATASET_FORMAT_VERSION}); update unicac"
-            )
-        self.manifest: dict[str, Any] = manifest
-        counts = manifest.get("counts") if isinstance(manifest.get("counts"), dict) else {}
-        pairs_path = self.root / "pairs.jsonl"
-        self._pairs = _read_jsonl(pairs_path, PAIR_FIELDS)
-        _check_counts(pairs_path, self._pairs, counts.get("pairs"), "pairs")
-        lenses_path = self.root / "lenses.jsonl"
-        self._lenses = _read_jsonl(lenses_path, LENS_FIELDS) if lenses_path.exists() else []
-        if lenses_path.exists():
-            _check_counts(lenses_path, self._lenses, counts.get("lenses"), "lenses")
+        # The one reader (Rust's, as `unicac bench` reads): dataset.json's format and version, every
+        # row's fields and types, and the rows against dataset.json's counts.
+        read = _rust(_native.read_dataset, self.root)
+        self.manifest: dict[str, Any] = read["manifest"]
+        self._pairs: list[dict[str, Any]] = read["pairs"]
+        self._lenses: list[dict[str, Any]] = read["lenses"]
         self._field_codes: dict[str, tuple[Any, Any]] = {}
 
     def __getstate__(self) -> dict[str, Any]:
@@ -435,48 +365,27 @@ class DatasetFolder:
                 "same `unicac dataset build` command again (it resumes the finished dataset and fits the basis), or "
                 f"python -c 'import unicac; unicac.psf_basis(\"{self.root}\")'"
             )
-        try:
-            meta = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as error:
-            raise DatasetFolderError(f"{path}: cannot read the PSF basis ({error})") from error
-        if not isinstance(meta, dict) or not isinstance(meta.get("sha256"), str):
-            raise DatasetFolderError(f"{path}: not a unicac PSF basis (no sha256)")
-        return meta
+        return _rust(_native.psf_basis, self.root)
 
     def largest_kernel_px(self, split: str) -> Optional[int]:
         """The widest PSF kernel (``kernel_px`` of ``table.json``) among the lenses of ``split`` that have
         a PSF table, or None when none has."""
-        sizes = []
-        for table in sorted({row["psf"] for row in self.pairs(split) if row.get("psf")}):
-            path = self.path(table) / "table.json"
-            if path.is_file():
-                try:
-                    sizes.append(int(json.loads(path.read_text())["kernel_px"]))
-                except (OSError, ValueError, KeyError, TypeError) as error:
-                    raise DatasetFolderError(f"{path}: cannot read kernel_px ({error})") from error
+        sizes = [self._table_meta(table)["kernel_px"]
+                 for table in sorted({row["psf"] for row in self.pairs(split) if row.get("psf")})
+                 if (self.path(table) / "table.json").is_file()]
         return max(sizes) if sizes else None
+
+    def _table_meta(self, table: str) -> dict[str, Any]:
+        return _rust(_native.psf_table_meta, self.path(table))
 
     def pair_checks(self, split: str) -> dict[str, dict[str, Any]]:
         """The pairs' recorded checks (docs/dataset.md, "Pair checks") averaged per lens of ``split``:
-        lens_id -> {pairs, checked, mean_lq_gt_psnr_db, mean_registration_px, mean_blur_share, flag}.
-        ``flag`` says why a lens's pairs are dominated by something other than blur (``unicac dataset
-        info``'s rule, from the bindings: a mean shift above 0.5 px or a blur share below 50%);
-        the means are None for a dataset built before pairs carried checks."""
-        by_lens: dict[str, list[dict[str, Any]]] = {}
-        for row in self.pairs(split):
-            by_lens.setdefault(str(row.get("lens_id")), []).append(row)
-        out: dict[str, dict[str, Any]] = {}
-        for lens_id, rows in sorted(by_lens.items()):
-            checked = [r for r in rows if all(isinstance(r.get(k), (int, float)) for k in PAIR_CHECK_FIELDS)]
-
-            def mean(key: str, checked: list[dict[str, Any]] = checked) -> Optional[float]:
-                return sum(float(r[key]) for r in checked) / len(checked) if checked else None
-
-            shift, share = mean("registration_px"), mean("blur_share")
-            out[lens_id] = {"pairs": len(rows), "checked": len(checked), "mean_lq_gt_psnr_db": mean("lq_gt_psnr_db"),
-                            "mean_registration_px": shift, "mean_blur_share": share,
-                            "flag": _native.pair_check_flag(shift, share)}
-        return out
+        lens_id -> {pairs, checked, mean_lq_gt_psnr_db, mean_registration_px, mean_blur_share, flag}
+        (and the lens's split, level and ode), as ``unicac dataset info`` prints them. ``flag`` says why a
+        lens's pairs are dominated by something other than blur (a mean shift above 0.5 px or a blur
+        share below 50%); the means are None for a dataset built before pairs carried checks."""
+        checks = _rust(_native.dataset_pair_checks, self.root, split)
+        return {row.pop("lens_id"): row for row in checks}
 
     def lenses(self) -> list[dict[str, Any]]:
         """Rows of ``lenses.jsonl`` (lens_id, split, level, ode, ...)."""
@@ -487,11 +396,8 @@ class DatasetFolder:
         return [row for row in self._pairs if split is None or row.get("split") == split]
 
     def path(self, relative: str) -> Path:
-        """A manifest path resolved against the folder (absolute paths and ``..`` refused)."""
-        parts = Path(relative)
-        if parts.is_absolute() or any(part in ("..", "") for part in parts.parts) or not relative:
-            raise DatasetFolderError(f"{self.root}: manifest path {relative!r} must be relative to the dataset folder")
-        return self.root / parts
+        """A manifest path resolved against the folder (absolute paths, ``..`` and ``.`` refused)."""
+        return Path(_rust(_native.dataset_path, self.root, relative))
 
     def has_psf(self, row: dict[str, Any]) -> bool:
         """Whether the pair's lens has a PSF table (needed for the ``psf`` input)."""
@@ -582,7 +488,7 @@ class DatasetFolder:
         """The Wiener estimate of ``window``: computed on the window grown by one kernel width (the
         context a whole-image estimate has there), then cut to the window."""
         table = self.path(row["psf"])
-        margin = int(json.loads((table / "table.json").read_text())["kernel_px"])
+        margin = int(self._table_meta(row["psf"])["kernel_px"])
         x, y, w, h = window
         height, width = lq.shape[:2]
         x0, y0 = max(0, x - margin), max(0, y - margin)

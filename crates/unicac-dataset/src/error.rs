@@ -13,7 +13,9 @@ pub enum DatasetError {
     },
     #[error("{path}: {message}")]
     Format { path: PathBuf, message: String },
-    #[error("{path} is not a unicac dataset (no dataset.json with \"format\": \"unicac-dataset\")")]
+    #[error(
+        "{path}: not a unicac dataset (no dataset.json with \"format\": \"unicac-dataset\"; `unicac dataset build` makes one)"
+    )]
     NotADataset { path: PathBuf },
     #[error(
         "{path}: dataset format version {found} is newer than this unicac reads ({supported}); update unicac"

@@ -53,19 +53,26 @@ impl Dataset {
 
     /// A path from a manifest row, resolved against DIR (refusing absolute paths and `..`).
     pub fn resolve(&self, relative: &str) -> Result<PathBuf> {
-        let path = Path::new(relative);
-        if path.is_absolute()
-            || path
-                .components()
-                .any(|c| !matches!(c, std::path::Component::Normal(_)))
-        {
-            return Err(DatasetError::format(
-                &self.dir,
-                format!("manifest path {relative:?} must be relative to the dataset folder"),
-            ));
-        }
-        Ok(self.dir.join(path))
+        resolve_relative(&self.dir, relative)
     }
+}
+
+/// A path from a manifest row, resolved against the dataset folder `dir`: absolute paths, `..`, `.` and
+/// the empty path are refused, so no row can point outside the folder.
+pub fn resolve_relative(dir: &Path, relative: &str) -> Result<PathBuf> {
+    let path = Path::new(relative);
+    if relative.is_empty()
+        || path.is_absolute()
+        || path
+            .components()
+            .any(|c| !matches!(c, std::path::Component::Normal(_)))
+    {
+        return Err(DatasetError::format(
+            dir,
+            format!("manifest path {relative:?} must be relative to the dataset folder"),
+        ));
+    }
+    Ok(dir.join(path))
 }
 
 #[cfg(test)]
@@ -94,7 +101,7 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let error = Dataset::open(&dir).unwrap_err().to_string();
-        assert!(error.contains("is not a unicac dataset"), "{error}");
+        assert!(error.contains(": not a unicac dataset"), "{error}");
         std::fs::write(dir.join(DATASET_JSON), r#"{"format": "something-else"}"#).unwrap();
         assert!(matches!(
             Dataset::open(&dir),
@@ -109,6 +116,11 @@ mod tests {
         let dataset = Dataset::open(&dir).unwrap();
         assert_eq!(dataset.manifest, manifest());
         assert!(dataset.resolve("../x").is_err() && dataset.resolve("/etc/passwd").is_err());
+        assert!(dataset.resolve("").is_err() && dataset.resolve("./a").is_err());
+        assert_eq!(
+            dataset.resolve("test/lq/a.png").unwrap(),
+            dir.join("test/lq/a.png")
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -92,6 +92,18 @@ fn lens_pair_checks(lens: &LensRow, pairs: &[&PairRow]) -> LensPairChecks {
     }
 }
 
+/// The mean checks of each lens's pairs among `pairs`, for the lenses that have some, in the order of
+/// `lenses` (what `unicac dataset info` prints and the trainer checks before training).
+pub fn pair_checks(lenses: &[LensRow], pairs: &[PairRow]) -> Vec<LensPairChecks> {
+    lenses
+        .iter()
+        .filter_map(|lens| {
+            let own: Vec<&PairRow> = pairs.iter().filter(|p| p.lens_id == lens.lens_id).collect();
+            (!own.is_empty()).then(|| lens_pair_checks(lens, &own))
+        })
+        .collect()
+}
+
 /// Why a lens's pairs, with mean registration shift `shift_px` and mean blur share `blur_share`, are
 /// dominated by something other than blur (None: they are not, or carry no checks). The one rule
 /// behind `unicac dataset info`, the trainer's refusal (`unicac.dataset`, through the bindings) and
@@ -179,13 +191,7 @@ pub fn info(dir: &Path) -> Result<DatasetInfo> {
             });
         }
     }
-    let pair_checks = lenses
-        .iter()
-        .filter_map(|lens| {
-            let own: Vec<&PairRow> = pairs.iter().filter(|p| p.lens_id == lens.lens_id).collect();
-            (!own.is_empty()).then(|| lens_pair_checks(lens, &own))
-        })
-        .collect();
+    let pair_checks = pair_checks(&lenses, &pairs);
     let (disk_bytes, cache_bytes) = disk_usage(dir)?;
     Ok(DatasetInfo {
         dir: dir.display().to_string(),

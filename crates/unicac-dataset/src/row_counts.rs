@@ -1,6 +1,6 @@
 //! A manifest's rows against the counts `dataset.json` records: a manifest missing rows (a truncated
 //! copy, or one from another build) is refused instead of being read as a smaller dataset. The Python
-//! reader (`unicac.dataset.DatasetFolder`) checks the same counts with the same words.
+//! reader (`unicac.dataset.DatasetFolder`) reads through these checks (the bindings' `read_dataset`).
 
 use crate::error::{DatasetError, Result};
 use crate::manifest::{Counts, DatasetManifest, EdgeRow, LensRow, PairRow};

@@ -1,4 +1,6 @@
-//! The dataset maps models receive (docs/models.md), from the one Rust implementation
+//! Built datasets as Rust reads them, for `unicac.dataset.DatasetFolder`: the manifests checked by the
+//! one reader (`unicac_dataset::folder`), the manifest-path rule, PSF table metadata and the pair checks
+//! per lens; and the dataset maps models receive (docs/models.md), from the one Rust implementation
 //! (`unicac_dataset`, `unicac_bench::wiener`): the field-of-view map, the PSF-feature map and the
 //! `psf_code` map of a lens's PSF table, the dataset's PSF basis, and the field-varying Wiener estimate.
 
@@ -7,6 +9,7 @@ use crate::errors::OrRaise;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
+use unicac_dataset::folder::Dataset;
 use unicac_dataset::psf_basis::{FieldCodes, PsfBasis, CODE_COMPONENTS};
 use unicac_dataset::{FrameCrop, PsfTable};
 
@@ -179,6 +182,62 @@ pub fn wiener_restore<'py>(
     planar_out(py, &restored, false)
 }
 
+/// A built dataset's manifests, read and checked as `unicac bench` reads them: a dict with `manifest`
+/// (`dataset.json`), `pairs` and `lenses` (the rows of `pairs.jsonl` and `lenses.jsonl`, every field of
+/// docs/dataset.md). A folder without `dataset.json`, a newer format, a row missing a field or of the
+/// wrong type (named by file and line) and a manifest whose rows disagree with `dataset.json`'s counts
+/// raise `DatasetError`.
+#[pyfunction]
+pub fn read_dataset<'py>(py: Python<'py>, dataset_dir: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    let (manifest, pairs, lenses) = crate::pool::detach(py, || -> PyResult<_> {
+        let dataset = Dataset::open(&dataset_dir).or_raise()?;
+        let pairs = dataset.pairs().or_raise()?;
+        let lenses = dataset.lenses().or_raise()?;
+        Ok((dataset.manifest, pairs, lenses))
+    })?;
+    let out = pyo3::types::PyDict::new(py);
+    out.set_item("manifest", crate::json::serialize(py, &manifest)?)?;
+    out.set_item("pairs", crate::json::serialize(py, &pairs)?)?;
+    out.set_item("lenses", crate::json::serialize(py, &lenses)?)?;
+    Ok(out.into_any())
+}
+
+/// A manifest path resolved against the dataset folder: absolute paths, `..`, `.` and the empty path
+/// raise `DatasetError` (no row may point outside the folder).
+#[pyfunction]
+pub fn dataset_path(dataset_dir: PathBuf, relative: &str) -> PyResult<PathBuf> {
+    unicac_dataset::folder::resolve_relative(&dataset_dir, relative).or_raise()
+}
+
+/// A PSF table's `table.json` (`DIR/psf/LENS_ID`) as a dict, its format and version checked.
+#[pyfunction]
+pub fn psf_table_meta<'py>(py: Python<'py>, table_dir: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    let meta = PsfTable::read_meta(&table_dir).or_raise()?;
+    crate::json::serialize(py, &meta)
+}
+
+/// The mean checks of each lens's pairs in `split` (all splits when None), as `unicac dataset info`
+/// prints them: a list of dicts (lens_id, split, level, ode, pairs, checked, mean_lq_gt_psnr_db,
+/// mean_registration_px, mean_blur_share, flag), in `lenses.jsonl` order.
+#[pyfunction]
+#[pyo3(signature = (dataset_dir, split=None))]
+pub fn dataset_pair_checks<'py>(
+    py: Python<'py>,
+    dataset_dir: PathBuf,
+    split: Option<String>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let checks = crate::pool::detach(py, || -> PyResult<_> {
+        let dataset = Dataset::open(&dataset_dir).or_raise()?;
+        let mut pairs = dataset.pairs().or_raise()?;
+        pairs.retain(|p| split.as_ref().is_none_or(|s| &p.split == s));
+        Ok(unicac_dataset::info::pair_checks(
+            &dataset.lenses().or_raise()?,
+            &pairs,
+        ))
+    })?;
+    crate::json::serialize(py, &checks)
+}
+
 /// Why a lens's pairs are dominated by something other than blur, from their mean registration shift
 /// (px) and mean blur share (`unicac_dataset::info::pair_check_flag`); None when they are not.
 #[pyfunction]
@@ -188,6 +247,10 @@ pub fn pair_check_flag(mean_registration_px: Option<f64>, mean_blur_share: Optio
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(read_dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(dataset_path, m)?)?;
+    m.add_function(wrap_pyfunction!(psf_table_meta, m)?)?;
+    m.add_function(wrap_pyfunction!(dataset_pair_checks, m)?)?;
     m.add_function(wrap_pyfunction!(pair_check_flag, m)?)?;
     m.add_function(wrap_pyfunction!(fov_map, m)?)?;
     m.add_function(wrap_pyfunction!(psf_features, m)?)?;

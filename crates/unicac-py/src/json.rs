@@ -39,9 +39,13 @@ pub fn to_py<'py>(py: Python<'py>, value: &Value) -> PyResult<Bound<'py, PyAny>>
     })
 }
 
-/// Any serialisable value as a Python dict/list/scalar, through its JSON form.
+/// Any serialisable value as a Python dict/list/scalar, through its JSON text: an f32 field arrives as
+/// the number the CLI's JSON and the files on disk print (0.16, not 0.1599999964237213, which
+/// `serde_json::to_value` would widen it to).
 pub fn serialize<'py, T: Serialize>(py: Python<'py>, value: &T) -> PyResult<Bound<'py, PyAny>> {
-    let json = serde_json::to_value(value).map_err(|e| PyValueError::new_err(format!("serialising: {e}")))?;
+    let failed = |e: serde_json::Error| PyValueError::new_err(format!("serialising: {e}"));
+    let text = serde_json::to_string(value).map_err(failed)?;
+    let json: Value = serde_json::from_str(&text).map_err(failed)?;
     to_py(py, &json)
 }
 
