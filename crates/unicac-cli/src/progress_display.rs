@@ -1,6 +1,7 @@
-//! How the CLI shows a library's progress (`unicac_io::progress::Progress`, the protocol of dataset
-//! builds, benches and tolerance runs): a bar per stage on a terminal; without one (a log file, a
-//! script), a plain line at most every `LOG_EVERY` and when a stage ends, so a long run in a log still
+//! How the CLI shows progress (`unicac_io::progress::Progress`, the protocol of dataset builds, benches
+//! and tolerance runs, also driven by the faces' own loops: `ode` over lenses, `simulate` over images,
+//! `design` over its designs): a bar per stage on a terminal; without one (a log file, a
+//! script), a plain line at most every `LOG_EVERY` and when a stage of some seconds ends, so a long run in a log still
 //! shows that it moves and how far it is. Notes go above any bar.
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -11,6 +12,8 @@ use unicac_io::progress::Progress;
 
 /// Time between two log lines of one stage when stderr is not a terminal.
 const LOG_EVERY: Duration = Duration::from_secs(30);
+/// A stage shorter than this ends without a log line (one lens's ODE needs no "100% (1/1)").
+const QUIET_BELOW: Duration = Duration::from_secs(2);
 
 /// The progress of one command's library work on stderr.
 pub(crate) struct ProgressDisplay {
@@ -25,6 +28,8 @@ struct Stage {
     done: usize,
     started: Instant,
     last_line: Instant,
+    /// Whether a log line was written for this stage.
+    logged: bool,
     bar: Option<ProgressBar>,
 }
 
@@ -44,6 +49,23 @@ impl ProgressDisplay {
             if let Some(bar) = stage.bar {
                 bar.finish_and_clear();
             }
+        }
+    }
+
+    /// Runs `print` with the bar hidden, so lines it writes to stderr stay above the bar.
+    pub(crate) fn suspend<R>(&self, print: impl FnOnce() -> R) -> R {
+        let bar = self.lock().as_ref().and_then(|s| s.bar.clone());
+        match bar {
+            Some(bar) => bar.suspend(print),
+            None => print(),
+        }
+    }
+
+    /// What the current stage is doing now (e.g. a design search's generation and best merit), shown
+    /// beside the bar on a terminal; not logged (the stage's own lines say how far it is).
+    pub(crate) fn status(&self, message: &str) {
+        if let Some(bar) = self.lock().as_ref().and_then(|s| s.bar.as_ref()) {
+            bar.set_message(format!("{}: {message}", self.command));
         }
     }
 
@@ -75,6 +97,7 @@ impl Progress for ProgressDisplay {
             done: 0,
             started: now,
             last_line: now,
+            logged: false,
             bar,
         });
     }
@@ -86,7 +109,9 @@ impl Progress for ProgressDisplay {
         match &stage.bar {
             Some(bar) => bar.set_position(stage.done as u64),
             None if !self.terminal
-                && (stage.last_line.elapsed() >= LOG_EVERY || stage.done == stage.total) =>
+                && (stage.last_line.elapsed() >= LOG_EVERY
+                    || (stage.done == stage.total
+                        && (stage.logged || stage.started.elapsed() >= QUIET_BELOW))) =>
             {
                 eprintln!(
                     "{}: {}",
@@ -94,6 +119,7 @@ impl Progress for ProgressDisplay {
                     progress_line(stage.done, stage.total, &stage.name, stage.started.elapsed())
                 );
                 stage.last_line = Instant::now();
+                stage.logged = true;
             }
             None => {}
         }

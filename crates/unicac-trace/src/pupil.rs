@@ -234,7 +234,7 @@ mod tests {
 
     #[test]
     fn counts_beyond_the_limit_are_refused_before_allocating() {
-        // Each of these used to abort on allocation, overflow capacity or run for minutes (issue 16).
+        // Unchecked, each of these would abort on allocation, overflow a capacity or run for minutes.
         for bad in [
             "fibonacci:18446744073709551615",
             "random:18446744073709551615",

@@ -1,11 +1,13 @@
 //! `unicac design`: automatic lens design into a lens library (crates/unicac-design, docs/design.md).
 
 use crate::args::DesignArgs;
+use crate::progress_display::ProgressDisplay;
 use anyhow::{bail, Result};
 use std::sync::Mutex;
 use unicac_design::library::Library;
 use unicac_design::run::{run_specs, Event, RunSettings, StopReason};
 use unicac_design::{DesignError, DesignSpec, FocalLength, Grid};
+use unicac_io::progress::Progress;
 
 fn focal_length(args: &DesignArgs) -> FocalLength {
     match (args.sensor, args.focal_length_mm) {
@@ -114,50 +116,69 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         return Ok(());
     }
     let mut library = Library::open(&args.out)?;
-    let bar = super::progress(specs.len() * args.count, "design");
-    let initial: usize = specs
+    let display = ProgressDisplay::new("design");
+    display.stage("designs kept", specs.len() * args.count);
+    // Kept designs per specification; the bar shows their sum, each capped at --count (a design
+    // replaced by a better one is accepted first, then dropped).
+    let kept: std::collections::BTreeMap<String, usize> = specs
         .iter()
         .map(|s| {
-            library
-                .rows_for(&s.slug())
-                .filter(|r| !r.aspheric)
-                .count()
-                .min(args.count)
+            let slug = s.slug();
+            let count = library.rows_for(&slug).filter(|r| !r.aspheric).count();
+            (slug, count)
         })
-        .sum();
-    bar.set_position(initial as u64);
+        .collect();
+    let capped = |kept: &std::collections::BTreeMap<String, usize>| -> usize {
+        kept.values().map(|&n| n.min(args.count)).sum()
+    };
+    display.advance(capped(&kept));
+    let kept = Mutex::new(kept);
+    let change_kept = |slug: &str, added: bool| {
+        let mut kept = kept.lock().unwrap_or_else(|e| e.into_inner());
+        let before = capped(&kept);
+        let n = kept.entry(slug.to_string()).or_insert(0);
+        *n = if added { *n + 1 } else { n.saturating_sub(1) };
+        let after = capped(&kept);
+        if after > before {
+            display.advance(after - before);
+        }
+    };
     let rejected = Mutex::new(0usize);
     let events = |event: Event| match event {
         Event::SpecStarted { slug, index, total } => {
-            bar.set_message(format!("{slug} ({}/{total})", index + 1))
+            display.status(&format!("{slug} ({}/{total})", index + 1))
         }
-        Event::Generation { slug, progress } => bar.set_message(format!(
+        Event::Generation { slug, progress } => display.status(&format!(
             "{slug} gen {} best merit {:.1}",
             progress.generation, progress.best_merit
         )),
         Event::Accepted {
+            slug,
             id,
             aspheric,
             rms_mean_um,
-            ..
         } => {
             if !aspheric {
-                bar.inc(1);
+                change_kept(&slug, true);
             }
-            bar.println(format!("accepted {id}: mean RMS spot {rms_mean_um:.2} um"));
+            display.note(&format!("accepted {id}: mean RMS spot {rms_mean_um:.2} um"));
         }
         Event::Rejected { .. } => *rejected.lock().unwrap_or_else(|e| e.into_inner()) += 1,
-        Event::Replaced { id, rms_mean_um, .. } => {
-            bar.dec(1);
-            bar.println(format!(
+        Event::Replaced {
+            slug,
+            id,
+            rms_mean_um,
+        } => {
+            change_kept(&slug, false);
+            display.note(&format!(
                 "replaced {id} (mean RMS spot {rms_mean_um:.2} um) by a better design"
             ));
         }
-        Event::Note { message, .. } => bar.println(format!("warning: {message}")),
+        Event::Note { message, .. } => display.note(&format!("warning: {message}")),
         Event::SpecDone { .. } => {}
     };
     let summaries = run_specs(&specs, &settings, &mut library, &events)?;
-    bar.finish_and_clear();
+    display.finish();
     let written = library.rows.len();
     for s in &summaries {
         let best = s.best_rms_mean_um.map_or(String::new(), |rms| {

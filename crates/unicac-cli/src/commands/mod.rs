@@ -127,15 +127,3 @@ pub(crate) fn shard_arg(text: Option<&str>) -> Result<unicac_io::Shard> {
         unicac_io::Shard::parse(text).map_err(|message| anyhow::anyhow!("--shard {message}"))
     })
 }
-
-/// A progress bar on stderr for `count` items (hidden when stderr is not a terminal).
-pub(crate) fn progress(count: usize, what: &str) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(count as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed_precise} eta {eta}")
-            .expect("template")
-            .progress_chars("=> "),
-    );
-    bar.set_message(what.to_string());
-    bar
-}

@@ -1,13 +1,15 @@
 //! `unicac ode`: ODE and RMS spot radius of many lenses, in parallel, with a progress bar; on the lens
 //! files' sensors or, with `--frame`, on the sensor `unicac dataset build` grades with.
 
-use super::{print_json, progress};
+use super::print_json;
 use crate::args::OdeArgs;
 use crate::lens_input::load_lens;
+use crate::progress_display::ProgressDisplay;
 use anyhow::Result;
 use rayon::prelude::*;
 use std::fmt::Write as _;
 use unicac_dataset::builder::sources::parse_size;
+use unicac_io::progress::Progress;
 use unicac_ode::{evaluate, FrameSensor, LensOde, OdeSettings};
 
 pub fn run(args: &OdeArgs) -> Result<()> {
@@ -30,7 +32,8 @@ pub fn run(args: &OdeArgs) -> Result<()> {
         backend: super::gpu::backend(&args.device),
         ..frame.map_or_else(OdeSettings::default, |f| f.ode_settings())
     };
-    let bar = progress(args.lenses.len(), "ode");
+    let display = ProgressDisplay::new("ode");
+    display.stage("lenses", args.lenses.len());
     let results: Vec<Result<LensOde>> = args
         .lenses
         .par_iter()
@@ -45,11 +48,11 @@ pub fn run(args: &OdeArgs) -> Result<()> {
                     lens: name.clone(),
                     report,
                 });
-            bar.inc(1);
+            display.advance(1);
             result
         })
         .collect();
-    bar.finish_and_clear();
+    display.finish();
     super::gpu::print_notes(settings.backend.take_notes());
     let lenses: Vec<LensOde> = results.into_iter().collect::<Result<_>>()?;
     if let Some(path) = &args.csv {

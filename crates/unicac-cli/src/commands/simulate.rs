@@ -1,13 +1,14 @@
 //! `unicac simulate`: sharp images through a lens onto the sensor, with the sensor/ISP chain.
 
-use super::progress;
 use crate::args::{OutputFormat, SimulateArgs};
 use crate::lens_input::load_lens;
+use crate::progress_display::ProgressDisplay;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use unicac_image::io::{read_image, FileFormat, LoadedImage, SampleDepth};
 use unicac_image::isp::{Pipeline, SensorNoise};
 use unicac_image::Planar;
+use unicac_io::progress::Progress;
 use unicac_sim::{image_seed, LensSimulator, SimulationSettings, SimulatorSequence};
 
 pub fn run(args: &SimulateArgs) -> Result<()> {
@@ -37,7 +38,8 @@ fn simulate_all(
     outputs: &[(PathBuf, FileFormat)],
     device: &std::sync::Arc<unicac_gpu::DeviceSelection>,
 ) -> Result<()> {
-    let bar = progress(args.images.len(), "simulate");
+    let bar = ProgressDisplay::new("simulate");
+    bar.stage("images", args.images.len());
     let mut settings = SimulationSettings {
         distortion: !args.no_distortion,
         illumination: !args.no_illumination,
@@ -89,9 +91,9 @@ fn simulate_all(
             super::crops::write(&sharp, &degraded, crops)?;
             bar.suspend(|| eprintln!("wrote {}", crops.display()));
         }
-        bar.inc(1);
+        bar.advance(1);
     }
-    bar.finish_and_clear();
+    bar.finish();
     eprintln!("wrote {} image(s) to {}", args.images.len(), args.out.display());
     Ok(())
 }
