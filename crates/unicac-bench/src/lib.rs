@@ -25,6 +25,7 @@ pub mod inputs;
 pub mod memory;
 mod model_run;
 pub mod op;
+mod plan;
 pub mod report;
 pub mod run;
 mod scoring;

@@ -48,7 +48,7 @@ fn invalid(message: String) -> BenchError {
 /// model whose cost cannot be measured gets a notice.
 pub(crate) fn method_entries(
     wiener_nsr: Option<f64>,
-    loaded: Vec<(String, ModelContract, unicac_onnx::proto::ModelProto, Vec<u8>)>,
+    loaded: Vec<crate::plan::LoadedModel>,
     runtime: Option<&'static Runtime>,
     threads: usize,
     notices: &mut Vec<String>,
