@@ -29,6 +29,7 @@ mod plan;
 pub mod report;
 pub mod run;
 mod scoring;
+mod settings;
 pub mod tiling;
 pub mod wiener;
 

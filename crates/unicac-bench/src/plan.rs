@@ -11,7 +11,7 @@ use crate::choices::{Benchmark, ClassicalMethod, Metric};
 use crate::error::{BenchError, Result};
 use crate::inputs::dataset_error;
 use crate::report::LensInfo;
-use crate::run::{BenchSettings, MAX_THREADS, MAX_WIENER_NSR};
+use crate::settings::{BenchSettings, MAX_THREADS, MAX_WIENER_NSR};
 use unicac_learned_metrics::clipiqa::ClipIqa;
 use unicac_learned_metrics::fid::FidNetwork;
 use unicac_learned_metrics::lpips::Lpips;

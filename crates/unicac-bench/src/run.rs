@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use unicac_dataset::PairRow;
 
-use crate::choices::{Benchmark, ClassicalMethod, Metric, Split};
+use crate::choices::ClassicalMethod;
 use crate::edges::edge_groups;
 use crate::error::Result;
 pub use crate::inputs::{read_rgb, InputMaps};
@@ -15,39 +15,7 @@ use crate::report::summarise;
 use crate::report::write::{write_report, Report};
 use crate::report::Scores;
 use crate::scoring::{method_entries, EdgeScores, Judges, LensTables, Needs, Pass, Running};
-use crate::tiling::Tiling;
-use unicac_onnx::ort_library::Search;
-
-/// Largest `threads`.
-pub const MAX_THREADS: usize = 256;
-/// Largest `wiener_nsr`: far past any useful noise-to-signal ratio (the restoration tends to zero).
-pub const MAX_WIENER_NSR: f64 = 100.0;
-
-/// What `unicac bench` was asked to do.
-#[derive(Debug, Clone)]
-pub struct BenchSettings {
-    pub dataset: PathBuf,
-    /// `NAME=MODEL.onnx` models.
-    pub models: Vec<(String, PathBuf)>,
-    /// Classical methods besides the always-present `identity`.
-    pub methods: Vec<ClassicalMethod>,
-    pub out: PathBuf,
-    pub split: Split,
-    pub benchmarks: Vec<Benchmark>,
-    /// Metrics asked for explicitly (`None`: all, unavailable ones reported as null).
-    pub metrics: Option<Vec<Metric>>,
-    pub weights_dir: Option<PathBuf>,
-    /// The cache holding `weights/lpips` (None: no LPIPS).
-    pub cache_root: Option<PathBuf>,
-    pub tiling: Tiling,
-    pub threads: usize,
-    pub save_images: bool,
-    pub wiener_nsr: f64,
-    /// Refuse a run whose estimated peak memory exceeds this (`None`: the memory available now).
-    pub memory_limit_bytes: Option<u64>,
-    /// Where onnxruntime is looked for.
-    pub onnxruntime: Search,
-}
+pub use crate::settings::{BenchSettings, MAX_THREADS, MAX_WIENER_NSR};
 
 /// Progress of a run (`unicac_io::progress`): one stage, "test pixels", whose work is counted in pixels
 /// (each test pair's and edge patch's, through every method), to which a run's time is about
