@@ -15,7 +15,7 @@ use unicac_dataset::{EdgeRow, PsfTable};
 use unicac_image::Planar;
 
 use crate::error::{BenchError, Result};
-use crate::inputs::{dataset_error, read_rgb, wiener_at, wiener_input, InputMaps, WienerEstimates};
+use crate::inputs::{read_rgb, wiener_at, wiener_input, InputMaps, WienerEstimates};
 use unicac_onnx::contract::ModelContract;
 
 /// Most pixels of edge images run through a model in one batch (2^18: a 512 x 512 image's worth, so a
@@ -111,7 +111,7 @@ impl<'a> EdgePatch<'a> {
         let mut rows = Vec::with_capacity(group.len());
         let mut lq: Option<Planar> = None;
         for &row in group {
-            let path = dataset.resolve(&row.lq).map_err(dataset_error)?;
+            let path = dataset.resolve(&row.lq)?;
             let channel = channel_index(row)?;
             let patch = read_rgb(&path)?;
             match &mut lq {

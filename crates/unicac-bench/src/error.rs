@@ -20,6 +20,13 @@ pub enum BenchError {
     /// LPIPS, FID or ClipIQA (`unicac-learned-metrics`), kind kept.
     #[error(transparent)]
     LearnedMetric(#[from] unicac_learned_metrics::LearnedMetricError),
+    /// A dataset folder, manifest or PSF table (`unicac-dataset`), kind kept; its message names the file.
+    #[error(transparent)]
+    Dataset(#[from] unicac_dataset::DatasetError),
+    /// An output path the output policy refuses (the report folder is an input or inside one).
+    #[error(transparent)]
+    Output(#[from] unicac_io::OutputError),
+    /// Something wrong with what was given that no lower error describes (the message names it).
     #[error("{0}")]
     InvalidInput(String),
     /// The run's estimated peak memory exceeds its limit (refused before any work).

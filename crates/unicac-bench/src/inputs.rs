@@ -53,8 +53,3 @@ pub(crate) fn wiener_at(
         None => restore(),
     }
 }
-
-/// A dataset error as the bench reports it (the dataset's message, which names the file).
-pub(crate) fn dataset_error(e: unicac_dataset::DatasetError) -> BenchError {
-    BenchError::InvalidInput(e.to_string())
-}

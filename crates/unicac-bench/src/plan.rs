@@ -9,7 +9,6 @@ use unicac_dataset::{EdgeRow, PairRow};
 
 use crate::choices::{Benchmark, ClassicalMethod, Metric};
 use crate::error::{BenchError, Result};
-use crate::inputs::dataset_error;
 use crate::report::LensInfo;
 use crate::settings::{BenchSettings, MAX_THREADS, MAX_WIENER_NSR};
 use unicac_learned_metrics::clipiqa::ClipIqa;
@@ -166,7 +165,7 @@ fn check_settings(s: &BenchSettings) -> Result<()> {
         plan.input(path);
     }
     plan.output("--out", &s.out);
-    plan.check().map_err(|e| invalid(e.to_string()))?;
+    plan.check()?;
     crate::report::folder::check(&s.out)
 }
 
@@ -203,11 +202,10 @@ fn runtime(
 
 /// The dataset, the pairs of the asked split and their lenses (each pair's lens must be listed).
 fn read_split(s: &BenchSettings) -> Result<(Dataset, Vec<PairRow>, BTreeMap<String, LensInfo>)> {
-    let dataset = Dataset::open(&s.dataset).map_err(dataset_error)?;
-    let lens_rows = dataset.lenses().map_err(dataset_error)?;
+    let dataset = Dataset::open(&s.dataset)?;
+    let lens_rows = dataset.lenses()?;
     let pairs: Vec<PairRow> = dataset
-        .pairs()
-        .map_err(dataset_error)?
+        .pairs()?
         .into_iter()
         .filter(|p| p.split == s.split.name())
         .collect();
@@ -284,7 +282,7 @@ fn matching_basis(
     if !loaded.iter().any(|(_, c, ..)| c.wants(ModelInput::PsfCode)) {
         return Ok(None);
     }
-    let basis = unicac_dataset::psf_basis::read_dataset_basis(&s.dataset).map_err(dataset_error)?;
+    let basis = unicac_dataset::psf_basis::read_dataset_basis(&s.dataset)?;
     for (name, contract, ..) in loaded {
         match &contract.psf_basis_sha256 {
             Some(sha) if contract.wants(ModelInput::PsfCode) && *sha != basis.meta.sha256 => {
@@ -393,7 +391,7 @@ fn edge_rows(
         return Ok(Vec::new());
     }
     let rows = if dataset.dir.join(unicac_dataset::manifest::EDGES_JSONL).is_file() {
-        dataset.edges().map_err(dataset_error)?
+        dataset.edges()?
     } else {
         Vec::new()
     };

@@ -13,7 +13,7 @@ use unicac_image::Planar;
 use crate::choices::Benchmark;
 use crate::edges::{EdgeGroup, EdgePatch, MapNeeds};
 use crate::error::{BenchError, Result};
-use crate::inputs::{dataset_error, read_rgb, wiener_at, wiener_input, InputMaps, WienerEstimates};
+use crate::inputs::{read_rgb, wiener_at, wiener_input, InputMaps, WienerEstimates};
 use crate::model_run::{run_onnx_batch, run_onnx_with};
 use crate::report::write::ModelInfo;
 use crate::report::{LensInfo, PairScore, Scores};
@@ -173,8 +173,8 @@ impl<'a> LensTables<'a> {
         if let Some(t) = self.tables.get(lens_id) {
             return Ok(t.clone());
         }
-        let dir = self.dataset.resolve(pair_psf).map_err(dataset_error)?;
-        let table = PsfTable::read(&dir).map_err(dataset_error)?;
+        let dir = self.dataset.resolve(pair_psf)?;
+        let table = PsfTable::read(&dir)?;
         self.tables.insert(lens_id.to_string(), table.clone());
         Ok(table)
     }
@@ -248,8 +248,8 @@ impl Pass<'_> {
             running,
             ..
         } = self;
-        let lq_path = dataset.resolve(&pair.lq).map_err(dataset_error)?;
-        let gt_path = dataset.resolve(&pair.gt).map_err(dataset_error)?;
+        let lq_path = dataset.resolve(&pair.lq)?;
+        let gt_path = dataset.resolve(&pair.gt)?;
         let (lq, gt) = (read_rgb(&lq_path)?, read_rgb(&gt_path)?);
         if (lq.width, lq.height) != (gt.width, gt.height) {
             return Err(invalid(format!(
@@ -271,20 +271,19 @@ impl Pass<'_> {
             None
         };
         let fov = if needs.maps.fov {
-            Some(to_planar(unicac_dataset::fov_map(crop).map_err(dataset_error)?))
+            Some(to_planar(unicac_dataset::fov_map(crop)?))
         } else {
             None
         };
         let psf = match (&table, needs.maps.psf) {
-            (Some(t), true) => Some(to_planar(
-                unicac_dataset::psf_feature_map(t, crop).map_err(dataset_error)?,
-            )),
+            (Some(t), true) => Some(to_planar(unicac_dataset::psf_feature_map(t, crop)?)),
             _ => None,
         };
         let psf_code = match (&table, needs.maps.psf_code) {
-            (Some(t), true) => Some(to_planar(
-                unicac_dataset::psf_code_map(&tables.codes(t, &pair.lens_id), crop).map_err(dataset_error)?,
-            )),
+            (Some(t), true) => Some(to_planar(unicac_dataset::psf_code_map(
+                &tables.codes(t, &pair.lens_id),
+                crop,
+            )?)),
             _ => None,
         };
         let wiener_inputs = needs

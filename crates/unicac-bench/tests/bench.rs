@@ -78,6 +78,11 @@ fn bad_inputs_are_refused_before_any_work() {
         error.contains("bad.onnx") && error.contains("not an ONNX model"),
         "{error}"
     );
+    // A folder that is not a dataset: the dataset's own error, kind kept.
+    match run_bench(&settings(&dir.join("missing"), &dir.join("out")), &Silent).unwrap_err() {
+        BenchError::Dataset(unicac_dataset::DatasetError::NotADataset { .. }) => {}
+        other => panic!("expected the dataset's NotADataset, got {other:?}"),
+    }
     let mut s = settings(&dataset, &dir.join("out"));
     s.tiling = Tiling {
         tile_px: Some(32),

@@ -25,8 +25,45 @@ pub enum DatasetError {
         found: u32,
         supported: u32,
     },
+    /// Something wrong with what was given that no lower error describes (the message names it).
     #[error("{0}")]
     Invalid(String),
+    /// A lens that cannot be read or modelled; `context` names it ("lens LOCATION").
+    #[error("{context}: {source}")]
+    Optics {
+        context: String,
+        #[source]
+        source: unicac_optics::OpticsError,
+    },
+    /// A simulation that cannot be prepared or run ("lens SOURCE", "pair ID").
+    #[error("{context}: {source}")]
+    Simulation {
+        context: String,
+        #[source]
+        source: unicac_sim::SimError,
+    },
+    /// A lens's ODE or its edge patches ("lens SOURCE: the ODE failed", "lens SOURCE: edge patches").
+    #[error("{context}: {source}")]
+    Ode {
+        context: String,
+        #[source]
+        source: unicac_ode::OdeError,
+    },
+    /// An image read, made, written or put through an ISP step ("image PATH", "pair ID"; none when
+    /// the image error names its file itself).
+    #[error("{}{source}", context_prefix(context))]
+    Image {
+        context: Option<String>,
+        #[source]
+        source: unicac_image::ImageError,
+    },
+    /// A picture that cannot be drawn (`context`: the output file).
+    #[error("{context}: {source}")]
+    Plot {
+        context: String,
+        #[source]
+        source: unicac_plot::PlotError,
+    },
     /// A build setting out of its range; `field` names the `BuildSettings` field (a face maps it to
     /// its own option name).
     #[error("{field}: {message}")]
@@ -34,6 +71,10 @@ pub enum DatasetError {
 }
 
 pub type Result<T> = std::result::Result<T, DatasetError>;
+
+fn context_prefix(context: &Option<String>) -> String {
+    context.as_ref().map_or_else(String::new, |c| format!("{c}: "))
+}
 
 impl DatasetError {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> DatasetError {
@@ -48,6 +89,26 @@ impl DatasetError {
             field: field.into(),
             message: message.into(),
         }
+    }
+
+    pub fn optics(context: impl Into<String>) -> impl FnOnce(unicac_optics::OpticsError) -> DatasetError {
+        let context = context.into();
+        move |source| DatasetError::Optics { context, source }
+    }
+
+    pub fn simulation(context: impl Into<String>) -> impl FnOnce(unicac_sim::SimError) -> DatasetError {
+        let context = context.into();
+        move |source| DatasetError::Simulation { context, source }
+    }
+
+    pub fn ode(context: impl Into<String>) -> impl FnOnce(unicac_ode::OdeError) -> DatasetError {
+        let context = context.into();
+        move |source| DatasetError::Ode { context, source }
+    }
+
+    pub fn image(context: impl Into<String>) -> impl FnOnce(unicac_image::ImageError) -> DatasetError {
+        let context = Some(context.into());
+        move |source| DatasetError::Image { context, source }
     }
 
     pub fn format(path: impl Into<PathBuf>, message: impl Into<String>) -> DatasetError {

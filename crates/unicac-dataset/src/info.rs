@@ -264,8 +264,12 @@ pub fn plot(dir: &Path, out: &Path) -> Result<()> {
                     .collect(),
             })
             .collect();
-    unicac_plot::level_histograms(&plot_title(dir), &names, &panels, out)
-        .map_err(|e| DatasetError::Invalid(format!("{}: {e}", out.display())))
+    unicac_plot::level_histograms(&plot_title(dir), &names, &panels, out).map_err(|source| {
+        DatasetError::Plot {
+            context: out.display().to_string(),
+            source,
+        }
+    })
 }
 
 /// The level plot's title: it names the dataset by its folder's own name, never by a path (a machine's

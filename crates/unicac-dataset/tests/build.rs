@@ -378,18 +378,25 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
     s.lenses
         .push(lens_dir.join("wild.json").to_string_lossy().into_owned());
     let out = scratch("bad-lens-out");
-    let error = builder::build(&s, &out, Shard::ALL, &Silent)
-        .unwrap_err()
-        .to_string();
+    let error = builder::build(&s, &out, Shard::ALL, &Silent).unwrap_err();
+    // The lower error keeps its kind (the simulator's: the PSF of so wide a field outgrows the frame).
+    assert!(
+        matches!(error, unicac_dataset::DatasetError::Simulation { .. }),
+        "{error:?}"
+    );
+    let error = error.to_string();
     assert!(error.contains("wild.json"), "{error}");
     assert!(nothing_written(&out));
     // A lens whose PSF does not fit the frame: refused by name before anything is written.
     let mut s = settings();
     s.lenses.push("builtin:singlet".into());
     let out = scratch("big-psf-out");
-    let error = builder::build(&s, &out, Shard::ALL, &Silent)
-        .unwrap_err()
-        .to_string();
+    let error = builder::build(&s, &out, Shard::ALL, &Silent).unwrap_err();
+    assert!(
+        matches!(error, unicac_dataset::DatasetError::Simulation { .. }),
+        "{error:?}"
+    );
+    let error = error.to_string();
     assert!(
         error.contains("singlet") && error.contains("larger than the image"),
         "{error}"

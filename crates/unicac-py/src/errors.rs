@@ -170,12 +170,19 @@ impl ToPyErr for unicac_ode::OdeError {
 
 impl ToPyErr for unicac_dataset::DatasetError {
     fn to_py_err(self) -> PyErr {
-        match self {
-            unicac_dataset::DatasetError::Invalid(message) => {
-                pyo3::exceptions::PyValueError::new_err(message)
-            }
-            other => DatasetError::new_err(other.to_string()),
-        }
+        use unicac_dataset::DatasetError as E;
+        // A lens, simulation, ODE or image problem met while building keeps its own exception class,
+        // with the dataset's context (the lens or pair) in its message.
+        let message = self.to_string();
+        let inner = match self {
+            E::Invalid(message) => return pyo3::exceptions::PyValueError::new_err(message),
+            E::Optics { source, .. } => source.to_py_err(),
+            E::Simulation { source, .. } => source.to_py_err(),
+            E::Ode { source, .. } => source.to_py_err(),
+            E::Image { source, .. } => source.to_py_err(),
+            _ => return DatasetError::new_err(message),
+        };
+        Python::attach(|py| PyErr::from_type(inner.get_type(py), message))
     }
 }
 

@@ -74,7 +74,7 @@ impl GradeCache {
             return Ok((grade, true));
         }
         let report = unicac_ode::evaluate(lens, settings)
-            .map_err(|e| DatasetError::Invalid(format!("lens {what}: the ODE failed: {e}")))?;
+            .map_err(DatasetError::ode(format!("lens {what}: the ODE failed")))?;
         let grade = Grade::from(&report);
         for (name, value) in [
             ("ode", grade.scores.ode),

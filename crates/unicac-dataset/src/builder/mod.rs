@@ -466,7 +466,7 @@ pub fn build(
             cache_psf.clone(),
             settings.image.clone(),
         )
-        .map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", p.source.source)))?;
+        .map_err(DatasetError::simulation(format!("lens {}", p.source.source)))?;
         progress.advance(1);
     }
     // Writing starts here.
@@ -541,7 +541,7 @@ pub fn build(
             cache_psf.clone(),
             settings.image.clone(),
         )
-        .map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", p.source.source)))?;
+        .map_err(DatasetError::simulation(format!("lens {}", p.source.source)))?;
         if needs_table {
             render::psf_table(&row.lens_id, &sim).write(&table_dir)?;
             report.psf_tables_written += 1;
@@ -655,7 +655,7 @@ fn make_plan(
      -> Result<PairRow> {
         let draw = pipeline
             .draw(seed)
-            .map_err(|e| DatasetError::Invalid(format!("pair {pair_id}: {e}")))?;
+            .map_err(DatasetError::image(format!("pair {pair_id}")))?;
         Ok(PairRow {
             lq: format!("{split}/lq/{pair_id}.png"),
             gt: format!("{split}/gt/{pair_id}.png"),
@@ -720,7 +720,7 @@ fn make_plan(
     for (p, lens) in planned.iter().zip(&lenses).filter(|(_, l)| l.split == "test") {
         let size_px = ode_settings.min_edge_px.max(4 * p.grade.kernel_px);
         let chief = unicac_sim::ChiefRayMap::new(&p.lens)
-            .map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", p.source.source)))?;
+            .map_err(DatasetError::simulation(format!("lens {}", p.source.source)))?;
         for (f, &fraction) in ode_settings.field_fractions.iter().enumerate() {
             for channel in ["R", "G", "B"] {
                 for direction in ["sagittal", "tangential"] {
@@ -994,7 +994,11 @@ fn write_png(path: &Path, image: &Planar, depth: SampleDepth) -> Result<()> {
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent).map_err(|e| DatasetError::io(parent, e))?;
     }
-    unicac_image::io::write_png(path, image, depth).map_err(|e| DatasetError::Invalid(e.to_string()))
+    // The image error names the file itself.
+    unicac_image::io::write_png(path, image, depth).map_err(|source| DatasetError::Image {
+        context: None,
+        source,
+    })
 }
 
 /// A test lens's ODE edge patches (the kernels of its ODE fields on the build sensor); returns how
@@ -1005,9 +1009,8 @@ fn write_edges(
     settings: &unicac_ode::OdeSettings,
     rows: &[&EdgeRow],
 ) -> Result<usize> {
-    let fail = |e: unicac_ode::OdeError| {
-        DatasetError::Invalid(format!("lens {}: edge patches: {e}", lens.source.source))
-    };
+    let fail =
+        |e: unicac_ode::OdeError| DatasetError::ode(format!("lens {}: edge patches", lens.source.source))(e);
     let setup = unicac_ode::EvaluationSetup::new(&lens.lens, settings).map_err(fail)?;
     let fields = setup.field_kernels(&settings.field_fractions).map_err(fail)?;
     let mut written = 0;

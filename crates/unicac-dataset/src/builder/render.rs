@@ -79,7 +79,7 @@ pub fn render_pair(sim: &LensSimulator, frame: &Planar, row: &PairRow) -> Result
             row.pair_id
         )));
     }
-    let sim_error = |e: unicac_sim::SimError| DatasetError::Invalid(format!("pair {}: {e}", row.pair_id));
+    let sim_error = |e: unicac_sim::SimError| DatasetError::simulation(format!("pair {}", row.pair_id))(e);
     let raw = pipeline
         .unprocess(frame, &draw)
         .map_err(image_error(&row.pair_id))?;
@@ -115,7 +115,7 @@ pub fn render_pair(sim: &LensSimulator, frame: &Planar, row: &PairRow) -> Result
 }
 
 fn image_error(what: &str) -> impl Fn(unicac_image::ImageError) -> DatasetError + '_ {
-    move |e| DatasetError::Invalid(format!("pair {what}: {e}"))
+    move |e| DatasetError::image(format!("pair {what}"))(e)
 }
 
 /// The lens's PSF table from the simulator's radial PSFs (the PSFs that render its pairs), turned

@@ -35,7 +35,7 @@ impl LensSource {
     /// Reads and validates the lens (errors name the file).
     pub fn load(&self) -> Result<Lens> {
         let spec = load_spec(&self.location)?;
-        Lens::from_spec(&spec).map_err(|e| DatasetError::Invalid(format!("lens {}: {e}", self.location)))
+        Lens::from_spec(&spec).map_err(DatasetError::optics(format!("lens {}", self.location)))
     }
 }
 
@@ -45,7 +45,7 @@ fn load_spec(location: &str) -> Result<LensSpec> {
         .map(|loaded| loaded.spec)
         .map_err(|e| match builtin::is_builtin(location) {
             true => DatasetError::setting("lenses", format!("{location}: {e}")),
-            false => DatasetError::Invalid(format!("lens {location}: {e}")),
+            false => DatasetError::optics(format!("lens {location}"))(e),
         })
 }
 
@@ -438,11 +438,11 @@ impl Scene {
         match &self.kind {
             SceneKind::DeadLeaves { seed, width, height } => {
                 unicac_image::charts::dead_leaves(*width, *height, *seed)
-                    .map_err(|e| DatasetError::Invalid(format!("{}: {e}", self.source)))
+                    .map_err(DatasetError::image(&self.source))
             }
             SceneKind::File { path, .. } => {
                 let loaded = unicac_image::io::read_image(path)
-                    .map_err(|e| DatasetError::Invalid(format!("image {}: {e}", path.display())))?;
+                    .map_err(DatasetError::image(format!("image {}", path.display())))?;
                 if loaded.image.width == 0 || loaded.image.height == 0 {
                     return Err(DatasetError::Invalid(format!(
                         "image {}: the image is empty",
