@@ -375,7 +375,7 @@ fn glasses(lens: &LensSpec) -> String {
 fn layout_plot(spec: &LensSpec, path: &Path) -> Result<()> {
     let lens = unicac_optics::Lens::from_spec(spec)?;
     let semi = unicac_trace::apertures::clear_semi_diameters(&lens, unicac_trace::Aiming::Paraxial)?;
-    let bundles = unicac_plot::layout_bundles(&lens, 7)?;
+    let bundles = unicac_trace::meridional::layout_bundles(&lens, 7)?;
     unicac_plot::layout(&lens, &bundles, &semi, path)?;
     Ok(())
 }

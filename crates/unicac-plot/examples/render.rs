@@ -20,7 +20,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let semi_diameters = clear_semi_diameters(&lens, Aiming::Paraxial)?;
     unicac_plot::layout(
         &lens,
-        &unicac_plot::layout_bundles(&lens, 11)?,
+        &unicac_trace::meridional::layout_bundles(&lens, 11)?,
         &semi_diameters,
         Path::new(&out("layout")),
     )?;

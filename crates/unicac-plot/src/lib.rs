@@ -6,7 +6,7 @@
 //! - [`layout`]: the lens in the y-z plane (z to the right, y up, equal scale on both axes): each surface's
 //!   profile z = z_vertex + sag(y^2) over its clear semi-diameter, glass elements shaded and closed by
 //!   flat edges, the aperture stop marked by blades, the image surface as a thick line, and traced rays in
-//!   one colour per field. [`layout_bundles`] traces the usual meridional fans for it.
+//!   one colour per field. `unicac_trace::meridional::layout_bundles` traces the usual meridional fans for it.
 //! - [`spot_diagram`]: one panel per field (rows) and wavelength (columns), each centred on its centroid
 //!   and all at one common scale so sizes compare; titles give field, wavelength and RMS radius.
 //! - [`ray_fan_plot`]: per field, the tangential (ey against py) and sagittal (ex against px) transverse
@@ -46,7 +46,7 @@ mod style;
 pub use bench::{level_lines, scatter_fits, LevelSeries, ScatterPanel};
 pub use fan::ray_fan_plot;
 pub use histogram::{level_histograms, LevelHistogram};
-pub use layout::{layout, layout_bundles, RayBundle, MAX_LAYOUT_RAYS};
+pub use layout::layout;
 pub use lines::{line_panels, Line, LineColour, LinePanel, MAX_PANELS};
 pub use mtf::{mtf_curves, Curve};
 pub use ode::ode_bars;

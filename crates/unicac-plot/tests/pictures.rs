@@ -6,8 +6,9 @@ mod common;
 
 use common::{check_both_formats, TempDir};
 use unicac_optics::{Lens, LensSpec};
-use unicac_plot::{layout, layout_bundles, ray_fan_plot, spot_diagram, PlotError};
+use unicac_plot::{layout, ray_fan_plot, spot_diagram, PlotError};
 use unicac_trace::apertures::clear_semi_diameters;
+use unicac_trace::meridional::layout_bundles;
 use unicac_trace::spot::ray_fan;
 use unicac_trace::{spots, Aiming, PupilSampling, Spot, SpotTracer};
 

@@ -5,6 +5,7 @@
 //! camera curves of their own), and `FieldPsfRequest`, the whole request of a face (mode, fields,
 //! wavelengths, pixel pitch, sizing, backend), validated when it is built, with its cache key.
 
+use crate::cache::PsfCache;
 use crate::error::{PsfError, PsfResult};
 use crate::geometric::{check_kernel_cap, FieldHits, FieldPsf, PsfSettings, PsfTracer};
 use crate::hit_tracer::RayBackend;
@@ -345,6 +346,62 @@ impl FieldPsfRequest {
                 })
             }
         }
+    }
+}
+
+/// How `FieldPsfRequest::run_cached` obtained its PSFs.
+#[derive(Debug, Clone)]
+pub enum Served {
+    /// From the cache: the stored PSFs (no trace ran, so there is no trace report).
+    Cached(Vec<FieldPsf>),
+    /// Traced now (and stored in the cache when one was given).
+    Traced(FieldPsfResponse),
+}
+
+/// What `FieldPsfRequest::run_cached` returns.
+#[derive(Debug, Clone)]
+pub struct CachedRun {
+    pub served: Served,
+    /// Why freshly traced PSFs could not be stored (the result itself is unaffected).
+    pub cache_warning: Option<String>,
+}
+
+impl FieldPsfRequest {
+    /// The cache key of this request's PSFs of `lens`: the lens's fingerprint and `key_bytes`.
+    pub fn cache_key(&self, lens: &Lens) -> PsfResult<String> {
+        let lens_sha256 = crate::cache::lens_fingerprint(lens);
+        Ok(PsfCache::key(&[
+            b"field",
+            lens_sha256.as_bytes(),
+            &self.key_bytes(lens)?,
+        ]))
+    }
+
+    /// `run` through `cache` when one is given: a hit serves the stored PSFs without tracing; a miss
+    /// traces and stores them (a store that fails costs the next run time, not this one its result:
+    /// `cache_warning`).
+    pub fn run_cached(&self, lens: &Lens, cache: Option<&PsfCache>) -> PsfResult<CachedRun> {
+        let key = cache.map(|_| self.cache_key(lens)).transpose()?;
+        if let (Some(cache), Some(key)) = (cache, &key) {
+            if let Some(psfs) = cache.load(key).filter(|p| p.len() == self.fields_deg.len()) {
+                return Ok(CachedRun {
+                    served: Served::Cached(psfs),
+                    cache_warning: None,
+                });
+            }
+        }
+        let traced = self.run(lens)?;
+        let cache_warning = match (cache, &key) {
+            (Some(cache), Some(key)) => cache
+                .store(key, &traced.psfs)
+                .err()
+                .map(|error| format!("PSF cache {}: {error}", cache.dir.display())),
+            _ => None,
+        };
+        Ok(CachedRun {
+            served: Served::Traced(traced),
+            cache_warning,
+        })
     }
 }
 

@@ -18,8 +18,8 @@ pub mod wave;
 pub use cache::{cache_root, lens_fingerprint, PsfCache};
 pub use error::{PsfError, PsfResult};
 pub use fields::{
-    weights_for, CommonSizePsfs, DarkFields, FieldPsfRequest, FieldPsfResponse, PsfMetadata, PsfMode,
-    PsfReport, TracedField, DEFAULT_PIXEL_UM, DEFAULT_WAVELENGTHS, MIN_WAVE_KERNEL_PX,
+    weights_for, CachedRun, CommonSizePsfs, DarkFields, FieldPsfRequest, FieldPsfResponse, PsfMetadata,
+    PsfMode, PsfReport, Served, TracedField, DEFAULT_PIXEL_UM, DEFAULT_WAVELENGTHS, MIN_WAVE_KERNEL_PX,
 };
 pub use geometric::{
     check_kernel_cap, check_pixel_um, ChiefReference, FieldHits, FieldPsf, PsfSettings, PsfTracer,

@@ -25,6 +25,7 @@ pub mod apertures;
 pub mod batch;
 pub mod error;
 pub mod lanes;
+pub mod meridional;
 pub mod params;
 pub mod pupil;
 pub mod ray;

@@ -6,7 +6,9 @@ use crate::lens_input::load_spec;
 use anyhow::Result;
 use unicac_image::Planar;
 use unicac_optics::Lens;
-use unicac_psf::{FieldPsf, FieldPsfRequest, FieldPsfResponse, PsfCache, PsfError, PsfMetadata, PsfMode};
+use unicac_psf::{
+    FieldPsf, FieldPsfRequest, FieldPsfResponse, PsfCache, PsfError, PsfMetadata, PsfMode, Served,
+};
 
 pub fn run(args: &PsfArgs) -> Result<()> {
     let request = check_request(args)?.with_backend(super::gpu::backend(&args.device));
@@ -18,30 +20,19 @@ pub fn run(args: &PsfArgs) -> Result<()> {
     let pixel_um = request.pixel_um_for(&lens).map_err(flag_error)?;
     let weights = request.weights();
     let lens_sha256 = unicac_psf::lens_fingerprint(&lens);
-    let key = PsfCache::key(&[
-        b"field",
-        lens_sha256.as_bytes(),
-        &request.key_bytes(&lens).map_err(flag_error)?,
-    ]);
     let cache = (!args.no_cache).then(PsfCache::default_location).flatten();
-    let cached = cache
-        .as_ref()
-        .and_then(|c| c.load(&key))
-        .and_then(|mut p| p.pop());
-    let from_cache = cached.is_some();
-    let psf = match cached {
-        Some(psf) => psf,
-        None => {
-            let traced = request.run(&lens);
-            super::gpu::print_notes(request.backend().take_notes());
-            let psf = one_psf(request.mode(), traced.map_err(flag_error)?)?;
-            if let Some(cache) = &cache {
-                if let Err(error) = cache.store(&key, std::slice::from_ref(&psf)) {
-                    eprintln!("warning: PSF cache {}: {error}", cache.dir.display());
-                }
-            }
-            psf
-        }
+    let run = request.run_cached(&lens, cache.as_ref());
+    super::gpu::print_notes(request.backend().take_notes());
+    let run = run.map_err(flag_error)?;
+    if let Some(warning) = &run.cache_warning {
+        eprintln!("warning: {warning}");
+    }
+    let (psf, from_cache) = match run.served {
+        Served::Cached(mut psfs) => (
+            psfs.pop().ok_or_else(|| anyhow::anyhow!("no PSF was cached"))?,
+            true,
+        ),
+        Served::Traced(traced) => (one_psf(request.mode(), traced)?, false),
     };
     let metadata = PsfMetadata::new(request.mode(), &psf, pixel_um, &weights);
     let size = metadata.kernel_px;
