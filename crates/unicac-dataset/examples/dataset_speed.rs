@@ -24,8 +24,10 @@ fn main() {
     let test_images = 8;
     let mut settings = BuildSettings::new(
         lenses.clone(),
-        "dead-leaves:2".into(),
-        format!("dead-leaves:{test_images}"),
+        "dead-leaves:2".parse().expect("a scene source"),
+        format!("dead-leaves:{test_images}")
+            .parse()
+            .expect("a scene source"),
     );
     settings.frame_px = Some([1280, 800]);
     settings.levels = 5;

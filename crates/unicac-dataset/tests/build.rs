@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
-use unicac_dataset::builder::{self, render, sources, BuildSettings, Shard, Silent};
+use unicac_dataset::builder::{self, render, sources, BuildSettings, SceneSource, Shard, Silent};
 use unicac_dataset::folder::Dataset;
 use unicac_dataset::manifest::PairRow;
 
@@ -20,7 +20,11 @@ const LENSES: [&str; 6] = [
 
 fn settings() -> BuildSettings {
     let lenses = LENSES.iter().map(|n| format!("builtin:{n}")).collect();
-    let mut s = BuildSettings::new(lenses, "dead-leaves:3:80x60".into(), "dead-leaves:2".into());
+    let mut s = BuildSettings::new(
+        lenses,
+        "dead-leaves:3:80x60".parse().unwrap(),
+        "dead-leaves:2".parse().unwrap(),
+    );
     s.frame_px = Some([64, 48]);
     s.levels = 4;
     s.test_lenses_per_level = 1;
@@ -359,7 +363,7 @@ fn bad_input_is_refused_by_name_and_leaves_nothing_half_written() {
     std::fs::create_dir_all(&images).unwrap();
     std::fs::write(images.join("broken.png"), b"\x89PNG\r\n\x1a\nnot really").unwrap();
     let mut s = settings();
-    s.images = images.to_string_lossy().into_owned();
+    s.images = SceneSource::Path(images.clone());
     let out = scratch("bad-image-out");
     let error = builder::build(&s, &out, Shard::ALL, &Silent)
         .unwrap_err()

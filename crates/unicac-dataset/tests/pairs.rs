@@ -22,7 +22,11 @@ fn settings(task: PairTask) -> BuildSettings {
         "builtin:double_gauss".into(),
         wide(),
     ];
-    let mut s = BuildSettings::new(lenses, "dead-leaves:2:128x96".into(), "dead-leaves:1".into());
+    let mut s = BuildSettings::new(
+        lenses,
+        "dead-leaves:2:128x96".parse().unwrap(),
+        "dead-leaves:1".parse().unwrap(),
+    );
     s.frame_px = Some([128, 96]);
     s.levels = 1;
     s.test_lenses_per_level = 1;

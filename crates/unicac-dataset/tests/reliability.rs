@@ -3,12 +3,16 @@
 //! work (no grading, no folder made). Each test failed (or panicked) before its fix.
 
 use std::path::{Path, PathBuf};
-use unicac_dataset::builder::{self, claim, BuildSettings, Shard, Silent};
+use unicac_dataset::builder::{self, claim, BuildSettings, SceneSource, Shard, Silent};
 use unicac_dataset::DatasetError;
 
 fn settings(lenses: &[&str]) -> BuildSettings {
     let lenses = lenses.iter().map(|l| l.to_string()).collect();
-    let mut s = BuildSettings::new(lenses, "dead-leaves:2:80x60".into(), "dead-leaves:1".into());
+    let mut s = BuildSettings::new(
+        lenses,
+        "dead-leaves:2:80x60".parse().unwrap(),
+        "dead-leaves:1".parse().unwrap(),
+    );
     s.frame_px = Some([64, 48]);
     s.levels = 1;
     s.test_lenses_per_level = 1;
@@ -142,12 +146,12 @@ fn every_count_and_size_has_a_limit_checked_before_any_work() {
         ),
         (
             "images",
-            Box::new(|s| s.images = "dead-leaves:1:32768x32768".into()),
+            Box::new(|s| s.images = "dead-leaves:1:32768x32768".parse().unwrap()),
             "MAX_CHART_PIXELS",
         ),
         (
             "test_images",
-            Box::new(|s| s.test_images = "dead-leaves:0".into()),
+            Box::new(|s| s.test_images = "dead-leaves:0".parse().unwrap()),
             "dead-leaves:N",
         ),
         (
@@ -245,7 +249,7 @@ fn an_output_inside_an_input_folder_is_refused() {
     let chart = unicac_image::charts::dead_leaves(80, 60, 1).unwrap();
     unicac_image::io::write_png(images.join("a.png"), &chart, unicac_image::io::SampleDepth::Eight).unwrap();
     let mut s = settings(&["builtin:double_gauss", "builtin:cooke_triplet"]);
-    s.images = images.to_string_lossy().into_owned();
+    s.images = SceneSource::Path(images.clone());
     let error = refused(&s, &images.join("ds")).to_string();
     assert!(error.contains("lies inside the input folder"), "{error}");
     let error = refused(&s, &images.join("sub").join("ds")).to_string();

@@ -4,7 +4,9 @@ use crate::args::{DatasetBuildArgs, DatasetInfoArgs, DatasetPlotArgs, PairTaskAr
 use crate::progress_display::ProgressDisplay;
 use anyhow::{Context, Result};
 use std::sync::Arc;
-use unicac_dataset::builder::{self, sources::parse_size, BuildSettings, PairTask, RenderDevice};
+use unicac_dataset::builder::{
+    self, sources::parse_size, BuildSettings, PairTask, RenderDevice, SceneSource,
+};
 use unicac_gpu::{DeviceChoice, DeviceSelection, Precision};
 use unicac_sim::ImageBackend;
 
@@ -30,7 +32,15 @@ fn render_device(choice: DeviceChoice) -> Result<(RenderDevice, ImageBackend)> {
 }
 
 pub fn build(args: &DatasetBuildArgs) -> Result<()> {
-    let mut settings = BuildSettings::new(args.lenses.clone(), args.images.clone(), args.test_images.clone());
+    let scenes = |flag: &str, text: &str| {
+        text.parse::<SceneSource>()
+            .map_err(|message| anyhow::anyhow!("{flag} {message}"))
+    };
+    let mut settings = BuildSettings::new(
+        args.lenses.clone(),
+        scenes("--images", &args.images)?,
+        scenes("--test-images", &args.test_images)?,
+    );
     settings.frame_px = args
         .frame
         .as_deref()

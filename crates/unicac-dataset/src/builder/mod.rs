@@ -33,6 +33,7 @@ use crate::seeds::{below, derive_seed};
 use grading::{BuildSensor, Grade, GradeCache};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+pub use sources::SceneSource;
 use sources::{LensSource, Scene};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -50,9 +51,9 @@ pub struct BuildSettings {
     /// Lens files, folders, `unicac design` libraries or `builtin:NAME`, as given.
     pub lenses: Vec<String>,
     /// Scenes of the training and validation pairs: a folder, a file or `dead-leaves:N[:WxH]`.
-    pub images: String,
+    pub images: SceneSource,
     /// Scenes of the test pairs (disjoint from `images`).
-    pub test_images: String,
+    pub test_images: SceneSource,
     /// Sensor frame (px); None: the first test scene's size.
     pub frame_px: Option<[usize; 2]>,
     /// Pixel pitch (um) for grading and rendering; None: the lens's largest field fills the frame's
@@ -135,7 +136,7 @@ pub const MIN_CROP_SIDE_PX: usize = 2 * unicac_metrics::ssim::SSIM_RADIUS + 1;
 
 impl BuildSettings {
     /// The defaults of `unicac dataset build` (the paper's 5 levels x 24 test lenses, 75 validation).
-    pub fn new(lenses: Vec<String>, images: String, test_images: String) -> BuildSettings {
+    pub fn new(lenses: Vec<String>, images: SceneSource, test_images: SceneSource) -> BuildSettings {
         BuildSettings {
             lenses,
             images,

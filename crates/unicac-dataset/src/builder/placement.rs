@@ -3,7 +3,7 @@
 //! input (the build would read its own output). Checked with unicac-io's `OutputPlan`, as bench
 //! checks its report folder, before any work.
 
-use super::sources::BUILTIN_PREFIX;
+use super::sources::{SceneSource, BUILTIN_PREFIX};
 use super::BuildSettings;
 use crate::error::{DatasetError, Result};
 use std::path::{Path, PathBuf};
@@ -13,16 +13,20 @@ use unicac_io::{OutputError, OutputPlan};
 fn input_paths(settings: &BuildSettings) -> Vec<PathBuf> {
     let scenes = [&settings.images, &settings.test_images]
         .into_iter()
-        .filter(|argument| !argument.starts_with("dead-leaves:"));
+        .filter_map(|source| match source {
+            SceneSource::Path(path) => Some(path.clone()),
+            SceneSource::DeadLeaves { .. } => None,
+        });
     let lenses = settings
         .lenses
         .iter()
-        .filter(|argument| !argument.starts_with(BUILTIN_PREFIX));
+        .filter(|argument| !argument.starts_with(BUILTIN_PREFIX))
+        .map(PathBuf::from);
     let datasets = [&settings.psf_basis_from, &settings.unseen_by]
         .into_iter()
         .flatten()
         .cloned();
-    scenes.chain(lenses).map(PathBuf::from).chain(datasets).collect()
+    scenes.chain(lenses).chain(datasets).collect()
 }
 
 /// Refuses an `out` inside an input folder, equal to an input, or holding an input.

@@ -255,32 +255,88 @@ pub const DEFAULT_CHART_PX: [usize; 2] = [1280, 800];
 /// Most charts one `dead-leaves:N` argument makes.
 pub const MAX_CHARTS: usize = 100_000;
 
-/// Scenes of an `images` / `test_images` argument (`field` names it in errors); `kind` (`train` or
+/// Where a build's scenes come from (`images`, `test_images`). Its text form, what the CLI takes and
+/// `dataset.json` records: `dead-leaves:N[:WxH]` or a path.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SceneSource {
+    /// `count` generated dead-leaves charts of `size_px` (None: the frame's size, else
+    /// `DEFAULT_CHART_PX`).
+    DeadLeaves {
+        count: usize,
+        size_px: Option<[usize; 2]>,
+    },
+    /// A PNG, TIFF or EXR file, or a folder of them (scanned recursively).
+    Path(PathBuf),
+}
+
+impl std::str::FromStr for SceneSource {
+    type Err = String;
+
+    /// `dead-leaves:N[:WxH]` (N a whole number, the size as `parse_size` reads it), else a path.
+    fn from_str(text: &str) -> std::result::Result<SceneSource, String> {
+        let Some(spec) = text.strip_prefix("dead-leaves:") else {
+            return Ok(SceneSource::Path(PathBuf::from(text)));
+        };
+        let mut parts = spec.splitn(2, ':');
+        let count = parts
+            .next()
+            .and_then(|n| n.parse().ok())
+            .ok_or_else(|| format!("{text}: expected dead-leaves:N[:WxH] with 1 <= N <= {MAX_CHARTS}"))?;
+        let size_px = parts
+            .next()
+            .map(parse_size)
+            .transpose()
+            .map_err(|message| format!("{text}: {message}"))?;
+        Ok(SceneSource::DeadLeaves { count, size_px })
+    }
+}
+
+impl std::fmt::Display for SceneSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SceneSource::DeadLeaves { count, size_px: None } => write!(f, "dead-leaves:{count}"),
+            SceneSource::DeadLeaves {
+                count,
+                size_px: Some([w, h]),
+            } => write!(f, "dead-leaves:{count}:{w}x{h}"),
+            SceneSource::Path(path) => write!(f, "{}", path.display()),
+        }
+    }
+}
+
+// Recorded in `dataset.json`'s settings in its text form (as the CLI was given it).
+impl serde::Serialize for SceneSource {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for SceneSource {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        let text = String::deserialize(deserializer)?;
+        text.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+/// Scenes of an `images` / `test_images` source (`field` names it in errors); `kind` (`train` or
 /// `test`) separates the chart seeds. Folders are scanned without entering `out`.
 pub fn scenes(
-    argument: &str,
+    source: &SceneSource,
     field: &str,
     kind: &str,
     seed: u64,
     frame_px: Option<[usize; 2]>,
     out: &Path,
 ) -> Result<Vec<Scene>> {
+    let argument = source.to_string();
     let invalid = |message: String| DatasetError::setting(field, format!("{argument}: {message}"));
-    if let Some(spec) = argument.strip_prefix("dead-leaves:") {
-        let mut parts = spec.splitn(2, ':');
-        let count: usize = parts
-            .next()
-            .and_then(|n| n.parse().ok())
-            .filter(|&n| (1..=MAX_CHARTS).contains(&n))
-            .ok_or_else(|| {
-                invalid(format!(
-                    "expected dead-leaves:N[:WxH] with 1 <= N <= {MAX_CHARTS}"
-                ))
-            })?;
-        let [width, height] = match parts.next() {
-            Some(size) => parse_size(size).map_err(invalid)?,
-            None => frame_px.unwrap_or(DEFAULT_CHART_PX),
-        };
+    if let SceneSource::DeadLeaves { count, size_px } = *source {
+        if !(1..=MAX_CHARTS).contains(&count) {
+            return Err(invalid(format!(
+                "expected dead-leaves:N[:WxH] with 1 <= N <= {MAX_CHARTS}"
+            )));
+        }
+        let [width, height] = size_px.or(frame_px).unwrap_or(DEFAULT_CHART_PX);
         // Checked here, before any lens is graded, not when the first chart is drawn.
         unicac_image::charts::check_chart_size(width, height).map_err(|e| invalid(e.to_string()))?;
         return Ok((0..count)
@@ -301,7 +357,7 @@ pub fn scenes(
             })
             .collect());
     }
-    let path = Path::new(argument);
+    let path = Path::new(&argument);
     let files = if path.is_dir() {
         files_with(path, &IMAGE_EXTENSIONS, out)?
     } else if path.exists() {
@@ -325,9 +381,9 @@ pub fn scenes(
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default();
             let source = if path.is_dir() {
-                display_path(argument, file, path)
+                display_path(&argument, file, path)
             } else {
-                recorded(argument)
+                recorded(&argument)
             };
             Ok(Scene {
                 image_id: format!("{}-{}", sanitise(&stem), &sha256[..8]),
