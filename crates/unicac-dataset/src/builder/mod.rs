@@ -320,15 +320,120 @@ fn other_dataset(field: &str, dir: &Path) -> Result<crate::folder::Dataset> {
     crate::folder::Dataset::open(dir).map_err(|e| DatasetError::setting(field, e.to_string()))
 }
 
-/// Builds (or resumes, or builds one shard of) the dataset in `out`.
+/// Builds (or resumes, or builds one shard of) the dataset in `out`: every check, the claim on `out`,
+/// the grades and the plan, this shard's PSF maps, then the files (manifests, pairs, PSF tables, edge
+/// patches) and, by the run that completes it, the PSF basis and `dataset.json`.
 pub fn build(
     settings: &BuildSettings,
     out: &Path,
     shard: Shard,
     progress: &dyn Progress,
 ) -> Result<BuildReport> {
-    // Every check comes before any work: settings, where the output lies, the folder's record, the
-    // inputs (lenses, scenes, frame, the library's size), and only then the claim and the grading.
+    let Inputs {
+        settings_json,
+        adopted_basis,
+        sources,
+        lenses,
+        frame_px,
+        train_scenes,
+        test_scenes,
+        sensor,
+        record,
+    } = check_inputs(settings, out)?;
+    let hold = claim::claim(out, &record)?;
+    let ode_settings = sensor.ode_settings();
+    let (planned, odes_from_cache) = grade(out, sources, lenses, &sensor, progress)?;
+    let ids: Vec<String> = planned.iter().map(|p| p.source.lens_id.clone()).collect();
+    let grades: Vec<Grade> = planned.iter().map(|p| p.grade.clone()).collect();
+    let assignment = stratify::assign(&ids, &grades, settings.level_counts())?;
+    let plan = make_plan(
+        settings,
+        &settings_json,
+        &planned,
+        &assignment,
+        &train_scenes,
+        &test_scenes,
+        frame_px,
+    )?;
+    let work = ShardWork::of(&plan, shard);
+    let cache_psf = Some(unicac_sim::PsfCache::new(grading::cache_dir(out).join("psf")));
+    let simulator = |p: &PlannedLens| {
+        render::simulator(
+            &p.lens,
+            frame_px,
+            p.grade.pixel_um,
+            settings.distortion,
+            settings.illumination,
+            cache_psf.clone(),
+            settings.image.clone(),
+        )
+        .map_err(DatasetError::simulation(format!("lens {}", p.source.source)))
+    };
+    // This shard's PSF maps, traced (into the cache) before anything is written.
+    progress.stage("tracing PSF maps", work.lenses.len());
+    for &i in &work.lenses {
+        simulator(&planned[i])?;
+        progress.advance(1);
+    }
+    // Writing starts here.
+    claim::confirm(out, &record)?;
+    hold.keep();
+    let temporaries_removed = remove_temporaries(out)?;
+    write_manifests(out, &plan)?;
+    let fov_path = out.join(fov_relative(frame_px));
+    if !fov_path.exists() {
+        let map = crate::fov_map(crate::FrameCrop::full(frame_px[0], frame_px[1]))?;
+        crate::npy::write_f32(&fov_path, &[2, map.height, map.width], &map.data)?;
+    }
+    let scenes: BTreeMap<&str, &Scene> = train_scenes
+        .iter()
+        .chain(&test_scenes)
+        .map(|s| (s.image_id.as_str(), s))
+        .collect();
+    let rendered = render_pairs(
+        settings, out, &plan, &planned, &work, &scenes, &simulator, progress,
+    )?;
+    let edge_patches_written =
+        write_edge_patches(out, &plan, &planned, &assignment, &work, &ode_settings, progress)?;
+    let complete = dataset_complete(out, &plan);
+    if complete {
+        finish(out, &plan, adopted_basis, progress)?;
+    }
+    Ok(BuildReport {
+        out: out.to_path_buf(),
+        complete,
+        shard: format!("{}/{}", shard.index, shard.count),
+        frame_px,
+        lenses: plan.manifest.counts.lenses.clone(),
+        pairs: plan.manifest.counts.pairs.clone(),
+        edges: plan.edges.len(),
+        pairs_rendered: rendered.pairs,
+        psf_tables_written: rendered.tables,
+        edge_patches_written,
+        odes_computed: planned.len() - odes_from_cache,
+        odes_from_cache,
+        temporaries_removed,
+    })
+}
+
+/// A build's inputs, each checked: nothing is claimed or written until all of them pass.
+struct Inputs {
+    settings_json: serde_json::Value,
+    /// The basis of `psf_basis_from`, adopted instead of fitting one.
+    adopted_basis: Option<crate::PsfBasis>,
+    sources: Vec<LensSource>,
+    lenses: Vec<Lens>,
+    frame_px: [usize; 2],
+    train_scenes: Vec<Scene>,
+    test_scenes: Vec<Scene>,
+    sensor: BuildSensor,
+    /// What `out` is claimed for: the settings and the scenes' hashes.
+    record: claim::BuildRecord,
+}
+
+/// Every check comes before any work: settings, where the output lies, the folder's record, the
+/// inputs (lenses, scenes, frame, the library's size, duplicate lenses).
+fn check_inputs(settings: &BuildSettings, out: &Path) -> Result<Inputs> {
     settings.check()?;
     placement::check_output_placement(settings, out)?;
     let adopted_basis =
@@ -355,7 +460,7 @@ pub fn build(
     }
     settings.level_counts().check(sources.len())?;
     let lenses: Vec<Lens> = sources.iter().map(|s| s.load()).collect::<Result<_>>()?;
-    let test_first = sources::scenes(
+    let test_scenes = sources::scenes(
         &settings.test_images,
         "test_images",
         "test",
@@ -366,18 +471,17 @@ pub fn build(
     let frame_px = match settings.frame_px {
         Some(frame) => frame,
         None => {
-            let first = test_first[0].load_linear()?;
+            let first = test_scenes[0].load_linear()?;
             let frame = [first.width, first.height];
             check_frame(frame).map_err(|e| {
                 DatasetError::Invalid(format!(
                     "the frame from the first test scene {}: {e}",
-                    test_first[0].source
+                    test_scenes[0].source
                 ))
             })?;
             frame
         }
     };
-    let test_scenes = test_first;
     let train_scenes = sources::scenes(
         &settings.images,
         "images",
@@ -397,8 +501,28 @@ pub fn build(
         settings: settings_json.clone(),
         scenes: Some(sources::scene_hashes(train_scenes.iter().chain(&test_scenes))),
     };
-    let hold = claim::claim(out, &record)?;
-    // Grades (cached).
+    Ok(Inputs {
+        settings_json,
+        adopted_basis,
+        sources,
+        lenses,
+        frame_px,
+        train_scenes,
+        test_scenes,
+        sensor,
+        record,
+    })
+}
+
+/// Every lens on the build's sensor with its grade (cached under `out`), and how many grades came from
+/// the cache.
+fn grade(
+    out: &Path,
+    sources: Vec<LensSource>,
+    lenses: Vec<Lens>,
+    sensor: &BuildSensor,
+    progress: &dyn Progress,
+) -> Result<(Vec<PlannedLens>, usize)> {
     let cache = GradeCache {
         dir: grading::cache_dir(out).join("ode"),
     };
@@ -413,8 +537,8 @@ pub fn build(
             result
         })
         .collect::<Result<_>>()?;
-    let odes_from_cache = graded.iter().filter(|(_, cached)| *cached).count();
-    let planned: Vec<PlannedLens> = sources
+    let from_cache = graded.iter().filter(|(_, cached)| *cached).count();
+    let planned = sources
         .into_iter()
         .zip(lenses)
         .zip(graded)
@@ -424,182 +548,166 @@ pub fn build(
             grade,
         })
         .collect();
-    let ids: Vec<String> = planned.iter().map(|p| p.source.lens_id.clone()).collect();
-    let grades: Vec<Grade> = planned.iter().map(|p| p.grade.clone()).collect();
-    let assignment = stratify::assign(&ids, &grades, settings.level_counts())?;
-    let plan = make_plan(
-        settings,
-        &settings_json,
-        &planned,
-        &assignment,
-        &train_scenes,
-        &test_scenes,
-        frame_px,
-    )?;
-    // This shard's work, checked before anything is written. The lenses in use (train, val, test) are
-    // the ones with a PSF table.
-    let used: Vec<usize> = (0..planned.len())
-        .filter(|&i| !plan.lenses[i].psf.is_empty())
-        .collect();
-    let cache_psf = Some(unicac_sim::PsfCache::new(grading::cache_dir(out).join("psf")));
-    let lens_index: BTreeMap<&str, usize> = ids.iter().enumerate().map(|(i, id)| (id.as_str(), i)).collect();
-    // A shard owns whole lenses (the k-th lens in use goes to shard k mod N): its pairs, PSF table and
-    // edge patches, so each lens's PSF map is traced by one shard only.
-    let my_lenses: Vec<usize> = used
-        .iter()
-        .enumerate()
-        .filter(|(k, _)| shard.owns(*k))
-        .map(|(_, &i)| i)
-        .collect();
-    let owned = |i: usize| my_lenses.binary_search(&i).is_ok();
-    let my_pairs: Vec<usize> = (0..plan.pairs.len())
-        .filter(|&p| owned(lens_index[plan.pairs[p].lens_id.as_str()]))
-        .collect();
-    progress.stage("tracing PSF maps", my_lenses.len());
-    for &i in &my_lenses {
-        let p = &planned[i];
-        render::simulator(
-            &p.lens,
-            frame_px,
-            p.grade.pixel_um,
-            settings.distortion,
-            settings.illumination,
-            cache_psf.clone(),
-            settings.image.clone(),
-        )
-        .map_err(DatasetError::simulation(format!("lens {}", p.source.source)))?;
-        progress.advance(1);
+    Ok((planned, from_cache))
+}
+
+/// A shard's share of the work: whole lenses (the k-th lens in use, train, val or test, goes to shard
+/// k mod N) with their pairs, PSF tables and edge patches, so each lens's PSF map is traced by one
+/// shard only.
+struct ShardWork {
+    /// Indices of the plan's lenses, ascending.
+    lenses: Vec<usize>,
+    /// Indices of the plan's pairs.
+    pairs: Vec<usize>,
+}
+
+impl ShardWork {
+    fn of(plan: &Plan, shard: Shard) -> ShardWork {
+        // The lenses in use are the ones with a PSF table.
+        let lenses: Vec<usize> = (0..plan.lenses.len())
+            .filter(|&i| !plan.lenses[i].psf.is_empty())
+            .enumerate()
+            .filter(|(k, _)| shard.owns(*k))
+            .map(|(_, i)| i)
+            .collect();
+        let index: BTreeMap<&str, usize> = (plan.lenses.iter().enumerate())
+            .map(|(i, row)| (row.lens_id.as_str(), i))
+            .collect();
+        let owns = |i: usize| lenses.binary_search(&i).is_ok();
+        let pairs = (0..plan.pairs.len())
+            .filter(|&p| owns(index[plan.pairs[p].lens_id.as_str()]))
+            .collect();
+        ShardWork { lenses, pairs }
     }
-    // Writing starts here.
-    claim::confirm(out, &record)?;
-    hold.keep();
-    let temporaries_removed = remove_temporaries(out)?;
-    write_manifests(out, &plan)?;
-    let fov_path = out.join(fov_relative(frame_px));
-    if !fov_path.exists() {
-        let map = crate::fov_map(crate::FrameCrop::full(frame_px[0], frame_px[1]))?;
-        crate::npy::write_f32(&fov_path, &[2, map.height, map.width], &map.data)?;
+
+    fn owns(&self, lens: usize) -> bool {
+        self.lenses.binary_search(&lens).is_ok()
     }
+}
+
+/// What `render_pairs` wrote.
+struct Rendered {
+    pairs: usize,
+    tables: usize,
+}
+
+/// The shard's pairs not yet complete, and the PSF tables of its lenses not yet written, a lens at a
+/// time (its pairs in parallel).
+#[allow(clippy::too_many_arguments)]
+fn render_pairs(
+    settings: &BuildSettings,
+    out: &Path,
+    plan: &Plan,
+    planned: &[PlannedLens],
+    work: &ShardWork,
+    scenes: &BTreeMap<&str, &Scene>,
+    simulator: &dyn Fn(&PlannedLens) -> Result<unicac_sim::LensSimulator>,
+    progress: &dyn Progress,
+) -> Result<Rendered> {
     let depth = if settings.bit_depth == 16 {
         SampleDepth::Sixteen
     } else {
         SampleDepth::Eight
     };
-    let all_scenes: BTreeMap<&str, &Scene> = train_scenes
-        .iter()
-        .chain(&test_scenes)
-        .map(|s| (s.image_id.as_str(), s))
+    let missing: Vec<&PairRow> = (work.pairs.iter())
+        .map(|&p| &plan.pairs[p])
+        .filter(|pair| !pair_complete(out, pair))
         .collect();
-    let mut report = BuildReport {
-        out: out.to_path_buf(),
-        complete: false,
-        shard: format!("{}/{}", shard.index, shard.count),
-        frame_px,
-        lenses: plan.manifest.counts.lenses.clone(),
-        pairs: plan.manifest.counts.pairs.clone(),
-        edges: plan.edges.len(),
-        pairs_rendered: 0,
-        psf_tables_written: 0,
-        edge_patches_written: 0,
-        odes_computed: planned.len() - odes_from_cache,
-        odes_from_cache,
-        temporaries_removed,
-    };
-    let missing_pairs: Vec<usize> = my_pairs
-        .iter()
-        .copied()
-        .filter(|&p| !pair_complete(out, &plan.pairs[p]))
-        .collect();
-    progress.stage("rendering pairs", missing_pairs.len());
+    progress.stage("rendering pairs", missing.len());
     let scene_cache = sources::SceneCache::new(sources::SCENE_CACHE_BYTES);
     // The scenes of the pairs still to render, each once, in the order the pairs need them.
     let mut seen = std::collections::HashSet::new();
-    let needed: Vec<&Scene> = missing_pairs
-        .iter()
-        .map(|&q| all_scenes[plan.pairs[q].image_id.as_str()])
+    let needed: Vec<&Scene> = (missing.iter())
+        .map(|pair| scenes[pair.image_id.as_str()])
         .filter(|scene| seen.insert(scene.image_id.as_str()))
         .collect();
     scene_cache.warm(&needed)?;
-    for &i in &my_lenses {
-        let p = &planned[i];
+    let mut rendered = Rendered { pairs: 0, tables: 0 };
+    for &i in &work.lenses {
         let row = &plan.lenses[i];
         let table_dir = out.join(&row.psf);
-        let pairs: Vec<&PairRow> = missing_pairs
-            .iter()
-            .map(|&q| &plan.pairs[q])
+        let pairs: Vec<&PairRow> = (missing.iter().copied())
             .filter(|r| r.lens_id == row.lens_id)
             .collect();
         let needs_table = !table_dir.join(crate::psf_table::TABLE_JSON).exists();
         if pairs.is_empty() && !needs_table {
             continue;
         }
-        let sim = render::simulator(
-            &p.lens,
-            frame_px,
-            p.grade.pixel_um,
-            settings.distortion,
-            settings.illumination,
-            cache_psf.clone(),
-            settings.image.clone(),
-        )
-        .map_err(DatasetError::simulation(format!("lens {}", p.source.source)))?;
+        let sim = simulator(&planned[i])?;
         if needs_table {
             render::psf_table(&row.lens_id, &sim).write(&table_dir)?;
-            report.psf_tables_written += 1;
+            rendered.tables += 1;
         }
         pairs.par_iter().try_for_each(|pair| -> Result<()> {
-            let scene = all_scenes[pair.image_id.as_str()];
-            let image = scene_cache.get(scene)?;
+            let image = scene_cache.get(scenes[pair.image_id.as_str()])?;
             let frame = sources::cut(&image, pair.scene_crop);
-            let rendered = render::render_pair(&sim, &frame, pair)?;
-            write_png(&out.join(&pair.gt), &rendered.gt, depth)?;
-            write_png(&out.join(&pair.lq), &rendered.lq, depth)?;
+            let pixels = render::render_pair(&sim, &frame, pair)?;
+            write_png(&out.join(&pair.gt), &pixels.gt, depth)?;
+            write_png(&out.join(&pair.lq), &pixels.lq, depth)?;
             // Last: its presence marks the pair complete.
-            manifest::write_json(&out.join(check_relative(pair)), &rendered.check)?;
+            manifest::write_json(&out.join(check_relative(pair)), &pixels.check)?;
             progress.advance(1);
             Ok(())
         })?;
-        report.pairs_rendered += pairs.len();
+        rendered.pairs += pairs.len();
     }
-    // Edge patches of this shard's test lenses.
-    let test_lenses: Vec<usize> = (0..planned.len())
-        .filter(|&i| assignment.split[i] == "test")
+    Ok(rendered)
+}
+
+/// The ODE edge patches of the shard's test lenses not yet written; returns how many files were
+/// written.
+fn write_edge_patches(
+    out: &Path,
+    plan: &Plan,
+    planned: &[PlannedLens],
+    assignment: &Assignment,
+    work: &ShardWork,
+    ode_settings: &unicac_ode::OdeSettings,
+    progress: &dyn Progress,
+) -> Result<usize> {
+    let lenses: Vec<usize> = (0..planned.len())
+        .filter(|&i| assignment.split[i] == "test" && work.owns(i))
         .collect();
-    let my_edge_lenses: Vec<usize> = test_lenses.into_iter().filter(|&i| owned(i)).collect();
-    progress.stage("edge patches", my_edge_lenses.len());
-    for &i in &my_edge_lenses {
-        let rows: Vec<&EdgeRow> = plan.edges.iter().filter(|e| e.lens_id == ids[i]).collect();
-        if rows
+    progress.stage("edge patches", lenses.len());
+    let mut written = 0;
+    for &i in &lenses {
+        let rows: Vec<&EdgeRow> = (plan.edges.iter())
+            .filter(|e| e.lens_id == planned[i].source.lens_id)
+            .collect();
+        if !rows
             .iter()
             .all(|e| out.join(&e.lq).exists() && out.join(&e.gt).exists())
         {
-            progress.advance(1);
-            continue;
+            written += write_edges(out, &planned[i], ode_settings, &rows)?;
         }
-        report.edge_patches_written += write_edges(out, &planned[i], &ode_settings, &rows)?;
         progress.advance(1);
     }
-    report.complete = dataset_complete(out, &plan);
-    if report.complete {
-        // The PSF basis needs every training lens's table, so the run that completes the dataset fits it
-        // (a pure function of the tables: every shard would write the same bytes).
-        let basis_dir = out.join(crate::psf_basis::BASIS_RELATIVE);
-        if !basis_dir.join(crate::psf_basis::BASIS_JSON).exists() {
-            match adopted_basis {
-                Some(basis) => basis.write(&basis_dir)?,
-                None => {
-                    progress.stage("fitting the PSF basis", 1);
-                    fit_psf_basis(out, &plan.lenses)?.write(&basis_dir)?;
-                    progress.advance(1);
-                }
+    Ok(written)
+}
+
+/// What the run that completes the dataset writes: the PSF basis (it needs every training lens's
+/// table; a pure function of them, so every shard would write the same bytes), `pairs.jsonl` with every
+/// pair's checks (the manifests written at the run's start lacked the pairs it rendered), and
+/// `dataset.json`.
+fn finish(
+    out: &Path,
+    plan: &Plan,
+    adopted_basis: Option<crate::PsfBasis>,
+    progress: &dyn Progress,
+) -> Result<()> {
+    let basis_dir = out.join(crate::psf_basis::BASIS_RELATIVE);
+    if !basis_dir.join(crate::psf_basis::BASIS_JSON).exists() {
+        match adopted_basis {
+            Some(basis) => basis.write(&basis_dir)?,
+            None => {
+                progress.stage("fitting the PSF basis", 1);
+                fit_psf_basis(out, &plan.lenses)?.write(&basis_dir)?;
+                progress.advance(1);
             }
         }
-        // pairs.jsonl with every pair's checks (the manifests this run wrote at its start lacked the
-        // pairs it rendered).
-        write_manifests(out, &plan)?;
-        manifest::write_json(&out.join(DATASET_JSON), &plan.manifest)?;
     }
-    Ok(report)
+    write_manifests(out, plan)?;
+    manifest::write_json(&out.join(DATASET_JSON), &plan.manifest)
 }
 
 /// The row plan: lens rows, pair rows (train, val, test; by lens id, then pair), edge rows, and
