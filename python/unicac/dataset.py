@@ -337,7 +337,8 @@ class DatasetFolder:
     def __init__(self, root: Union[str, "os.PathLike[str]"]) -> None:
         self.root = Path(root)
         if not self.root.is_dir():
-            raise DatasetFolderError(f"{self.root}: no such folder (expected a unicac dataset)")
+            what = "not a folder" if self.root.exists() else "no such folder"
+            raise DatasetFolderError(f"{self.root}: {what} (expected a unicac dataset folder)")
         # The one reader (Rust's, as `unicac bench` reads): dataset.json's format and version, every
         # row's fields and types, and the rows against dataset.json's counts.
         read = _rust(_native.read_dataset, self.root)
