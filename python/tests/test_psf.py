@@ -16,6 +16,8 @@ import unicac
          {"field_deg": 0.0, "wavelengths_um": [0.55], "pixel_um": 1.5}),
         (["--field-deg", "10", "--mode", "wave", "--pixel-um", "3"],
          {"field_deg": 10.0, "mode": "wave", "pixel_um": 3.0}),
+        # A field off the y axis (what a decentred or tilted lens needs).
+        (["--field-deg", "-4", "--field-x-deg", "9"], {"field_deg": -4.0, "field_x_deg": 9.0}),
     ],
 )
 def test_psf_equals_cli(cli, cooke, tmp_path, args, kwargs):

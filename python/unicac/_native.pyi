@@ -159,6 +159,7 @@ def psf(
     object_distance_mm: Optional[float] = None,
     max_kernel_px: Optional[int] = None,
     device: str = "cpu",
+    field_x_deg: float = 0.0,
 ) -> Psf: ...
 def psf_grid(
     lens: Lens,

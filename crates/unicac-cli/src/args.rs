@@ -285,8 +285,13 @@ pub struct PsfArgs {
     pub device: DeviceArgs,
     #[command(flatten)]
     pub lens: LensArg,
+    /// The field's y angle (deg).
     #[arg(long, allow_hyphen_values = true)]
     pub field_deg: f64,
+    /// The field's x angle (deg; geometric mode): a lens with decentred or tilted surfaces has a PSF of
+    /// its own at every (x, y), not the one at the same radius rotated.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub field_x_deg: f64,
     /// Wavelengths (um): one gives a monochromatic PSF; none gives R, G, B kernels over 400-700 nm.
     #[arg(long = "wavelength-um", allow_hyphen_values = true)]
     pub wavelengths_um: Vec<f64>,

@@ -227,6 +227,7 @@ pub fn field_psf(
     }
     Ok(FieldPsf {
         field_deg,
+        field_x_deg: 0.0,
         reference_mm: chief_mm,
         kernels,
         transmission,

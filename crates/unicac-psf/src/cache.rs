@@ -157,6 +157,7 @@ mod tests {
             .for_each(|(i, v)| *v = value + i as f32);
         FieldPsf {
             field_deg: 12.5,
+            field_x_deg: 0.0,
             reference_mm: [0.0, -1.25],
             kernels: vec![kernel.clone(), kernel],
             transmission: 0.75,

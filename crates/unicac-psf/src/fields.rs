@@ -14,7 +14,7 @@ use crate::wave::{WavePsfSettings, WavePsfTracer};
 use rayon::prelude::*;
 use serde::Serialize;
 use unicac_optics::Lens;
-use unicac_trace::{check_fields_deg, check_wavelengths_um, InvalidParameter};
+use unicac_trace::{check_field_deg, check_fields_deg, check_wavelengths_um, InvalidParameter};
 
 /// Pixel pitch (um) when neither the request nor the lens's sensor gives one.
 pub const DEFAULT_PIXEL_UM: f64 = 2.0;
@@ -79,7 +79,9 @@ pub struct CommonSizePsfs {
 /// rounds and rasterise once, at the size the largest spot of all of them asks for.
 #[derive(Debug, Clone)]
 pub struct TracedField {
+    /// The field's y and x angles (deg).
     pub field_deg: f64,
+    pub field_x_deg: f64,
     pub reference_mm: [f64; 2],
     pub hits: Vec<FieldHits>,
 }
@@ -92,16 +94,24 @@ impl TracedField {
 }
 
 impl PsfTracer {
-    /// Reference point and hits of every field (in parallel).
+    /// Reference point and hits of every field along y (in parallel).
     pub fn trace_fields(&self, fields_deg: &[f64]) -> PsfResult<Vec<TracedField>> {
+        let fields: Vec<[f64; 2]> = fields_deg.iter().map(|&y| [0.0, y]).collect();
+        self.trace_fields_at(&fields)
+    }
+
+    /// `trace_fields` of 2D fields ([x, y] angles, deg): what a lens that is not rotationally symmetric
+    /// needs.
+    pub fn trace_fields_at(&self, fields_deg: &[[f64; 2]]) -> PsfResult<Vec<TracedField>> {
         fields_deg
             .par_iter()
-            .map(|&field_deg| {
-                let reference_mm = self.reference_point_mm(field_deg)?;
+            .map(|&field| {
+                let reference_mm = self.reference_point_mm_at(field)?;
                 Ok(TracedField {
-                    field_deg,
+                    field_deg: field[1],
+                    field_x_deg: field[0],
                     reference_mm,
-                    hits: self.hits(field_deg, reference_mm)?,
+                    hits: self.hits_at(field, reference_mm)?,
                 })
             })
             .collect()
@@ -119,13 +129,17 @@ impl PsfTracer {
 
     /// `field` rasterised at `size` px (capped at `PsfSettings::max_kernel_px`).
     pub fn rasterise_field(&self, field: &TracedField, size: usize, monochromatic: bool) -> FieldPsf {
-        self.kernels_from_hits(
+        let psf = self.kernels_from_hits(
             field.field_deg,
             field.reference_mm,
             &field.hits,
             size,
             monochromatic,
-        )
+        );
+        FieldPsf {
+            field_x_deg: field.field_x_deg,
+            ..psf
+        }
     }
 
     /// R, G, B (or monochromatic) kernels of every field at one common size, from the largest spot.
@@ -136,6 +150,17 @@ impl PsfTracer {
         dark: DarkFields,
     ) -> PsfResult<CommonSizePsfs> {
         let traced = self.trace_fields(fields_deg)?;
+        self.rasterise_common_size(&traced, monochromatic, dark)
+    }
+
+    /// `common_size_psfs` of 2D fields ([x, y] angles, deg).
+    pub fn common_size_psfs_at(
+        &self,
+        fields_deg: &[[f64; 2]],
+        monochromatic: bool,
+        dark: DarkFields,
+    ) -> PsfResult<CommonSizePsfs> {
+        let traced = self.trace_fields_at(fields_deg)?;
         self.rasterise_common_size(&traced, monochromatic, dark)
     }
 
@@ -197,7 +222,9 @@ pub fn weights_for(wavelengths_um: &[f64]) -> SpectralWeights {
 #[derive(Debug, Clone)]
 pub struct FieldPsfRequest {
     mode: PsfMode,
+    /// y angles (deg), with the one x angle `field_x_deg` (0: fields along y).
     fields_deg: Vec<f64>,
+    field_x_deg: f64,
     wavelengths_um: Vec<f64>,
     pixel_um: Option<f64>,
     max_kernel_px: Option<usize>,
@@ -224,6 +251,7 @@ impl FieldPsfRequest {
         Ok(FieldPsfRequest {
             mode,
             fields_deg,
+            field_x_deg: 0.0,
             wavelengths_um,
             pixel_um: None,
             max_kernel_px: None,
@@ -247,6 +275,23 @@ impl FieldPsfRequest {
             max_kernel_px,
             ..self
         })
+    }
+
+    /// Fields off the y axis: every field at this x angle (deg; geometric mode), for lenses that are not
+    /// rotationally symmetric (decentred or tilted surfaces), whose PSF at one azimuth does not give the
+    /// others by rotation.
+    pub fn with_field_x_deg(self, field_x_deg: f64) -> PsfResult<FieldPsfRequest> {
+        check_field_deg(field_x_deg).map_err(|e| InvalidParameter::new("field_x_deg", e.message))?;
+        if field_x_deg != 0.0 && self.mode == PsfMode::Wave {
+            return Err(InvalidParameter::new(
+                "field_x_deg",
+                format!(
+                    "{field_x_deg}: the wave-optics PSF takes fields along y only; use the geometric mode"
+                ),
+            )
+            .into());
+        }
+        Ok(FieldPsfRequest { field_x_deg, ..self })
     }
 
     pub fn with_backend(self, backend: RayBackend) -> FieldPsfRequest {
@@ -290,7 +335,7 @@ impl FieldPsfRequest {
     /// canonical bytes of a cache key's part (see `cache::PsfCache::key`).
     pub fn key_bytes(&self, lens: &Lens) -> PsfResult<Vec<u8>> {
         let pixel_um = self.pixel_um_for(lens)?;
-        Ok(unicac_io::digest::canonical_json(&(
+        let along_y = (
             self.mode,
             &self.fields_deg,
             pixel_um,
@@ -298,7 +343,18 @@ impl FieldPsfRequest {
             self.monochromatic(),
             &self.backend,
             self.max_kernel_px,
-        )))
+        );
+        // Fields along y keep the keys they always had.
+        Ok(if self.field_x_deg == 0.0 {
+            unicac_io::digest::canonical_json(&along_y)
+        } else {
+            unicac_io::digest::canonical_json(&(along_y, self.field_x_deg))
+        })
+    }
+
+    /// The fields as [x, y] angles (deg).
+    fn fields_xy_deg(&self) -> Vec<[f64; 2]> {
+        self.fields_deg.iter().map(|&y| [self.field_x_deg, y]).collect()
     }
 
     /// Traces the PSFs: geometric ones sized to the largest spot (dark fields refused); wave ones sized
@@ -311,7 +367,7 @@ impl FieldPsfRequest {
         match self.mode {
             PsfMode::Geometric => {
                 let tracer = PsfTracer::new(lens, weights.clone(), self.geometric_settings(pixel_um))?;
-                let set = tracer.common_size_psfs(&self.fields_deg, mono, DarkFields::Refused)?;
+                let set = tracer.common_size_psfs_at(&self.fields_xy_deg(), mono, DarkFields::Refused)?;
                 Ok(FieldPsfResponse {
                     psfs: set.psfs,
                     weights,
@@ -411,6 +467,9 @@ impl FieldPsfRequest {
 pub struct PsfMetadata {
     pub mode: PsfMode,
     pub field_deg: f64,
+    /// The field's x angle (deg), when it has one (a lens that is not rotationally symmetric).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub field_x_deg: f64,
     pub pixel_um: f64,
     pub kernel_px: usize,
     pub wavelengths_um: Vec<f64>,
@@ -428,6 +487,7 @@ impl PsfMetadata {
         PsfMetadata {
             mode,
             field_deg: psf.field_deg,
+            field_x_deg: psf.field_x_deg,
             pixel_um,
             kernel_px: psf.kernels.first().map_or(0, |k| k.size),
             wavelengths_um: weights.wavelengths_um.clone(),
@@ -455,4 +515,8 @@ pub struct PsfReport {
     pub lens_sha256: String,
     pub from_cache: bool,
     pub out: String,
+}
+
+fn is_zero(value: &f64) -> bool {
+    *value == 0.0
 }

@@ -114,7 +114,12 @@ pub struct FieldHits {
 /// R, G, B (or one monochromatic) kernels of one field.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FieldPsf {
+    /// The field's y angle (deg).
     pub field_deg: f64,
+    /// Its x angle (deg): 0 for the fields along y that a rotationally symmetric lens needs (and then
+    /// left out of the JSON); a lens that is not symmetric has PSFs of their own at any (x, y).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub field_x_deg: f64,
     /// Primary-wavelength real chief ray on the image surface (the kernels' centre).
     pub reference_mm: [f64; 2],
     pub kernels: Vec<Kernel>,
@@ -123,6 +128,10 @@ pub struct FieldPsf {
     /// Energy outside the kernel, per channel, before normalisation (non-zero when the size was capped).
     pub energy_cut: Vec<f64>,
     pub rays_traced: usize,
+}
+
+fn is_zero(value: &f64) -> bool {
+    *value == 0.0
 }
 
 /// The primary-wavelength real chief ray (aimed at the stop centre, unclipped): the point every PSF of
@@ -211,6 +220,11 @@ impl PsfTracer {
         self.reference.point_mm(field_deg)
     }
 
+    /// `reference_point_mm` of a 2D field ([x, y] angles, deg).
+    pub fn reference_point_mm_at(&self, field_deg: [f64; 2]) -> PsfResult<[f64; 2]> {
+        self.reference.point_mm_at(field_deg)
+    }
+
     /// Hits of every wavelength for one field, relative to `reference_mm`.
     pub fn hits(&self, field_deg: f64, reference_mm: [f64; 2]) -> PsfResult<Vec<FieldHits>> {
         self.hits_at([0.0, field_deg], reference_mm)
@@ -283,11 +297,15 @@ impl PsfTracer {
 
     /// `field_psf` of a 2D field (x, y angles): what a lens that is not rotationally symmetric needs,
     /// where the PSF at one azimuth does not give the others by rotation. The result's `field_deg` is
-    /// the y angle.
+    /// the y angle, its `field_x_deg` the x angle.
     pub fn field_psf_at(&self, field_deg: [f64; 2], size: usize, monochromatic: bool) -> PsfResult<FieldPsf> {
         let reference_mm = self.reference.point_mm_at(field_deg)?;
         let hits = self.hits_at(field_deg, reference_mm)?;
-        Ok(self.kernels_from_hits(field_deg[1], reference_mm, &hits, size, monochromatic))
+        let psf = self.kernels_from_hits(field_deg[1], reference_mm, &hits, size, monochromatic);
+        Ok(FieldPsf {
+            field_x_deg: field_deg[0],
+            ..psf
+        })
     }
 
     pub fn kernels_from_hits(
@@ -318,6 +336,7 @@ impl PsfTracer {
             combine_channels(&kernel_refs, &arrived, &self.weights, channels);
         FieldPsf {
             field_deg,
+            field_x_deg: 0.0,
             reference_mm,
             kernels,
             transmission,

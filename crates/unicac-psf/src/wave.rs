@@ -379,6 +379,7 @@ impl WavePsfTracer {
             sampling,
             psf: FieldPsf {
                 field_deg,
+                field_x_deg: 0.0,
                 reference_mm,
                 kernels,
                 transmission,

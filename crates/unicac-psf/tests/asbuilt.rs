@@ -167,3 +167,49 @@ fn fingerprints_follow_every_number_of_the_model_and_stay_put() {
         unicac_psf::lens_fingerprint(&cooke)
     );
 }
+
+#[test]
+fn a_field_psf_request_reaches_fields_off_the_y_axis() {
+    use unicac_psf::{FieldPsfRequest, PsfMode};
+    let lens = decentred_cooke();
+    let wavelength = lens.primary_wavelength_um();
+    let request = |x: f64| {
+        FieldPsfRequest::new(PsfMode::Geometric, vec![10.0], vec![wavelength])
+            .and_then(|r| r.with_field_x_deg(x))
+            .unwrap()
+    };
+    let psf = |x: f64| request(x).run(&lens).unwrap().psfs.remove(0);
+    // The request at (x, y) is the tracer's PSF there: what `unicac psf --field-x-deg` writes.
+    let off_axis = psf(-6.0);
+    assert_eq!((off_axis.field_x_deg, off_axis.field_deg), (-6.0, 10.0));
+    let size = off_axis.kernels[0].size;
+    let settings = PsfSettings::new(request(-6.0).pixel_um_for(&lens).unwrap());
+    let direct = PsfTracer::new(&lens, SpectralWeights::monochromatic(wavelength), settings)
+        .unwrap()
+        .field_psf_at([-6.0, 10.0], size, true)
+        .unwrap();
+    assert_eq!(off_axis.kernels[0].data, direct.kernels[0].data);
+    assert_eq!(off_axis.reference_mm, direct.reference_mm);
+    // Mirror fields of a decentred lens differ; an x of 0 is the y-only request, key included.
+    let mirrored = psf(6.0);
+    let sum_x_mm = off_axis.reference_mm[0] + mirrored.reference_mm[0];
+    assert!(
+        sum_x_mm.abs() > 1e-3,
+        "chief rays at -6 and +6 deg mirror each other: {sum_x_mm}"
+    );
+    let along_y = FieldPsfRequest::new(PsfMode::Geometric, vec![10.0], vec![wavelength]).unwrap();
+    assert_eq!(
+        request(0.0).key_bytes(&lens).unwrap(),
+        along_y.key_bytes(&lens).unwrap()
+    );
+    assert_ne!(
+        request(-6.0).key_bytes(&lens).unwrap(),
+        along_y.key_bytes(&lens).unwrap()
+    );
+    // Refused by name: out of range, and in the wave mode (which traces fields along y only).
+    let error = |r: Result<FieldPsfRequest, unicac_psf::PsfError>| r.unwrap_err().to_string();
+    let base = || FieldPsfRequest::new(PsfMode::Geometric, vec![10.0], vec![wavelength]);
+    assert!(error(base().and_then(|r| r.with_field_x_deg(f64::NAN))).contains("field_x_deg"));
+    let wave = FieldPsfRequest::new(PsfMode::Wave, vec![10.0], vec![wavelength]);
+    assert!(error(wave.and_then(|r| r.with_field_x_deg(3.0))).contains("fields along y only"));
+}

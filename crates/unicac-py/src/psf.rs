@@ -90,9 +90,11 @@ impl PyPsf {
 /// R, G, B. `mode`: "geometric" (ray density) or "wave" (diffraction). `pixel_um`: default the lens's
 /// sensor pitch, else 2 um. `object_distance_mm` replaces the lens's object distance. `max_kernel_px`
 /// (geometric mode; odd, at most 4095): the kernel holds every ray up to this size instead of 99.5% of
-/// the energy within 127 px. GIL released.
+/// the energy within 127 px. `field_x_deg` (geometric mode): the field's x angle, for a lens with
+/// decentred or tilted surfaces, whose PSF at (x, y) is not the one at the same radius rotated. GIL
+/// released.
 #[pyfunction]
-#[pyo3(signature = (lens, field_deg, wavelengths_um=None, mode="geometric", pixel_um=None, object_distance_mm=None, max_kernel_px=None, device="cpu"))]
+#[pyo3(signature = (lens, field_deg, wavelengths_um=None, mode="geometric", pixel_um=None, object_distance_mm=None, max_kernel_px=None, device="cpu", field_x_deg=0.0))]
 #[allow(clippy::too_many_arguments)]
 pub fn psf(
     py: Python<'_>,
@@ -104,10 +106,12 @@ pub fn psf(
     object_distance_mm: Option<f64>,
     max_kernel_px: Option<usize>,
     device: &str,
+    field_x_deg: f64,
 ) -> PyResult<PyPsf> {
     let mode: PsfMode = mode.parse().or_raise()?;
     let request = FieldPsfRequest::new(mode, vec![field_deg], wavelengths_um.unwrap_or_default())
         .and_then(|r| r.with_kernel_cap(max_kernel_px))
+        .and_then(|r| r.with_field_x_deg(field_x_deg))
         .and_then(|r| r.with_pixel_um(pixel_um))
         .or_raise()?
         .with_backend(crate::device::backend(device)?);

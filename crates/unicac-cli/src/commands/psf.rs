@@ -78,6 +78,7 @@ pub(crate) fn flag_error(error: PsfError) -> anyhow::Error {
 fn check_request(args: &PsfArgs) -> Result<FieldPsfRequest> {
     let mode: PsfMode = args.mode.parse().map_err(flag_error)?;
     let request = FieldPsfRequest::new(mode, vec![args.field_deg], args.wavelengths_um.clone())
+        .and_then(|r| r.with_field_x_deg(args.field_x_deg))
         .and_then(|r| r.with_pixel_um(args.pixel_um))
         .and_then(|r| r.with_kernel_cap(args.max_kernel_px))
         .map_err(flag_error)?;
