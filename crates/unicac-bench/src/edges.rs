@@ -271,7 +271,7 @@ mod tests {
             gt: String::new(),
             size_px: 64,
             slant_deg: 5.0,
-            pixel_pitch_um: 2.0,
+            pixel_um: 2.0,
         }
     }
 

@@ -44,7 +44,8 @@ pub struct LensRow {
     pub us_level: Option<u32>,
     pub uc_level: Option<u32>,
     /// Pixel pitch the ODE was graded with and the pairs are rendered at.
-    pub pixel_pitch_um: f64,
+    #[serde(rename = "pixel_pitch_um")]
+    pub pixel_um: f64,
     /// The lens's PSF table folder (`psf/LENS_ID`); empty for unused lenses.
     pub psf: String,
 }
@@ -143,7 +144,8 @@ pub struct PairRow {
     pub scene_crop: [usize; 4],
     /// Where this pair sits in the frame: [x0, y0, w, h] (px); the whole frame for test pairs.
     pub crop: [usize; 4],
-    pub pixel_pitch_um: f64,
+    #[serde(rename = "pixel_pitch_um")]
+    pub pixel_um: f64,
     pub distortion: bool,
     pub illumination: bool,
     /// What the GT holds: `aligned` (the lens's geometry too) or `full` (the undistorted scene).
@@ -175,7 +177,8 @@ pub struct EdgeRow {
     pub gt: String,
     pub size_px: usize,
     pub slant_deg: f64,
-    pub pixel_pitch_um: f64,
+    #[serde(rename = "pixel_pitch_um")]
+    pub pixel_um: f64,
 }
 
 /// One level of a stratification.
@@ -328,7 +331,7 @@ pub fn lenses_csv(rows: &[LensRow]) -> Vec<u8> {
             level(r.level),
             level(r.us_level),
             level(r.uc_level),
-            r.pixel_pitch_um,
+            r.pixel_um,
             r.psf
         )
         .expect("in memory");
@@ -372,7 +375,7 @@ mod tests {
             gt: "edges/gt/a.png".into(),
             size_px: 64,
             slant_deg: 5.0,
-            pixel_pitch_um: 1.1,
+            pixel_um: 1.1,
         };
         let path = dir.join(EDGES_JSONL);
         write_jsonl(&path, &[row.clone(), row.clone()]).unwrap();

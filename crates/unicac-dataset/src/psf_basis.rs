@@ -602,7 +602,7 @@ mod tests {
                 field_radius_norm: radii.to_vec(),
                 field_deg: radii.iter().map(|r| r * 20.0).collect(),
                 kernel_px: k,
-                pixel_pitch_um: 2.0,
+                pixel_um: 2.0,
                 frame_px: [64, 48],
                 relative_illumination: vec![1.0; f],
                 distortion: vec![1.0; f],

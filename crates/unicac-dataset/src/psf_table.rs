@@ -30,7 +30,8 @@ pub struct PsfTableMeta {
     pub field_deg: Vec<f64>,
     /// Side of the square kernels (px, odd); the kernel centre is the chief ray's image point.
     pub kernel_px: usize,
-    pub pixel_pitch_um: f64,
+    #[serde(rename = "pixel_pitch_um")]
+    pub pixel_um: f64,
     /// The sensor frame the table was made for [W, H] (px).
     pub frame_px: [usize; 2],
     /// Relative illumination at each field (1 = the brightest field).
@@ -326,7 +327,7 @@ mod tests {
                 field_radius_norm: radii.to_vec(),
                 field_deg: radii.iter().map(|r| r * 20.0).collect(),
                 kernel_px: K,
-                pixel_pitch_um: 2.0,
+                pixel_um: 2.0,
                 frame_px: [64, 48],
                 relative_illumination: vec![1.0; f],
                 distortion: vec![1.0; f],

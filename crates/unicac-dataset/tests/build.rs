@@ -216,7 +216,7 @@ fn regenerate(dataset: &Dataset, pair: &PairRow) -> (Vec<u8>, Vec<u8>) {
     let sim = render::simulator(
         &lens,
         pair.frame_px,
-        pair.pixel_pitch_um,
+        pair.pixel_um,
         pair.distortion,
         pair.illumination,
         None,

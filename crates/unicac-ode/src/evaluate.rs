@@ -190,7 +190,7 @@ impl EvaluationSetup {
         let (half_diagonal_mm, pixel_um) = match lens.sensor {
             Some(sensor) => (
                 sensor.half_diagonal_mm().min(chief.max_height_mm()),
-                sensor.pixel_pitch_um,
+                sensor.pixel_um,
             ),
             None => {
                 let [w, h] = settings.default_frame_px;

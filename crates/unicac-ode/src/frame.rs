@@ -51,7 +51,7 @@ impl FrameSensor {
         lens.sensor = self.pixel_um.map(|p| SensorSpec {
             width_mm: self.frame_px[0] as f64 * p * 1e-3,
             height_mm: self.frame_px[1] as f64 * p * 1e-3,
-            pixel_pitch_um: p,
+            pixel_um: p,
         });
         lens
     }
@@ -80,7 +80,7 @@ mod tests {
         .apply(&lens);
         let sensor = pitched.sensor.unwrap();
         assert!((sensor.width_mm - 3.2).abs() < 1e-12 && (sensor.height_mm - 2.4).abs() < 1e-12);
-        assert_eq!(sensor.pixel_pitch_um, 5.0);
+        assert_eq!(sensor.pixel_um, 5.0);
         let fitted = FrameSensor {
             frame_px: [640, 480],
             pixel_um: None,

@@ -117,7 +117,7 @@ fn ode_falls_monotonically_as_defocus_grows() {
     spec.sensor = Some(unicac_optics::spec::SensorSpec {
         width_mm: 28.0,
         height_mm: 20.0,
-        pixel_pitch_um: 20.0,
+        pixel_um: 20.0,
     });
     let image_gap = spec.surfaces.len() - 2;
     let nominal = spec.surfaces[image_gap].thickness_mm;

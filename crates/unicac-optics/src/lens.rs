@@ -117,7 +117,7 @@ impl Lens {
             None => closest_to_d_line(&spec.wavelengths),
         };
         if let Some(sensor) = &spec.sensor {
-            if [sensor.width_mm, sensor.height_mm, sensor.pixel_pitch_um]
+            if [sensor.width_mm, sensor.height_mm, sensor.pixel_um]
                 .iter()
                 .any(|v| !(v.is_finite() && *v > 0.0))
             {

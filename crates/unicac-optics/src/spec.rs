@@ -176,7 +176,8 @@ impl MaterialSpec {
 pub struct SensorSpec {
     pub width_mm: f64,
     pub height_mm: f64,
-    pub pixel_pitch_um: f64,
+    #[serde(rename = "pixel_pitch_um")]
+    pub pixel_um: f64,
 }
 
 impl SensorSpec {

@@ -319,7 +319,7 @@ impl FieldPsfRequest {
     pub fn pixel_um_for(&self, lens: &Lens) -> PsfResult<f64> {
         Ok(crate::geometric::check_pixel_um(
             self.pixel_um
-                .or(lens.sensor.map(|s| s.pixel_pitch_um))
+                .or(lens.sensor.map(|s| s.pixel_um))
                 .unwrap_or(DEFAULT_PIXEL_UM),
         )?)
     }

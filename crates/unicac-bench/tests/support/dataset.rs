@@ -92,7 +92,7 @@ pub fn write(dir: &Path, test_split: bool) {
                 field_radius_norm: radii.clone(),
                 field_deg: vec![0.0, 10.0, 20.0],
                 kernel_px: K,
-                pixel_pitch_um: 2.0,
+                pixel_um: 2.0,
                 frame_px: FRAME,
                 relative_illumination: vec![1.0; 3],
                 distortion: vec![1.0; 3],
@@ -124,7 +124,7 @@ pub fn write(dir: &Path, test_split: bool) {
             level: test_split.then_some(level),
             us_level: test_split.then_some(3 - i as u32),
             uc_level: test_split.then_some(level),
-            pixel_pitch_um: 2.0,
+            pixel_um: 2.0,
             psf: psf_rel.clone(),
         });
         for j in 0..2 {
@@ -151,7 +151,7 @@ pub fn write(dir: &Path, test_split: bool) {
                 frame_px: FRAME,
                 scene_crop: [0, 0, FRAME[0], FRAME[1]],
                 crop: [0, 0, FRAME[0], FRAME[1]],
-                pixel_pitch_um: 2.0,
+                pixel_um: 2.0,
                 distortion: false,
                 illumination: false,
                 task: unicac_dataset::manifest::PairTask::Aligned,
@@ -204,7 +204,7 @@ pub fn write(dir: &Path, test_split: bool) {
                 gt: gt_rel,
                 size_px: EDGE_PX,
                 slant_deg: 5.0,
-                pixel_pitch_um: 2.0,
+                pixel_um: 2.0,
             });
         }
     }

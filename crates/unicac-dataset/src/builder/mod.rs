@@ -736,7 +736,7 @@ fn make_plan(
                 level: assignment.level[i],
                 us_level: assignment.us_level[i],
                 uc_level: assignment.uc_level[i],
-                pixel_pitch_um: g.pixel_um,
+                pixel_um: g.pixel_um,
                 psf: if split == "unused" {
                     String::new()
                 } else {
@@ -777,7 +777,7 @@ fn make_plan(
             frame_px,
             scene_crop,
             crop,
-            pixel_pitch_um: lens.pixel_pitch_um,
+            pixel_um: lens.pixel_um,
             distortion: settings.distortion,
             illumination: settings.illumination,
             task: settings.task,
@@ -846,7 +846,7 @@ fn make_plan(
                         direction: direction.into(),
                         size_px,
                         slant_deg: ode_settings.slant_deg,
-                        pixel_pitch_um: p.grade.pixel_um,
+                        pixel_um: p.grade.pixel_um,
                     });
                 }
             }

@@ -146,7 +146,7 @@ pub fn psf_table(lens_id: &str, sim: &LensSimulator) -> PsfTable {
             field_radius_norm: radii.iter().map(|r| r / half_diagonal_mm).collect(),
             field_deg: radial.psfs.iter().map(|p| p.field_deg).collect(),
             kernel_px: k,
-            pixel_pitch_um: sim.grid.pitch_um,
+            pixel_um: sim.grid.pitch_um,
             frame_px: [sim.grid.width_px, sim.grid.height_px],
             relative_illumination: radii
                 .iter()
