@@ -306,8 +306,6 @@ def _rust(call: Any, *args: Any) -> Any:
     """A call into the dataset reader, its ``DatasetError`` raised as :class:`DatasetFolderError`."""
     try:
         return call(*args)
-    except DatasetFolderError:
-        raise
     except _native.DatasetError as error:
         raise DatasetFolderError(str(error)) from None
 

@@ -1,8 +1,8 @@
 //! How the CLI shows progress (`unicac_io::progress::Progress`, the protocol of dataset builds, benches
 //! and tolerance runs, also driven by the faces' own loops: `ode` over lenses, `simulate` over images,
-//! `design` over its designs): a bar per stage on a terminal; without one (a log file, a
-//! script), a plain line at most every `LOG_EVERY` and when a stage of some seconds ends, so a long run in a log still
-//! shows that it moves and how far it is. Notes go above any bar.
+//! `design` over its designs): a bar per stage on a terminal; without one (a log file, a script), a
+//! plain line at most every `LOG_EVERY` and when a stage of some seconds ends, so a long run in a log
+//! still shows that it moves and how far it is. Notes go above any bar.
 
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -126,10 +126,7 @@ impl Progress for ProgressDisplay {
     }
 
     fn note(&self, message: &str) {
-        match self.lock().as_ref().and_then(|s| s.bar.as_ref()) {
-            Some(bar) => bar.suspend(|| eprintln!("{message}")),
-            None => eprintln!("{message}"),
-        }
+        self.suspend(|| eprintln!("{message}"));
     }
 }
 

@@ -6,7 +6,8 @@
 //! - [`layout`]: the lens in the y-z plane (z to the right, y up, equal scale on both axes): each surface's
 //!   profile z = z_vertex + sag(y^2) over its clear semi-diameter, glass elements shaded and closed by
 //!   flat edges, the aperture stop marked by blades, the image surface as a thick line, and traced rays in
-//!   one colour per field. `unicac_trace::meridional::layout_bundles` traces the usual meridional fans for it.
+//!   one colour per field. `unicac_trace::meridional::layout_bundles` traces the usual meridional fans
+//!   for it.
 //! - [`spot_diagram`]: one panel per field (rows) and wavelength (columns), each centred on its centroid
 //!   and all at one common scale so sizes compare; titles give field, wavelength and RMS radius.
 //! - [`ray_fan_plot`]: per field, the tangential (ey against py) and sagittal (ex against px) transverse
@@ -76,8 +77,6 @@ pub enum PlotError {
     InvalidInput(String),
     #[error(transparent)]
     Optics(#[from] unicac_optics::OpticsError),
-    #[error(transparent)]
-    Trace(#[from] unicac_trace::TraceError),
 }
 
 impl<E: std::error::Error + Send + Sync> From<plotters::drawing::DrawingAreaErrorKind<E>> for PlotError {

@@ -573,11 +573,14 @@ impl ShardWork {
         let index: BTreeMap<&str, usize> = (plan.lenses.iter().enumerate())
             .map(|(i, row)| (row.lens_id.as_str(), i))
             .collect();
-        let owns = |i: usize| lenses.binary_search(&i).is_ok();
-        let pairs = (0..plan.pairs.len())
-            .filter(|&p| owns(index[plan.pairs[p].lens_id.as_str()]))
+        let mut work = ShardWork {
+            lenses,
+            pairs: Vec::new(),
+        };
+        work.pairs = (0..plan.pairs.len())
+            .filter(|&p| work.owns(index[plan.pairs[p].lens_id.as_str()]))
             .collect();
-        ShardWork { lenses, pairs }
+        work
     }
 
     fn owns(&self, lens: usize) -> bool {

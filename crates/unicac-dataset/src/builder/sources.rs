@@ -255,6 +255,11 @@ pub const DEFAULT_CHART_PX: [usize; 2] = [1280, 800];
 /// Most charts one `dead-leaves:N` argument makes.
 pub const MAX_CHARTS: usize = 100_000;
 
+/// What a `dead-leaves:N` source must look like.
+fn chart_count_expected() -> String {
+    format!("expected dead-leaves:N[:WxH] with 1 <= N <= {MAX_CHARTS}")
+}
+
 /// Where a build's scenes come from (`images`, `test_images`). Its text form, what the CLI takes and
 /// `dataset.json` records: `dead-leaves:N[:WxH]` or a path.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -281,7 +286,7 @@ impl std::str::FromStr for SceneSource {
         let count = parts
             .next()
             .and_then(|n| n.parse().ok())
-            .ok_or_else(|| format!("{text}: expected dead-leaves:N[:WxH] with 1 <= N <= {MAX_CHARTS}"))?;
+            .ok_or_else(|| format!("{text}: {}", chart_count_expected()))?;
         let size_px = parts
             .next()
             .map(parse_size)
@@ -330,34 +335,34 @@ pub fn scenes(
 ) -> Result<Vec<Scene>> {
     let argument = source.to_string();
     let invalid = |message: String| DatasetError::setting(field, format!("{argument}: {message}"));
-    if let SceneSource::DeadLeaves { count, size_px } = *source {
-        if !(1..=MAX_CHARTS).contains(&count) {
-            return Err(invalid(format!(
-                "expected dead-leaves:N[:WxH] with 1 <= N <= {MAX_CHARTS}"
-            )));
+    let path = match *source {
+        SceneSource::Path(ref path) => path.as_path(),
+        SceneSource::DeadLeaves { count, size_px } => {
+            if !(1..=MAX_CHARTS).contains(&count) {
+                return Err(invalid(chart_count_expected()));
+            }
+            let [width, height] = size_px.or(frame_px).unwrap_or(DEFAULT_CHART_PX);
+            // Checked here, before any lens is graded, not when the first chart is drawn.
+            unicac_image::charts::check_chart_size(width, height).map_err(|e| invalid(e.to_string()))?;
+            return Ok((0..count)
+                .map(|i| {
+                    let chart_seed = derive_seed(
+                        seed,
+                        &[b"dead-leaves", kind.as_bytes(), &(i as u64).to_le_bytes()],
+                    );
+                    Scene {
+                        image_id: format!("dead-leaves-{kind}-{i:04}"),
+                        source: format!("dead-leaves:{chart_seed}:{width}x{height}"),
+                        kind: SceneKind::DeadLeaves {
+                            seed: chart_seed,
+                            width,
+                            height,
+                        },
+                    }
+                })
+                .collect());
         }
-        let [width, height] = size_px.or(frame_px).unwrap_or(DEFAULT_CHART_PX);
-        // Checked here, before any lens is graded, not when the first chart is drawn.
-        unicac_image::charts::check_chart_size(width, height).map_err(|e| invalid(e.to_string()))?;
-        return Ok((0..count)
-            .map(|i| {
-                let chart_seed = derive_seed(
-                    seed,
-                    &[b"dead-leaves", kind.as_bytes(), &(i as u64).to_le_bytes()],
-                );
-                Scene {
-                    image_id: format!("dead-leaves-{kind}-{i:04}"),
-                    source: format!("dead-leaves:{chart_seed}:{width}x{height}"),
-                    kind: SceneKind::DeadLeaves {
-                        seed: chart_seed,
-                        width,
-                        height,
-                    },
-                }
-            })
-            .collect());
-    }
-    let path = Path::new(&argument);
+    };
     let files = if path.is_dir() {
         files_with(path, &IMAGE_EXTENSIONS, out)?
     } else if path.exists() {
