@@ -125,3 +125,22 @@ def test_simulator_image_pass_on_the_gpu_matches_the_cpu():
         np.testing.assert_array_equal(gpu, cpu)
     else:
         assert np.abs(gpu - cpu).max() <= 2e-6
+
+
+
+def test_a_decentred_unit_simulates_over_the_whole_image_plane(cli, repo, chart_png, tmp_path):
+    # A built unit (decentred and tilted surfaces): PSFs over the image plane, not one radius turned.
+    unit = str(repo / "tests/reference/asbuilt/lenses/cooke_mixed.json")
+    out = tmp_path / "out"
+    cli("simulate", unit, str(chart_png), "--out", str(out), "--seed", "2", "--device", "cpu")
+    sim = unicac.Simulator(unicac.load_lens(unit), 160, 120, device="cpu")
+    got = sim.simulate(unicac.read_image(chart_png), seed=2)
+    np.testing.assert_array_equal(got, unicac.read_image(out / "leaves.png"))
+    # Left and right of the axis the kernels are not mirror images of each other, as they are for the
+    # design (the asymmetry a build adds).
+    left, right = sim.psf_at(30.0, 59.5), sim.psf_at(129.0, 59.5)
+    assert np.abs(left - right[:, :, ::-1]).sum() > 1e-3
+    design = unicac.Simulator(unicac.load_lens("builtin:cooke_triplet"), 160, 120, device="cpu")
+    assert design.pixel_um == pytest.approx(sim.pixel_um)  # the unit renders on its design's sensor
+    field = sim.field_map()
+    assert field.shape == (120, 160, 3) and field[0, 0, 2] > field[60, 80, 2]

@@ -55,7 +55,43 @@ fn an_as_built_lens_is_traced_and_reported_as_not_symmetric() {
 }
 
 #[test]
-fn simulation_and_the_ode_refuse_an_as_built_lens_naming_the_surface() {
+fn simulate_takes_an_as_built_lens_over_the_whole_image_plane() {
+    let lens = repo(AS_BUILT);
+    let chart = scratch("chart.png");
+    let out = unicac(&[
+        "chart",
+        "dead-leaves",
+        "--size",
+        "96x72",
+        "--out",
+        chart.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (folder, plot) = (scratch("simulated"), scratch("psf-map.png"));
+    let out = unicac(&[
+        "simulate",
+        &lens,
+        chart.to_str().unwrap(),
+        "--out",
+        folder.to_str().unwrap(),
+        "--psf-plot",
+        plot.to_str().unwrap(),
+        "--device",
+        "cpu",
+        "--no-isp",
+        "--no-noise",
+    ]);
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{message}");
+    assert!(
+        message.contains("decentred or tilted: PSFs traced at 221 fields"),
+        "{message}"
+    );
+    assert!(folder.join("chart.png").exists() && plot.exists());
+}
+
+#[test]
+fn the_ode_refuses_an_as_built_lens_naming_the_surface() {
     let lens = repo(AS_BUILT);
     let out = unicac(&["ode", &lens]);
     assert_eq!(out.status.code(), Some(1));

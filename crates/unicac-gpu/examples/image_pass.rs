@@ -99,7 +99,7 @@ fn main() {
     println!(
         "lens {name}, {width}x{height} ({:.1} MP): kernel {} px, node spacing {} px",
         (width * height) as f64 / 1e6,
-        sim.radial.kernel_size,
+        sim.kernel_size(),
         sim.node_spacing_px()
     );
     println!("CPU path: {cpu_s:.3} s, {cpu_again_s:.3} s");

@@ -15,6 +15,9 @@ use unicac_image::isp::{Pipeline, SensorNoise};
 use unicac_image::Planar;
 use unicac_sim::{crop, LensSimulator, PixelWindow, SimulationSettings};
 
+/// The simulator's colour channels (R, G, B), one kernel each.
+const CHANNELS: usize = 3;
+
 use unicac_image::isp::DEFAULT_BIT_DEPTH;
 
 // The `#[pyo3(signature)]` defaults below are the literal 10 so that Python's `inspect.signature` (and
@@ -60,9 +63,8 @@ impl PySimulator {
 
     /// Kernels of every channel at sensor point (x, y) mm, as (C, K, K) samples.
     fn kernels_at(&self, x_mm: f64, y_mm: f64) -> Vec<f32> {
-        let radial = &self.sim.radial;
-        (0..radial.channels())
-            .flat_map(|c| radial.kernel_at(x_mm, y_mm, c).data)
+        (0..CHANNELS)
+            .flat_map(|c| self.sim.kernel_at(x_mm, y_mm, c).data)
             .collect()
     }
 }
@@ -118,7 +120,7 @@ impl PySimulator {
     /// Side of the PSF kernels (pixels, odd).
     #[getter]
     fn kernel_px(&self) -> usize {
-        self.sim.radial.kernel_size
+        self.sim.kernel_size()
     }
     /// Distance from the image centre to a corner on the sensor (mm).
     #[getter]
@@ -254,9 +256,9 @@ impl PySimulator {
             return Err(PyValueError::new_err("x_px, y_px: must be finite"));
         }
         let [x, y] = self.sim.grid.to_mm(x_px, y_px);
-        let k = self.sim.radial.kernel_size;
+        let k = self.sim.kernel_size();
         let kernels = crate::pool::detach(py, || self.kernels_at(x, y));
-        f32_array(py, kernels, &[self.sim.radial.channels(), k, k])
+        f32_array(py, kernels, &[CHANNELS, k, k])
     }
 
     /// PSFs at the centres of a `nodes_y` x `nodes_x` grid of equal cells over the image: a dict with
@@ -283,11 +285,11 @@ impl PySimulator {
                 })
                 .collect()
         });
-        let k = self.sim.radial.kernel_size;
+        let k = self.sim.kernel_size();
         let out = PyDict::new(py);
         out.set_item(
             "kernels",
-            f32_array(py, data, &[nodes_y, nodes_x, self.sim.radial.channels(), k, k])?,
+            f32_array(py, data, &[nodes_y, nodes_x, CHANNELS, k, k])?,
         )?;
         out.set_item("x_px", f64_array(py, xs.clone(), &[nodes_x])?)?;
         out.set_item("y_px", f64_array(py, ys.clone(), &[nodes_y])?)?;
@@ -305,7 +307,7 @@ impl PySimulator {
             (0..h * w)
                 .flat_map(|i| {
                     let [x, y] = self.sim.grid.to_mm((i % w) as f64, (i / w) as f64);
-                    let field = self.sim.chief.angle_for_height(x.hypot(y));
+                    let field = self.sim.field_angle_deg_at(x, y);
                     [x as f32, y as f32, field as f32]
                 })
                 .collect()
@@ -319,7 +321,7 @@ impl PySimulator {
             self.sim.grid.width_px,
             self.sim.grid.height_px,
             self.sim.grid.pitch_um,
-            self.sim.radial.kernel_size
+            self.sim.kernel_size()
         )
     }
 }

@@ -5,7 +5,8 @@
 //! difference of the on-axis and corner G kernels (kernels of different sizes are compared centred).
 //!
 //! Run: cargo run --release -p unicac-sim --example sweep [LENS] [WIDTHxHEIGHT] [KNOB] (default
-//! phone_asphere 640x480, every knob; KNOB: a part of a knob's name)
+//! phone_asphere 640x480, every knob; LENS: a built-in name or a lens file, e.g. a decentred unit for
+//! the planar knob; KNOB: a part of a knob's name)
 
 use std::time::Instant;
 use unicac_image::charts::dead_leaves;
@@ -77,6 +78,12 @@ fn knobs() -> Vec<Knob> {
         numeric("node intervals (longer side)", &[80, 5, 10, 20, 40], |s, v| {
             s.node_intervals = v
         }),
+        // Only lenses that are not rotationally symmetric (a decentred unit) read this knob.
+        numeric(
+            "planar PSF intervals (longer side)",
+            &[40, 4, 8, 12, 16, 24],
+            |s, v| s.planar_psf_intervals = v,
+        ),
         Knob {
             name: "kernel energy fraction",
             values: [0.99999, 0.95, 0.98, 0.99, 0.995, 0.999]
@@ -156,7 +163,11 @@ fn main() {
         .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
         .expect("size as WIDTHxHEIGHT");
     let only = args.next().unwrap_or_default();
-    let lens = builtin::lens(&name).unwrap();
+    let lens = if name.ends_with(".json") || name.ends_with(".zmx") {
+        unicac_optics::load_lens(std::path::Path::new(&name)).unwrap().0
+    } else {
+        builtin::lens(&name).unwrap()
+    };
     let chart = dead_leaves(width, height, 7).unwrap();
     let run = |s: &SimulationSettings| {
         let start = Instant::now();
@@ -168,19 +179,14 @@ fn main() {
         let corner = reference.grid.half_diagonal_mm() * 0.99;
         [(0.0, 0.0), (0.0, corner)]
             .iter()
-            .map(|&(x, y)| {
-                kernel_l1(
-                    &sim.radial.kernel_at(x, y, 1),
-                    &reference.radial.kernel_at(x, y, 1),
-                )
-            })
+            .map(|&(x, y)| kernel_l1(&sim.kernel_at(x, y, 1), &reference.kernel_at(x, y, 1)))
             .sum::<f64>()
     };
     println!(
         "lens {name}, image {width}x{height}, {} threads; each knob against its own high-fidelity value, the others at their defaults",
         rayon::current_num_threads()
     );
-    println!("| knob | value | kernel px | radial PSFs | seconds | PSNR vs reference (dB) | G kernel L1, axis + corner |");
+    println!("| knob | value | kernel px | traced PSFs | seconds | PSNR vs reference (dB) | G kernel L1, axis + corner |");
     println!("|---|---|---|---|---|---|---|");
     for knob in knobs().into_iter().filter(|k| k.name.contains(&only)) {
         let (reference_label, reference_settings) = &knob.values[0];
@@ -188,16 +194,16 @@ fn main() {
         println!(
             "| {} | {reference_label} (reference) | {} | {} | {reference_s:.2} | - | - |",
             knob.name,
-            reference_sim.radial.kernel_size,
-            reference_sim.radial.radii_mm.len()
+            reference_sim.kernel_size(),
+            reference_sim.psfs().len()
         );
         for (label, settings) in &knob.values[1..] {
             let (seconds, out, sim) = run(settings);
             println!(
                 "| {} | {label} | {} | {} | {seconds:.2} | {:.1} | {:.4} |",
                 knob.name,
-                sim.radial.kernel_size,
-                sim.radial.radii_mm.len(),
+                sim.kernel_size(),
+                sim.psfs().len(),
                 psnr(&out, &reference),
                 kernels_l1(&sim, &reference_sim)
             );

@@ -35,9 +35,9 @@ fn main() {
         "lens {name}, {width}x{height} ({:.1} MP), {threads} threads: pixel {:.3} um, kernel {} px (spots ask {} px; worst energy cut {:.2}%), node spacing {} px",
         (width * height) as f64 / 1e6,
         simulator.grid.pitch_um,
-        simulator.radial.kernel_size,
-        simulator.radial.requested_kernel_size,
-        100.0 * simulator.radial.psfs.iter().flat_map(|p| &p.energy_cut).fold(0.0f64, |m, v| m.max(*v)),
+        simulator.kernel_size(),
+        simulator.radial().unwrap().requested_kernel_size,
+        100.0 * simulator.radial().unwrap().psfs.iter().flat_map(|p| &p.energy_cut).fold(0.0f64, |m, v| m.max(*v)),
         simulator.node_spacing_px()
     );
     println!(

@@ -4,7 +4,9 @@
 //! position on the sensor grid). The simulator blurs it with the PSF of the field imaged there
 //! (spatially varying, `convolve`), then optionally warps it to the real chief-ray positions
 //! (distortion; outside the input it replicates the border) and scales by the relative illumination
-//! (chief-ray mapping and vignetting).
+//! (chief-ray mapping and vignetting). A rotationally symmetric lens reads all three off one field
+//! radius (`FieldOptics::Radial`); one that is not (a decentred or tilted unit) off maps over the
+//! image plane (`FieldOptics::Planar`, `planar`), whose warp and shading run on the CPU path.
 
 use crate::chief::ChiefRayMap;
 use crate::convolve::{
@@ -13,6 +15,7 @@ use crate::convolve::{
 use crate::device::{ImageBackend, ImagePass};
 use crate::error::SimResult;
 use crate::geometry::{PixelWindow, SensorGrid};
+use crate::planar::{PlanarField, DEFAULT_PLANAR_PSF_INTERVALS};
 use crate::psf_map::{RadialPsfs, RadialSampling, DEFAULT_RADIAL_SAMPLING};
 use crate::radial_table::RadialTable;
 use rayon::prelude::*;
@@ -21,7 +24,7 @@ use unicac_image::isp::Pipeline;
 use unicac_image::Planar;
 use unicac_io::digest::canonical_json;
 use unicac_optics::Lens;
-use unicac_psf::{lens_fingerprint, PsfCache};
+use unicac_psf::{lens_fingerprint, FieldPsf, Kernel, PsfCache};
 use unicac_psf::{visible_wavelengths_um, PsfSettings, PsfTracer, SpectralResponse, SpectralWeights};
 use unicac_trace::InvalidParameter;
 
@@ -33,6 +36,9 @@ pub struct SimulationSettings {
     pub wavelengths: usize,
     /// Where the radial PSF samples from the axis to the corner go (`psf_map::RadialSampling`).
     pub radial: RadialSampling,
+    /// For a lens that is not rotationally symmetric: PSF lattice intervals along the image's longer
+    /// side (`planar`; a field is traced at every lattice node).
+    pub planar_psf_intervals: usize,
     /// Kernel-node intervals along the image's longer side. Field-relative, so the interpolation error
     /// stays the same at every resolution (the PSF changes over a fraction of the field, not over a
     /// number of pixels); the spacing never drops below `MIN_NODE_SPACING_PX`.
@@ -71,6 +77,7 @@ impl Default for SimulationSettings {
             psf: PsfSettings::new(1.0),
             wavelengths: 31,
             radial: DEFAULT_RADIAL_SAMPLING,
+            planar_psf_intervals: DEFAULT_PLANAR_PSF_INTERVALS,
             node_intervals: 20,
             method: Method::Auto,
             kernel_tail: KERNEL_TAIL_TOLERANCE,
@@ -84,10 +91,28 @@ impl Default for SimulationSettings {
     }
 }
 
+/// Where the simulator reads the lens's PSFs, warp and shading.
+#[derive(Debug, Clone)]
+pub enum FieldOptics {
+    /// A rotationally symmetric lens: PSFs along one radius turned into place (`psf_map`), the warp's
+    /// scale and the shading as functions of the radius (`radial_table`).
+    Radial {
+        psfs: RadialPsfs,
+        /// ideal height / real height as a function of the real radius (pixels): the warp's scale.
+        warp_scale: RadialTable,
+        /// Relative illumination times vignetting, normalised by the peak transmission, over the radius.
+        shading: RadialTable,
+    },
+    /// A lens that is not (decentred or tilted surfaces): maps over the whole image plane (`planar`).
+    Planar(PlanarField),
+}
+
 pub struct LensSimulator {
     pub grid: SensorGrid,
+    /// The real chief ray over the field: of the lens, or of its centred twin (`Lens::nominal`) when
+    /// the lens is not rotationally symmetric (then only its ideal scale and largest field are used).
     pub chief: ChiefRayMap,
-    pub radial: RadialPsfs,
+    pub optics: FieldOptics,
     pub settings: SimulationSettings,
     /// SHA-256 of the lens model (provenance; see `psf_cache`).
     pub lens_sha256: String,
@@ -98,10 +123,6 @@ pub struct LensSimulator {
     kernels: Vec<KernelGrid>,
     /// The frame's tile layout per channel (made once: a simulator renders many images).
     layouts: Vec<TileLayout>,
-    /// ideal height / real height as a function of the real radius (pixels): the warp's scale.
-    warp_scale: RadialTable,
-    /// Relative illumination times vignetting, normalised by the peak transmission, over the radius.
-    shading: RadialTable,
 }
 
 impl LensSimulator {
@@ -130,7 +151,14 @@ impl LensSimulator {
             )
             .into());
         }
-        let chief = ChiefRayMap::new(lens)?;
+        let nominal;
+        let symmetric_lens = if lens.is_rotationally_symmetric() {
+            lens
+        } else {
+            nominal = lens.nominal();
+            &nominal
+        };
+        let chief = ChiefRayMap::new(symmetric_lens)?;
         let grid = match pixel_um {
             Some(p) => SensorGrid {
                 width_px: width,
@@ -143,65 +171,36 @@ impl LensSimulator {
         psf_settings.pixel_um = grid.pitch_um;
         let weights = SpectralWeights::new(&settings.response, &visible_wavelengths_um(settings.wavelengths));
         let tracer = PsfTracer::new(lens, weights, psf_settings.clone())?;
-        let corner = grid.half_diagonal_mm().min(chief.max_height_mm());
         let lens_sha256 = lens_fingerprint(lens);
-        // The cache key covers everything the radial PSFs depend on, the tracing device included (a GPU f32
-        // map is not served to a CPU run): the settings' backend is the one that traces.
-        let cache_entry = settings.cache.as_ref().map(|cache| {
-            let inputs = (
-                &psf_settings,
-                &psf_settings.backend,
-                tracer.weights(),
-                corner,
-                settings.radial,
-            );
-            let key = PsfCache::key(&[b"radial", lens_sha256.as_bytes(), &canonical_json(&inputs)]);
-            (cache, key)
-        });
-        let cached = cache_entry
-            .as_ref()
-            .and_then(|(cache, key)| cache.load(key))
-            .and_then(|psfs| RadialPsfs::from_psfs(corner, &chief, psfs));
-        let psfs_from_cache = cached.is_some();
-        let mut cache_warning = None;
-        let radial = match cached {
-            Some(radial) => radial,
-            None => {
-                let radial = RadialPsfs::trace(&tracer, &chief, corner, settings.radial, false)?;
-                if let Some((cache, key)) = &cache_entry {
-                    // A cache that cannot be written costs the next run time, not this run its result.
-                    if let Err(error) = cache.store(key, &radial.psfs) {
-                        cache_warning = Some(format!("PSF cache {}: {error}", cache.dir.display()));
-                    }
-                }
-                radial
-            }
+        let (optics, psfs_from_cache, cache_warning) = if lens.is_rotationally_symmetric() {
+            radial_optics(&tracer, &chief, &grid, &settings, &psf_settings, &lens_sha256)?
+        } else {
+            let planar = PlanarField::trace(lens, &tracer, &chief, grid, settings.planar_psf_intervals)?;
+            (FieldOptics::Planar(planar), false, None)
         };
-        if radial.kernel_size > grid.width_px.min(grid.height_px) {
+        let kernel_size = match &optics {
+            FieldOptics::Radial { psfs, .. } => psfs.kernel_size,
+            FieldOptics::Planar(planar) => planar.kernel_size,
+        };
+        if kernel_size > grid.width_px.min(grid.height_px) {
             return Err(InvalidParameter::new(
                 "image_px",
                 format!(
-                    "{width} x {height}: the PSF ({} px) is larger than the image; simulate a larger image",
-                    radial.kernel_size
+                    "{width} x {height}: the PSF ({kernel_size} px) is larger than the image; simulate a larger image"
                 ),
             )
             .into());
         }
-        let max_radius_px = 0.5 * (width as f64).hypot(height as f64);
-        let warp_scale = RadialTable::sample(max_radius_px, |r| exact_warp_scale(&chief, &grid, r));
-        let shading = RadialTable::sample(max_radius_px, |r| exact_shading(&chief, &radial, &grid, r));
         let mut simulator = LensSimulator {
             grid,
             chief,
-            radial,
+            optics,
             settings,
             lens_sha256,
             psfs_from_cache,
             cache_warning,
             kernels: Vec::new(),
             layouts: Vec::new(),
-            warp_scale,
-            shading,
         };
         let frame = simulator.frame();
         simulator.kernels = (0..3).map(|c| simulator.kernel_grid(c, frame)).collect();
@@ -212,13 +211,55 @@ impl LensSimulator {
         Ok(simulator)
     }
 
-    /// The warp's scale at `radius_px` (1 with the distortion off).
-    #[inline]
-    fn warp_scale_at(&self, radius_px: f64) -> f64 {
-        if self.settings.distortion {
-            self.warp_scale.at(radius_px)
-        } else {
-            1.0
+    /// The radially symmetric lens's PSFs (None for a planar one: see `optics`).
+    pub fn radial(&self) -> Option<&RadialPsfs> {
+        match &self.optics {
+            FieldOptics::Radial { psfs, .. } => Some(psfs),
+            FieldOptics::Planar(_) => None,
+        }
+    }
+
+    /// Every traced PSF (the radial samples or the planar lattice's fields), all of `kernel_size` px.
+    pub fn psfs(&self) -> &[FieldPsf] {
+        match &self.optics {
+            FieldOptics::Radial { psfs, .. } => &psfs.psfs,
+            FieldOptics::Planar(planar) => &planar.psfs,
+        }
+    }
+
+    /// Side of the PSF kernels (pixels, odd).
+    pub fn kernel_size(&self) -> usize {
+        match &self.optics {
+            FieldOptics::Radial { psfs, .. } => psfs.kernel_size,
+            FieldOptics::Planar(planar) => planar.kernel_size,
+        }
+    }
+
+    /// The PSF of `channel` that blurs the output image at sensor point (x, y) mm (the field landing
+    /// there).
+    pub fn kernel_at(&self, x_mm: f64, y_mm: f64, channel: usize) -> Kernel {
+        match &self.optics {
+            FieldOptics::Radial { psfs, .. } => psfs.kernel_at(x_mm, y_mm, channel),
+            FieldOptics::Planar(planar) => {
+                let real = self.grid.to_px([x_mm, y_mm]);
+                planar.kernel_at_ideal(planar.ideal_for(real, real), channel)
+            }
+        }
+    }
+
+    /// Angle from the axis (deg) of the field whose chief ray lands at sensor point (x, y) mm.
+    pub fn field_angle_deg_at(&self, x_mm: f64, y_mm: f64) -> f64 {
+        match &self.optics {
+            FieldOptics::Radial { .. } => self.chief.angle_for_height(x_mm.hypot(y_mm)),
+            FieldOptics::Planar(planar) => {
+                let real = self.grid.to_px([x_mm, y_mm]);
+                let [x, y] = planar.field_deg_at(&self.chief, planar.ideal_for(real, real));
+                x.to_radians()
+                    .tan()
+                    .hypot(y.to_radians().tan())
+                    .atan()
+                    .to_degrees()
+            }
         }
     }
 
@@ -250,9 +291,12 @@ impl LensSimulator {
         let kernels = ys
             .par_iter()
             .flat_map_iter(|&row| xs.iter().map(move |&column| (column, row)))
-            .map(|(column, row)| {
-                let [x, y] = self.real_position(self.grid.to_mm(x0 + column, y0 + row));
-                self.radial.kernel_at(x, y, channel)
+            .map(|(column, row)| match &self.optics {
+                FieldOptics::Radial { psfs, .. } => {
+                    let [x, y] = self.real_position(self.grid.to_mm(x0 + column, y0 + row));
+                    psfs.kernel_at(x, y, channel)
+                }
+                FieldOptics::Planar(planar) => planar.kernel_at_ideal([x0 + column, y0 + row], channel),
             })
             .collect();
         KernelGrid::new(nodes_x, nodes_y, kernels)
@@ -283,11 +327,15 @@ impl LensSimulator {
     /// settings' image device when it takes the pass).
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
         self.check_frame(image)?;
-        if let Some(out) = self.settings.image.apply(&self.frame_pass(image)) {
-            return Ok(out);
-        }
-        // The CPU path, without asking the device again for each half.
-        let blurred = self.blur_on_cpu(image);
+        let blurred = if self.geometry_on_device() {
+            if let Some(out) = self.settings.image.apply(&self.frame_pass(image)) {
+                return Ok(out);
+            }
+            // The CPU path, without asking the device again for each half.
+            self.blur_on_cpu(image)
+        } else {
+            self.blur(image)?
+        };
         if !self.moves_or_shades() {
             return Ok(blurred); // no copy of a frame that `geometry` would hand back unchanged
         }
@@ -337,8 +385,14 @@ impl LensSimulator {
         self.image_pass(image, frame, frame, grids, layouts)
     }
 
+    /// Whether a device may take the warp and the shading: they are radial tables for a symmetric
+    /// lens; a planar lens's stay on the CPU path (a device may still take its blur).
+    fn geometry_on_device(&self) -> bool {
+        matches!(self.optics, FieldOptics::Radial { .. })
+    }
+
     /// The optics of `region` (frame pixels `source`) for the output pixels `window`, as a device
-    /// takes them.
+    /// takes them (without the warp and the shading when they cannot go there: `geometry_on_device`).
     fn image_pass<'a>(
         &'a self,
         region: &'a Planar,
@@ -347,6 +401,15 @@ impl LensSimulator {
         grids: [&'a KernelGrid; 3],
         layouts: [&'a TileLayout; 3],
     ) -> ImagePass<'a> {
+        let (warp_scale, shading) = match &self.optics {
+            FieldOptics::Radial {
+                warp_scale, shading, ..
+            } => (
+                self.settings.distortion.then_some(warp_scale),
+                self.settings.illumination.then_some(shading),
+            ),
+            FieldOptics::Planar(_) => (None, None),
+        };
         ImagePass {
             image: region,
             blur: true,
@@ -356,8 +419,8 @@ impl LensSimulator {
             layouts,
             blend: self.settings.blend,
             centre_px: self.grid.centre_px(),
-            warp_scale: self.settings.distortion.then_some(&self.warp_scale),
-            shading: self.settings.illumination.then_some(&self.shading),
+            warp_scale,
+            shading,
         }
     }
 
@@ -369,12 +432,14 @@ impl LensSimulator {
         if !self.moves_or_shades() {
             return Ok(image.clone());
         }
-        let pass = ImagePass {
-            blur: false,
-            ..self.frame_pass(image)
-        };
-        if let Some(out) = self.settings.image.apply(&pass) {
-            return Ok(out);
+        if self.geometry_on_device() {
+            let pass = ImagePass {
+                blur: false,
+                ..self.frame_pass(image)
+            };
+            if let Some(out) = self.settings.image.apply(&pass) {
+                return Ok(out);
+            }
         }
         let frame = self.frame();
         Ok(self.warp_and_shade(image, frame, frame))
@@ -394,20 +459,52 @@ impl LensSimulator {
         Ok(pipeline.process(&self.apply(&raw)?, &draw)?)
     }
 
-    /// The ideal (undistorted) frame position that output pixel (column, row) shows: the warp samples
-    /// the blurred ideal image there.
-    fn ideal_source(&self, column: usize, row: usize) -> [f64; 2] {
-        // Pixel offsets from the centre scale like sensor millimetres (the same factor on both axes).
-        let [cx, cy] = self.grid.centre_px();
-        let (dx, dy) = (column as f64 - cx, row as f64 - cy);
-        let scale = self.warp_scale_at((dx * dx + dy * dy).sqrt());
-        [cx + dx * scale, cy + dy * scale]
+    /// The ideal (undistorted) frame position that output pixel `real` (frame pixels) shows, where the
+    /// warp samples the blurred ideal image, and the shading there (1 with the illumination off).
+    /// `guess`: an ideal position near the answer (the planar map's inversion starts there).
+    #[inline]
+    fn source_of(&self, real: [f64; 2], guess: [f64; 2]) -> ([f64; 2], f32) {
+        match &self.optics {
+            FieldOptics::Radial {
+                warp_scale, shading, ..
+            } => {
+                // Pixel offsets from the centre scale like sensor millimetres (the same factor on both
+                // axes).
+                let [cx, cy] = self.grid.centre_px();
+                let (dx, dy) = (real[0] - cx, real[1] - cy);
+                let radius = (dx * dx + dy * dy).sqrt();
+                let scale = if self.settings.distortion {
+                    warp_scale.at(radius)
+                } else {
+                    1.0
+                };
+                let shade = if self.settings.illumination {
+                    shading.at(radius) as f32
+                } else {
+                    1.0
+                };
+                ([cx + dx * scale, cy + dy * scale], shade)
+            }
+            FieldOptics::Planar(planar) => {
+                let ideal = if self.settings.distortion {
+                    planar.ideal_for(real, guess)
+                } else {
+                    real
+                };
+                let shade = if self.settings.illumination {
+                    planar.shading_at(ideal) as f32
+                } else {
+                    1.0
+                };
+                (ideal, shade)
+            }
+        }
     }
 
-    /// Distortion and shading of the output pixels of `window` in one pass over them (both depend on
-    /// the output pixel's radius only): output pixel at real position r samples `blurred` (which covers
-    /// `source` of the frame) at the ideal position of the field landing at r (bilinear; when the
-    /// distortion is off, at r itself, which copies the pixel), times the shading at r when it is on.
+    /// Distortion and shading of the output pixels of `window` in one pass over them: output pixel at
+    /// real position r samples `blurred` (which covers `source` of the frame) at the ideal position of
+    /// the field landing at r (bilinear; when the distortion is off, at r itself, which copies the
+    /// pixel), times the shading at r when it is on (`source_of`).
     fn warp_and_shade(&self, blurred: &Planar, source: PixelWindow, window: PixelWindow) -> Planar {
         assert_eq!(blurred.channels, 3, "an RGB image");
         let (w, h) = (blurred.width, blurred.height);
@@ -415,26 +512,18 @@ impl LensSimulator {
         let mut out = Planar::new(window.width, window.height, 3);
         let (red, rest) = out.data.split_at_mut(window.width * window.height);
         let (green, blue) = rest.split_at_mut(window.width * window.height);
-        let [cx, cy] = self.grid.centre_px();
-        let illumination = self.settings.illumination;
         red.par_chunks_mut(window.width)
             .zip(green.par_chunks_mut(window.width))
             .zip(blue.par_chunks_mut(window.width))
             .enumerate()
             .for_each(|(row, ((red, green), blue))| {
-                let dy = (window.y0 + row) as f64 - cy;
+                let y = (window.y0 + row) as f64;
+                let mut guess = [window.x0 as f64, y];
                 for column in 0..window.width {
-                    let dx = (window.x0 + column) as f64 - cx;
-                    let radius = (dx * dx + dy * dy).sqrt();
-                    let scale = self.warp_scale_at(radius);
-                    let shade = if illumination {
-                        self.shading.at(radius) as f32
-                    } else {
-                        1.0
-                    };
-                    let x = cx + dx * scale - source.x0 as f64;
-                    let y = cy + dy * scale - source.y0 as f64;
-                    let taps = BilinearTaps::new(w, h, x, y);
+                    let ([x, y], shade) = self.source_of([(window.x0 + column) as f64, y], guess);
+                    // The next pixel's source sits about one pixel further along.
+                    guess = [x + 1.0, y];
+                    let taps = BilinearTaps::new(w, h, x - source.x0 as f64, y - source.y0 as f64);
                     red[column] = taps.sample(planes[0]) * shade;
                     green[column] = taps.sample(planes[1]) * shade;
                     blue[column] = taps.sample(planes[2]) * shade;
@@ -452,13 +541,15 @@ impl LensSimulator {
         let border = (0..window.width)
             .flat_map(|c| [(c, 0), (c, window.height - 1)])
             .chain((0..window.height).flat_map(|r| [(0, r), (window.width - 1, r)]));
-        // The ideal-position map is a monotonic radial scaling (one-to-one and continuous), so the
-        // window's border bounds the sources of all its pixels.
+        // The ideal-position map is one-to-one and continuous (a monotonic radial scaling, or the
+        // inverse of a planar landing map that does not fold), so the window's border bounds the
+        // sources of all its pixels.
         for (column, row) in border {
-            let [x, y] = self.ideal_source(window.x0 + column, window.y0 + row);
+            let real = [(window.x0 + column) as f64, (window.y0 + row) as f64];
+            let ([x, y], _) = self.source_of(real, real);
             (lo_x, lo_y, hi_x, hi_y) = (lo_x.min(x), lo_y.min(y), hi_x.max(x), hi_y.max(y));
         }
-        let margin = (self.radial.kernel_size / 2 + 2) as f64;
+        let margin = (self.kernel_size() / 2 + 2) as f64;
         let (w, h) = (self.grid.width_px as f64, self.grid.height_px as f64);
         let x0 = (lo_x - margin).floor().clamp(0.0, w - 1.0) as usize;
         let y0 = (lo_y - margin).floor().clamp(0.0, h - 1.0) as usize;
@@ -509,8 +600,10 @@ impl LensSimulator {
             [&grids[0], &grids[1], &grids[2]],
             [&layouts[0], &layouts[1], &layouts[2]],
         );
-        if let Some(out) = self.settings.image.apply(&pass) {
-            return Ok(out);
+        if self.geometry_on_device() || !self.moves_or_shades() {
+            if let Some(out) = self.settings.image.apply(&pass) {
+                return Ok(out);
+            }
         }
         let mut blurred = Planar::new(source.width, source.height, 3);
         for c in 0..3 {
@@ -552,6 +645,60 @@ impl LensSimulator {
         }
         Ok(())
     }
+}
+
+/// The radial optics of a rotationally symmetric lens, from the cache when it holds them: the optics,
+/// whether they came from the cache, and why a fresh map could not be stored there.
+fn radial_optics(
+    tracer: &PsfTracer,
+    chief: &ChiefRayMap,
+    grid: &SensorGrid,
+    settings: &SimulationSettings,
+    psf_settings: &PsfSettings,
+    lens_sha256: &str,
+) -> SimResult<(FieldOptics, bool, Option<String>)> {
+    let corner = grid.half_diagonal_mm().min(chief.max_height_mm());
+    // The cache key covers everything the radial PSFs depend on, the tracing device included (a GPU f32
+    // map is not served to a CPU run): the settings' backend is the one that traces.
+    let cache_entry = settings.cache.as_ref().map(|cache| {
+        let inputs = (
+            psf_settings,
+            &psf_settings.backend,
+            tracer.weights(),
+            corner,
+            settings.radial,
+        );
+        let key = PsfCache::key(&[b"radial", lens_sha256.as_bytes(), &canonical_json(&inputs)]);
+        (cache, key)
+    });
+    let cached = cache_entry
+        .as_ref()
+        .and_then(|(cache, key)| cache.load(key))
+        .and_then(|psfs| RadialPsfs::from_psfs(corner, chief, psfs));
+    let psfs_from_cache = cached.is_some();
+    let mut cache_warning = None;
+    let psfs = match cached {
+        Some(radial) => radial,
+        None => {
+            let radial = RadialPsfs::trace(tracer, chief, corner, settings.radial, false)?;
+            if let Some((cache, key)) = &cache_entry {
+                // A cache that cannot be written costs the next run time, not this run its result.
+                if let Err(error) = cache.store(key, &radial.psfs) {
+                    cache_warning = Some(format!("PSF cache {}: {error}", cache.dir.display()));
+                }
+            }
+            radial
+        }
+    };
+    let max_radius_px = 0.5 * (grid.width_px as f64).hypot(grid.height_px as f64);
+    let warp_scale = RadialTable::sample(max_radius_px, |r| exact_warp_scale(chief, grid, r));
+    let shading = RadialTable::sample(max_radius_px, |r| exact_shading(chief, &psfs, grid, r));
+    let optics = FieldOptics::Radial {
+        psfs,
+        warp_scale,
+        shading,
+    };
+    Ok((optics, psfs_from_cache, cache_warning))
 }
 
 /// The warp's scale at `radius_px` from the frame centre, evaluated from the chief-ray map: the output
@@ -652,6 +799,14 @@ mod tests {
                     continue;
                 };
                 checked += 1;
+                let FieldOptics::Radial {
+                    psfs,
+                    warp_scale,
+                    shading,
+                } = &simulator.optics
+                else {
+                    panic!("{name} is rotationally symmetric");
+                };
                 let [cx, cy] = simulator.grid.centre_px();
                 let (mut warp_error, mut shading_error) = (0.0f64, 0.0f64);
                 // Every pixel of one quadrant (the quantities depend on the radius only) plus a fine
@@ -664,9 +819,9 @@ mod tests {
                 let sweep = (0..20_000).map(|i| i as f64 / 20_000.0 * cx.hypot(cy));
                 for radius in quadrant.chain(sweep) {
                     let exact = exact_warp_scale(&simulator.chief, &simulator.grid, radius);
-                    warp_error = warp_error.max(radius * (simulator.warp_scale.at(radius) - exact).abs());
-                    let exact = exact_shading(&simulator.chief, &simulator.radial, &simulator.grid, radius);
-                    shading_error = shading_error.max((simulator.shading.at(radius) - exact).abs());
+                    warp_error = warp_error.max(radius * (warp_scale.at(radius) - exact).abs());
+                    let exact = exact_shading(&simulator.chief, psfs, &simulator.grid, radius);
+                    shading_error = shading_error.max((shading.at(radius) - exact).abs());
                 }
                 println!("{name} {width}x{height}: warp {warp_error:.2e} px, shading {shading_error:.2e}");
                 assert!(

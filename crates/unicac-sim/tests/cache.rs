@@ -40,7 +40,13 @@ fn a_second_run_loads_the_map_and_another_device_traces_again() {
     let second = build(&settings);
     assert!(!first.psfs_from_cache && first.cache_warning.is_none());
     assert!(second.psfs_from_cache);
-    for (a, b) in first.radial.psfs.iter().zip(&second.radial.psfs) {
+    for (a, b) in first
+        .radial()
+        .unwrap()
+        .psfs
+        .iter()
+        .zip(&second.radial().unwrap().psfs)
+    {
         assert_eq!(a.kernels, b.kernels);
     }
     settings.psf.backend = RayBackend::new(Arc::new(OtherDevice));

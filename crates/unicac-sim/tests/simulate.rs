@@ -53,7 +53,7 @@ fn a_smooth_ramp_shows_no_seam_at_tile_borders() {
         .apply(&Planar::from_fn(w, h, 3, |_, x, _| x as f32 / w as f32))
         .unwrap();
     // Second differences along rows, away from the image border (replicated edges bend the ramp).
-    let margin = sim.radial.kernel_size;
+    let margin = sim.kernel_size();
     let row = h / 2;
     let plane = out.plane(1);
     let second: Vec<f32> = (margin..w - margin)
@@ -76,7 +76,7 @@ fn rotating_a_kernel_moves_plus_y_to_plus_x() {
 fn off_axis_psfs_on_the_y_axis_are_mirror_symmetric() {
     let lens = builtin::lens("cooke_triplet").unwrap();
     let sim = LensSimulator::new(&lens, 96, 64, None, quick_settings()).unwrap();
-    let k = sim.radial.kernel_at(0.0, 10.0, 1);
+    let k = sim.radial().unwrap().kernel_at(0.0, 10.0, 1);
     for row in 0..k.size {
         for column in 0..k.half() {
             let (a, b) = (k.at(column, row), k.at(k.size - 1 - column, row));
@@ -178,7 +178,8 @@ fn midpoint_half_l1s(
     tracer: &unicac_psf::PsfTracer,
     channels: std::ops::Range<usize>,
 ) -> Vec<f64> {
-    sim.radial
+    sim.radial()
+        .unwrap()
         .radii_mm
         .windows(2)
         .map(|pair| {
@@ -186,10 +187,15 @@ fn midpoint_half_l1s(
             let angle = sim.chief.angle_for_height(middle);
             let reference = tracer.reference_point_mm(angle).unwrap();
             let hits = tracer.hits(angle, reference).unwrap();
-            let traced = tracer.kernels_from_hits(angle, reference, &hits, sim.radial.kernel_size, false);
+            let traced = tracer.kernels_from_hits(angle, reference, &hits, sim.kernel_size(), false);
             channels
                 .clone()
-                .map(|c| half_l1(&sim.radial.kernel_at(0.0, middle, c), &traced.kernels[c]))
+                .map(|c| {
+                    half_l1(
+                        &sim.radial().unwrap().kernel_at(0.0, middle, c),
+                        &traced.kernels[c],
+                    )
+                })
                 .fold(0.0, f64::max)
         })
         .collect()
@@ -211,9 +217,9 @@ fn refinement_places_samples_where_the_psf_changes_fast_within_its_checked_bound
     };
     let lens = builtin::lens("cooke_triplet").unwrap();
     let (sim, tracer) = tracer_for(&lens, &settings);
-    let radii = &sim.radial.radii_mm;
+    let radii = &sim.radial().unwrap().radii_mm;
     assert!(radii.len() < 33 && radii.len() > 9, "{} samples", radii.len());
-    let checked = sim.radial.checked_half_l1.expect("a tolerance checks");
+    let checked = sim.radial().unwrap().checked_half_l1.expect("a tolerance checks");
     assert!(checked <= tolerance, "checked {checked}");
     let widths: Vec<f64> = radii.windows(2).map(|pair| pair[1] - pair[0]).collect();
     assert!(widths[widths.len() - 1] < widths[0] / 2.0, "widths {widths:?}");
@@ -237,16 +243,17 @@ fn refined_radii_come_back_exactly_from_the_cache() {
     };
     let lens = builtin::lens("cooke_triplet").unwrap();
     let (sim, _) = tracer_for(&lens, &settings);
-    let corner = *sim.radial.radii_mm.last().unwrap();
-    let rebuilt = unicac_sim::RadialPsfs::from_psfs(corner, &sim.chief, sim.radial.psfs.clone()).unwrap();
-    assert_eq!(rebuilt.radii_mm, sim.radial.radii_mm);
+    let corner = *sim.radial().unwrap().radii_mm.last().unwrap();
+    let rebuilt =
+        unicac_sim::RadialPsfs::from_psfs(corner, &sim.chief, sim.radial().unwrap().psfs.clone()).unwrap();
+    assert_eq!(rebuilt.radii_mm, sim.radial().unwrap().radii_mm);
     assert!(
-        sim.radial.radii_mm.len() > 5,
+        sim.radial().unwrap().radii_mm.len() > 5,
         "refined: {:?}",
-        sim.radial.radii_mm
+        sim.radial().unwrap().radii_mm
     );
     // PSFs that do not sit on the grid are no map: the cache entry is ignored, not misread.
-    let mut shifted = sim.radial.psfs.clone();
+    let mut shifted = sim.radial().unwrap().psfs.clone();
     shifted[1].field_deg += 0.3;
     assert!(unicac_sim::RadialPsfs::from_psfs(corner, &sim.chief, shifted).is_none());
 }

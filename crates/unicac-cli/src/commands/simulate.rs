@@ -170,16 +170,22 @@ fn report_psf_map(sim: &LensSimulator) {
     if sim.psfs_from_cache {
         eprintln!("PSF map loaded from the cache (lens {})", &sim.lens_sha256[..16]);
     }
+    if sim.radial().is_none() {
+        eprintln!(
+            "the lens is decentred or tilted: PSFs traced at {} fields over the whole frame (not one radius; \
+             not cached)",
+            sim.psfs().len()
+        );
+    }
     let worst_cut = sim
-        .radial
-        .psfs
+        .psfs()
         .iter()
         .flat_map(|p| &p.energy_cut)
         .fold(0.0f64, |m, v| m.max(*v));
     if worst_cut > 0.01 {
         eprintln!(
             "warning: PSF kernels capped at {} px; up to {:.2}% of a PSF's energy fell outside and was cut",
-            sim.radial.kernel_size,
+            sim.kernel_size(),
             100.0 * worst_cut
         );
     }
@@ -196,7 +202,7 @@ fn plot_psf_map(sim: &LensSimulator, lens_name: &str, path: &Path) -> Result<()>
         .map(|(column, row)| {
             let x_mm = half_width * (2.0 * column as f64 / (COLUMNS - 1) as f64 - 1.0);
             let y_mm = half_height * (1.0 - 2.0 * row as f64 / (ROWS - 1) as f64);
-            let kernels = [0, 1, 2].map(|c| sim.radial.kernel_at(x_mm, y_mm, c));
+            let kernels = [0, 1, 2].map(|c| sim.kernel_at(x_mm, y_mm, c));
             unicac_plot::PsfMapCell {
                 x_mm,
                 y_mm,

@@ -638,7 +638,13 @@ fn render_pairs(
         }
         let sim = simulator(&planned[i])?;
         if needs_table {
-            render::psf_table(&row.lens_id, &sim).write(&table_dir)?;
+            // `render::simulator` takes symmetric lenses only, so there is always a radial map.
+            let radial = sim.radial().ok_or_else(|| {
+                DatasetError::simulation(format!("lens {}", row.lens_id))(unicac_sim::SimError::Unsupported(
+                    "no radial PSF map".into(),
+                ))
+            })?;
+            render::psf_table(&row.lens_id, &sim, radial).write(&table_dir)?;
             rendered.tables += 1;
         }
         pairs.par_iter().try_for_each(|pair| -> Result<()> {
