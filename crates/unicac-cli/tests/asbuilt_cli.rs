@@ -91,15 +91,58 @@ fn simulate_takes_an_as_built_lens_over_the_whole_image_plane() {
 }
 
 #[test]
-fn the_ode_refuses_an_as_built_lens_naming_the_surface() {
+fn the_ode_grades_an_as_built_lens_at_four_azimuths() {
     let lens = repo(AS_BUILT);
-    let out = unicac(&["ode", &lens]);
-    assert_eq!(out.status.code(), Some(1));
+    let out = unicac(&["ode", &lens, "--json", "--device", "cpu"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let table = report["lenses"][0]["table"].as_array().unwrap();
+    assert_eq!(
+        table.len(),
+        3 * (1 + 4 * 4),
+        "the axis once, four fractions at four azimuths"
+    );
+    assert!(table.iter().any(|row| row["azimuth_deg"] == 270.0));
+    // A centred lens's rows carry no azimuth.
+    let out = unicac(&["ode", "builtin:cooke_triplet", "--json", "--device", "cpu"]);
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(report["lenses"][0]["table"][3].get("azimuth_deg").is_none());
+}
+
+#[test]
+fn a_dataset_build_refuses_an_as_built_lens_before_any_work() {
+    let out_dir = scratch("dataset");
+    let out = unicac(&[
+        "dataset",
+        "build",
+        "--lenses",
+        &repo(AS_BUILT),
+        "builtin:cooke_triplet",
+        "--images",
+        "dead-leaves:2:64x48",
+        "--test-images",
+        "dead-leaves:1:64x48",
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--levels",
+        "1",
+        "--test-lenses-per-level",
+        "1",
+        "--val-lenses",
+        "0",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let message = String::from_utf8_lossy(&out.stderr);
     assert!(
-        message.contains("surface 2 is decentred or tilted") && message.contains("cooke_mixed.json"),
+        message.contains("cooke_mixed.json: a decentred or tilted lens"),
         "{message}"
     );
+    assert!(!out_dir.exists(), "nothing written");
 }
 
 #[test]

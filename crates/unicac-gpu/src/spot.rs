@@ -66,6 +66,7 @@ pub fn spot(
     };
     Ok(Spot {
         field_deg,
+        field_x_deg: 0.0,
         wavelength_um: cpu.system.wavelength_um,
         rays_traced: traced.statuses.len() + rays_not_aimed,
         rays_ok: points_mm.len(),

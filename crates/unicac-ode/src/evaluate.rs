@@ -14,7 +14,7 @@ use unicac_psf::{
 };
 use unicac_sim::convolve::{convolve_invariant_many, convolve_invariant_many_and_transpose, Borders};
 use unicac_sim::ChiefRayMap;
-use unicac_trace::{spots, Aiming, PupilSampling};
+use unicac_trace::{spots_at, Aiming, PupilSampling};
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -83,11 +83,24 @@ impl Default for OdeSettings {
     }
 }
 
+/// Azimuths (deg, from sensor +y towards +x) at which a lens that is not rotationally symmetric (a
+/// built unit) has every off-axis field graded: +y, +x, -y, -x, as `unicac tolerance` grades them.
+/// A symmetric lens is graded on +y only (one azimuth stands for all).
+pub const UNIT_AZIMUTHS_DEG: [f64; 4] = [0.0, 90.0, 180.0, 270.0];
+
+fn is_zero(value: &f64) -> bool {
+    *value == 0.0
+}
+
 /// Scores of one field in one channel.
 #[derive(Debug, Clone, Serialize)]
 pub struct FieldChannelScore {
     pub field_fraction: f64,
     pub field_deg: f64,
+    /// The field's azimuth (deg, from sensor +y towards +x; `UNIT_AZIMUTHS_DEG`): only a built unit's
+    /// fields have one (absent when 0).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub azimuth_deg: f64,
     pub channel: &'static str,
     pub psnr_db: f64,
     pub ssim: f64,
@@ -150,7 +163,7 @@ pub struct OdeReport {
     pub kernel_px: usize,
     /// Per field and channel, fields varying slowest.
     pub table: Vec<FieldChannelScore>,
-    /// RMS spot radius per field (um), same order as the fields.
+    /// RMS spot radius per field fraction (um; a unit's: the mean over its azimuths).
     pub rms_radius_by_field_um: Vec<f64>,
     /// Where the time went (not part of the result; varies run to run).
     pub times: StageTimes,
@@ -178,15 +191,24 @@ pub struct StageTimes {
 
 /// The frame, pixel pitch and PSF tracer the ODE fields are measured with (docs/ode.md).
 pub struct EvaluationSetup {
+    /// The lens's chief-ray map, or its centred twin's (`Lens::nominal`) for a built unit: the field
+    /// angle of each image height, so a unit is graded at its design's fields.
     pub chief: ChiefRayMap,
     pub half_diagonal_mm: f64,
     pub pixel_um: f64,
+    /// The azimuths every off-axis field is graded at: [0] for a symmetric lens, `UNIT_AZIMUTHS_DEG`
+    /// for a unit.
+    pub azimuths_deg: Vec<f64>,
     tracer: PsfTracer,
 }
 
 impl EvaluationSetup {
     pub fn new(lens: &Lens, settings: &OdeSettings) -> Result<EvaluationSetup, OdeError> {
-        let chief = ChiefRayMap::new(lens)?;
+        let (chief, azimuths_deg) = if lens.is_rotationally_symmetric() {
+            (ChiefRayMap::new(lens)?, vec![0.0])
+        } else {
+            (ChiefRayMap::new(&lens.nominal())?, UNIT_AZIMUTHS_DEG.to_vec())
+        };
         let (half_diagonal_mm, pixel_um) = match lens.sensor {
             Some(sensor) => (
                 sensor.half_diagonal_mm().min(chief.max_height_mm()),
@@ -214,12 +236,44 @@ impl EvaluationSetup {
             chief,
             half_diagonal_mm,
             pixel_um,
+            azimuths_deg,
             tracer,
         })
     }
 
-    /// R, G, B kernels at the given normalised image heights, one common size from the largest spot.
+    /// The graded fields: (fraction, azimuth deg, [x, y] field angles deg), fractions varying slowest;
+    /// the axis once.
+    fn fields(&self, fractions: &[f64]) -> Vec<(f64, f64, [f64; 2])> {
+        fractions
+            .iter()
+            .flat_map(|&fraction| {
+                let angle = self.chief.angle_for_height(fraction * self.half_diagonal_mm);
+                let azimuths = if fraction == 0.0 {
+                    &self.azimuths_deg[..1]
+                } else {
+                    &self.azimuths_deg[..]
+                };
+                azimuths.iter().map(move |&azimuth: &f64| {
+                    let tan = angle.to_radians().tan();
+                    let (sin, cos) = azimuth.to_radians().sin_cos();
+                    let field = if azimuth == 0.0 {
+                        [0.0, angle]
+                    } else {
+                        [(tan * sin).atan().to_degrees(), (tan * cos).atan().to_degrees()]
+                    };
+                    (fraction, azimuth, field)
+                })
+            })
+            .collect()
+    }
+
+    /// R, G, B kernels at the given normalised image heights, one common size from the largest spot;
+    /// a unit's at each of `azimuths_deg`, turned so that every field lies on +y (the sagittal and
+    /// tangential edges then mean what they mean on a symmetric lens's +y fields).
     pub fn field_kernels(&self, fractions: &[f64]) -> Result<Vec<FieldKernels>, OdeError> {
+        if self.azimuths_deg.len() > 1 {
+            return self.unit_field_kernels(fractions);
+        }
         let angles: Vec<f64> = fractions
             .iter()
             .map(|f| self.chief.angle_for_height(f * self.half_diagonal_mm))
@@ -244,7 +298,39 @@ impl EvaluationSetup {
             .map(|((&fraction, &angle), psf)| FieldKernels {
                 fraction,
                 angle_deg: angle,
+                azimuth_deg: 0.0,
                 kernels: psf.kernels,
+            })
+            .collect())
+    }
+
+    /// `field_kernels` of a built unit: every off-axis fraction at every azimuth.
+    fn unit_field_kernels(&self, fractions: &[f64]) -> Result<Vec<FieldKernels>, OdeError> {
+        let fields = self.fields(fractions);
+        let angles: Vec<[f64; 2]> = fields.iter().map(|f| f.2).collect();
+        let set = self
+            .tracer
+            .common_size_psfs_at(&angles, false, DarkFields::Refused)
+            .map_err(|error| match error {
+                PsfError::FieldVignetted { field_deg, .. } => OdeError::Vignetted {
+                    field_fraction: (fields.iter())
+                        .find(|f| f.2[1] == field_deg)
+                        .map_or(f64::NAN, |f| f.0),
+                    field_deg,
+                },
+                other => other.into(),
+            })?;
+        Ok(fields
+            .iter()
+            .zip(set.psfs)
+            .map(|(&(fraction, azimuth_deg, _), psf)| FieldKernels {
+                fraction,
+                angle_deg: self.chief.angle_for_height(fraction * self.half_diagonal_mm),
+                azimuth_deg,
+                // Azimuths are whole quarter turns: turned back to +y exactly.
+                kernels: (psf.kernels.iter())
+                    .map(|k| k.quarter_turned(-((azimuth_deg / 90.0).round() as i32)))
+                    .collect(),
             })
             .collect())
     }
@@ -262,13 +348,12 @@ pub fn evaluate(lens: &Lens, settings: &OdeSettings) -> Result<OdeReport, OdeErr
     times.chief_ray_map_s = lap(&mut since);
     let fields = setup.field_kernels(&settings.field_fractions)?;
     let kernel_px = fields[0].kernels[0].size;
-    let angles: Vec<f64> = fields.iter().map(|f| f.angle_deg).collect();
     let (half_diagonal_mm, pixel_um) = (setup.half_diagonal_mm, setup.pixel_um);
     times.psf_tracing_s = lap(&mut since);
     let (breakdown, table) = score_fields(&fields, settings)?;
     times.imaging_and_scoring_s = lap(&mut since);
     let mean = |f: fn(&FieldChannelScore) -> f64| table.iter().map(f).sum::<f64>() / table.len() as f64;
-    let rms_radius_by_field_um = rms_by_field(lens, &angles)?;
+    let rms_radius_by_field_um = rms_by_field(lens, &setup, &settings.field_fractions)?;
     times.rms_spot_s = lap(&mut since);
     Ok(OdeReport {
         scores: OdeScores {
@@ -295,6 +380,8 @@ pub fn evaluate(lens: &Lens, settings: &OdeSettings) -> Result<OdeReport, OdeErr
 pub struct FieldKernels {
     pub fraction: f64,
     pub angle_deg: f64,
+    /// 0 but for a built unit's fields (`UNIT_AZIMUTHS_DEG`); the kernels are then turned to +y.
+    pub azimuth_deg: f64,
     pub kernels: Vec<Kernel>,
 }
 
@@ -326,15 +413,7 @@ pub fn score_fields(
             .zip(imaged.into_par_iter())
             .map(|(&i, imaged)| {
                 let (f, c) = tasks[i];
-                score_channel(
-                    f.fraction,
-                    f.angle_deg,
-                    c,
-                    &f.kernels[c],
-                    &ideal,
-                    imaged,
-                    settings,
-                )
+                score_channel(f, c, &f.kernels[c], &ideal, imaged, settings)
             })
             .collect::<Result<_, OdeError>>()?;
         for (i, score) in members.into_iter().zip(scores) {
@@ -342,9 +421,16 @@ pub fn score_fields(
         }
     }
     let table: Vec<FieldChannelScore> = table.into_iter().map(|s| s.expect("every task scored")).collect();
-    let oiq_grid: Vec<Vec<f64>> = table
-        .chunks(3)
-        .map(|field| field.iter().map(|s| s.oiq).collect())
+    // One row per field fraction: a unit's azimuths averaged (each a share of the fraction's weight).
+    // Every fraction's fields start at azimuth 0.
+    let by_field: Vec<&[FieldChannelScore]> = table.chunks(3).collect();
+    let oiq_grid: Vec<Vec<f64>> = by_field
+        .chunk_by(|_, next| next[0].azimuth_deg != 0.0)
+        .map(|azimuths| {
+            (0..3)
+                .map(|c| azimuths.iter().map(|field| field[c].oiq).sum::<f64>() / azimuths.len() as f64)
+                .collect()
+        })
         .collect();
     Ok((ode_from_oiq_grid(&oiq_grid, &settings.weights)?, table))
 }
@@ -413,8 +499,7 @@ impl IdealCharts {
 /// Scores channel `c`'s kernel of one field from its imaged charts: the checkerboard patch (PSNR, SSIM)
 /// and the two slanted edges (OIQE).
 fn score_channel(
-    fraction: f64,
-    angle: f64,
+    field: &FieldKernels,
     c: usize,
     kernel: &Kernel,
     ideal: &IdealCharts,
@@ -451,7 +536,7 @@ fn score_channel(
     let edges = measured(0, sagittal_edge)
         .and_then(|s| Ok([s, measured(1, tangential_edge)?]))
         .map_err(|(direction, e)| OdeError::Edge {
-            field_fraction: fraction,
+            field_fraction: field.fraction,
             channel: CHANNELS[c],
             direction: direction.to_string(),
             kernel_px: k,
@@ -460,8 +545,9 @@ fn score_channel(
     let (sagittal, tangential) = (edges[0].summary(), edges[1].summary());
     let quality = oiqe(&tangential, &sagittal, &settings.oiqe_weights)?;
     Ok(FieldChannelScore {
-        field_fraction: fraction,
-        field_deg: angle,
+        field_fraction: field.fraction,
+        field_deg: field.angle_deg,
+        azimuth_deg: field.azimuth_deg,
         channel: CHANNELS[c],
         psnr_db: p.db,
         ssim: s.mean,
@@ -593,22 +679,33 @@ fn convolve_patch(plane: &[f32], size: usize, kernel: &Kernel) -> Vec<f32> {
     unicac_sim::convolve::convolve_invariant(plane, size, size, kernel)
 }
 
-fn rms_by_field(lens: &Lens, angles: &[f64]) -> Result<Vec<f64>, OdeError> {
+fn rms_by_field(lens: &Lens, setup: &EvaluationSetup, fractions: &[f64]) -> Result<Vec<f64>, OdeError> {
+    let fields = setup.fields(fractions);
+    let angles: Vec<[f64; 2]> = fields.iter().map(|f| f.2).collect();
     let wavelengths = lens.wavelengths_um();
-    let all = spots(
+    let all = spots_at(
         lens,
-        angles,
+        &angles,
         &wavelengths,
         Aiming::Auto,
         &PupilSampling::Hexapolar { rings: 10 },
     )?;
-    Ok((0..angles.len())
+    // (azimuth, RMS) per field.
+    let by_field: Vec<(f64, f64)> = (0..angles.len())
         .map(|f| {
             let values: Vec<f64> = (0..wavelengths.len())
                 .filter_map(|w| all[w * angles.len() + f].rms_radius_um)
                 .collect();
-            values.iter().sum::<f64>() / values.len().max(1) as f64
+            (
+                fields[f].1,
+                values.iter().sum::<f64>() / values.len().max(1) as f64,
+            )
         })
+        .collect();
+    // A unit's azimuths of one fraction averaged (every fraction's fields start at azimuth 0).
+    Ok(by_field
+        .chunk_by(|_, next| next.0 != 0.0)
+        .map(|group| group.iter().map(|g| g.1).sum::<f64>() / group.len() as f64)
         .collect())
 }
 

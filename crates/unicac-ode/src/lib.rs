@@ -14,6 +14,6 @@ pub mod frame;
 
 pub use evaluate::{
     edge_patches, evaluate, lens_mtf, score_fields, EdgePatch, EvaluationSetup, FieldChannelScore,
-    FieldKernels, LensMtf, LensOde, OdeError, OdeReport, OdeScores, OdeSettings,
+    FieldKernels, LensMtf, LensOde, OdeError, OdeReport, OdeScores, OdeSettings, UNIT_AZIMUTHS_DEG,
 };
 pub use frame::FrameSensor;

@@ -86,6 +86,7 @@ fn fields(sigma_of_fraction: impl Fn(f64, usize) -> f64) -> Vec<FieldKernels> {
         .map(|&fraction| FieldKernels {
             fraction,
             angle_deg: 20.0 * fraction,
+            azimuth_deg: 0.0,
             kernels: (0..3)
                 .map(|c| gaussian(21, sigma_of_fraction(fraction, c)))
                 .collect(),

@@ -83,6 +83,26 @@ impl Kernel {
         self.data[y * self.size + x]
     }
 
+    /// The kernel turned by `quarters` quarter turns, each taking sensor +y to +x (as
+    /// `unicac_sim::psf_map::rotate` turns by a positive angle): in image coordinates (x right, y down)
+    /// one turn moves the offset (x, y) to (-y, x). Exact (a permutation of the samples).
+    pub fn quarter_turned(&self, quarters: i32) -> Kernel {
+        let k = self.size;
+        let h = (k / 2) as isize;
+        let mut out = self.clone();
+        for _ in 0..quarters.rem_euclid(4) {
+            let source = out.data.clone();
+            for row in 0..k {
+                for column in 0..k {
+                    let (x, y) = (column as isize - h, row as isize - h);
+                    let (nx, ny) = (-y + h, x + h);
+                    out.data[ny as usize * k + nx as usize] = source[row * k + column];
+                }
+            }
+        }
+        out
+    }
+
     /// Adds `weight * other` (same size and pitch).
     pub fn add_scaled(&mut self, other: &Kernel, weight: f32) {
         debug_assert_eq!(self.size, other.size);

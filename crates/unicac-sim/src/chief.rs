@@ -25,12 +25,13 @@ pub struct ChiefRayMap {
 
 impl ChiefRayMap {
     pub fn new(lens: &Lens) -> SimResult<ChiefRayMap> {
-        // The map, and the radial PSF maps and ODE fields built on it, assume one field azimuth stands
-        // for all: refused rather than answered wrongly for an as-built lens.
+        // The map, and the radial PSF maps built on it, assume one field azimuth stands for all: refused
+        // rather than answered wrongly for an as-built lens (the simulator and the ODE take a unit
+        // through its centred twin's map, `Lens::nominal`).
         if let Some(i) = lens.surfaces.iter().position(|s| !s.placement.is_centred()) {
             return Err(SimError::Unsupported(format!(
-                "surface {} is decentred or tilted: image simulation, PSF maps and the ODE sample one field \
-                 radius and rotate it, which needs a rotationally symmetric lens",
+                "surface {} is decentred or tilted: the chief-ray map samples one field radius, which needs \
+                 a rotationally symmetric lens",
                 i + 1
             )));
         }

@@ -46,6 +46,6 @@ pub use params::{
 };
 pub use pupil::PupilSampling;
 pub use ray::{Ray, RayStatus, StatusCounts};
-pub use spot::{spots, Spot, SpotTracer};
+pub use spot::{spots, spots_at, Spot, SpotTracer};
 pub use summary::LensSummary;
 pub use system::{Clipping, TraceSystem};

@@ -13,6 +13,9 @@ use unicac_optics::Lens;
 #[derive(Debug, Clone, Serialize)]
 pub struct Spot {
     pub field_deg: f64,
+    /// The field's x angle (deg), for a lens that is not rotationally symmetric (absent when 0).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub field_x_deg: f64,
     pub wavelength_um: f64,
     pub rays_traced: usize,
     pub rays_ok: usize,
@@ -32,6 +35,10 @@ pub struct Spot {
     /// Image-surface intercepts of the rays that arrived.
     #[serde(skip)]
     pub points_mm: Vec<[f64; 2]>,
+}
+
+fn is_zero(value: &f64) -> bool {
+    *value == 0.0
 }
 
 /// The system and aimer for one wavelength, built once and reused for every field.
@@ -63,7 +70,12 @@ impl SpotTracer {
 
     /// The chief ray's image intercept, if it arrives.
     pub fn chief_intercept(&self, field_deg: f64) -> Option<[f64; 2]> {
-        let mut ray = self.aimer.ray(field_deg, 0.0, 0.0).ok()?;
+        self.chief_intercept_at([0.0, field_deg])
+    }
+
+    /// `chief_intercept` of a 2D field ([x, y] angles, deg; `Aimer::ray_at`).
+    pub fn chief_intercept_at(&self, field_deg: [f64; 2]) -> Option<[f64; 2]> {
+        let mut ray = self.aimer.ray_at(field_deg, 0.0, 0.0).ok()?;
         self.system
             .trace(&mut ray)
             .is_ok()
@@ -71,8 +83,13 @@ impl SpotTracer {
     }
 
     pub fn spot(&self, field_deg: f64, sampling: &PupilSampling) -> Spot {
+        self.spot_at([0.0, field_deg], sampling)
+    }
+
+    /// `spot` of a 2D field ([x, y] angles, deg): what a lens that is not rotationally symmetric needs.
+    pub fn spot_at(&self, field: [f64; 2], sampling: &PupilSampling) -> Spot {
         let count = sampling.point_count();
-        let aiming = self.aimer.for_field([0.0, field_deg], count);
+        let aiming = self.aimer.for_field(field, count);
         // Aimed, traced and reduced to arrivals chunk by chunk on every core: the aiming runs in parallel
         // like the tracing, and no whole-pupil ray or status buffer is ever held (nor, for the patterns
         // whose points are made by index, a pupil buffer). Arrivals keep pupil order.
@@ -111,10 +128,11 @@ impl SpotTracer {
         for part in &parts {
             points_mm.extend_from_slice(&part.points_mm);
         }
-        let chief = self.chief_intercept(field_deg);
+        let chief = self.chief_intercept_at(field);
         let centroid = centroid(&points_mm);
         Spot {
-            field_deg,
+            field_deg: field[1],
+            field_x_deg: field[0],
             wavelength_um: self.system.wavelength_um,
             rays_traced: count,
             rays_ok: points_mm.len(),
@@ -152,13 +170,25 @@ pub fn spots(
     aiming: Aiming,
     sampling: &PupilSampling,
 ) -> TraceResult<Vec<Spot>> {
+    let fields: Vec<[f64; 2]> = fields_deg.iter().map(|&y| [0.0, y]).collect();
+    spots_at(lens, &fields, wavelengths_um, aiming, sampling)
+}
+
+/// `spots` of 2D fields ([x, y] angles, deg).
+pub fn spots_at(
+    lens: &Lens,
+    fields_deg: &[[f64; 2]],
+    wavelengths_um: &[f64],
+    aiming: Aiming,
+    sampling: &PupilSampling,
+) -> TraceResult<Vec<Spot>> {
     sampling
         .check()
         .map_err(|e| crate::InvalidParameter::new("pupil_sampling", e.to_string()))?;
     let mut spots = Vec::with_capacity(fields_deg.len() * wavelengths_um.len());
     for &wavelength in wavelengths_um {
         let tracer = SpotTracer::new(lens, wavelength, aiming)?;
-        spots.extend(fields_deg.iter().map(|&field| tracer.spot(field, sampling)));
+        spots.extend(fields_deg.iter().map(|&field| tracer.spot_at(field, sampling)));
     }
     Ok(spots)
 }

@@ -460,6 +460,18 @@ fn check_inputs(settings: &BuildSettings, out: &Path) -> Result<Inputs> {
     }
     settings.level_counts().check(sources.len())?;
     let lenses: Vec<Lens> = sources.iter().map(|s| s.load()).collect::<Result<_>>()?;
+    if let Some(source) =
+        (sources.iter().zip(&lenses)).find_map(|(s, l)| (!l.is_rotationally_symmetric()).then_some(s))
+    {
+        return Err(DatasetError::setting(
+            "lenses",
+            format!(
+                "{}: a decentred or tilted lens (a built unit); dataset builds take rotationally symmetric \
+                 lenses, whose PSF tables sample one field radius (as-built splits: not yet, docs/tolerancing.md)",
+                source.location
+            ),
+        ));
+    }
     let test_scenes = sources::scenes(
         &settings.test_images,
         "test_images",

@@ -9,7 +9,7 @@ use crate::manifest::{IspRecord, PairCheck, PairRow, PairTask};
 use crate::psf_table::{PsfTable, PsfTableMeta, TABLE_FORMAT};
 use unicac_image::isp::{IspDraw, Pipeline};
 use unicac_image::Planar;
-use unicac_psf::{visible_wavelengths_um, Kernel, SpectralWeights};
+use unicac_psf::{visible_wavelengths_um, SpectralWeights};
 use unicac_sim::{ImageBackend, LensSimulator, PsfCache, RadialPsfs, SimulationSettings};
 
 /// The simulator of a lens on the build's sensor (`lens` already carries the build sensor).
@@ -140,7 +140,8 @@ pub fn psf_table(lens_id: &str, sim: &LensSimulator, radial: &RadialPsfs) -> Psf
     let mut kernels = Vec::with_capacity(radial.psfs.len() * 3 * k * k);
     for psf in &radial.psfs {
         for c in 0..3 {
-            let mut kernel = to_plus_x(&psf.kernels[c]);
+            // The field on sensor +y turned by 90 degrees to lie on image +x.
+            let mut kernel = psf.kernels[c].quarter_turned(1);
             kernel.normalise();
             kernels.extend_from_slice(&kernel.data);
         }
@@ -184,22 +185,6 @@ pub fn psf_table(lens_id: &str, sim: &LensSimulator, radial: &RadialPsfs) -> Psf
         },
         kernels,
     }
-}
-
-/// A kernel of a field on sensor +y (image up) turned by 90 degrees so its field lies on image +x:
-/// in image coordinates (x right, y down) the offset (x, y) moves to (-y, x). Exact (a permutation).
-pub fn to_plus_x(kernel: &Kernel) -> Kernel {
-    let k = kernel.size;
-    let h = (k / 2) as isize;
-    let mut out = Kernel::zeros(k, kernel.pitch_um);
-    for row in 0..k {
-        for column in 0..k {
-            let (x, y) = (column as isize - h, row as isize - h);
-            let (nx, ny) = (-y + h, x + h);
-            out.data[ny as usize * k + nx as usize] = kernel.data[row * k + column];
-        }
-    }
-    out
 }
 
 /// A grey linear patch as the 3-channel sRGB image a restoration model takes.
