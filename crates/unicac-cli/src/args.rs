@@ -628,6 +628,10 @@ pub struct ToleranceArgs {
     /// Frequencies (cycles/mm, comma-separated) of the MTF graded per unit (y-axis field points).
     #[arg(long, value_delimiter = ',', value_name = "CY_MM")]
     pub mtf_cy_mm: Vec<f64>,
+    /// Also grade each refocused unit's ODE (docs/ode.md: every off-axis field at four azimuths; about
+    /// a second per unit on 2 cores).
+    #[arg(long)]
+    pub ode: bool,
     /// Run part I of N (I from 1 to N) into --out; N parts in one folder equal the single run, whose
     /// rerun without --shard then writes the summary.
     #[arg(long)]

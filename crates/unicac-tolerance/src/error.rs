@@ -32,6 +32,8 @@ pub enum ToleranceError {
     Trace(#[from] TraceError),
     #[error(transparent)]
     Analysis(#[from] AnalysisError),
+    #[error(transparent)]
+    Ode(#[from] unicac_ode::OdeError),
 }
 
 pub type ToleranceResult<T> = std::result::Result<T, ToleranceError>;

@@ -35,6 +35,14 @@ pub struct Grading {
     /// Frequencies (cycles/mm) of the MTF (diffraction, tangential and sagittal) at the y-axis field
     /// points; empty: no MTF.
     pub mtf_frequencies_cy_mm: Vec<f64>,
+    /// Also the ODE of each refocused unit (docs/ode.md: every off-axis field at four azimuths; about a
+    /// second per unit). Absent from run files when off, so runs without it keep their bytes.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub ode: bool,
+}
+
+fn is_false(value: &bool) -> bool {
+    !*value
 }
 
 impl Default for Grading {
@@ -42,6 +50,7 @@ impl Default for Grading {
         Grading {
             pupil_grid: DEFAULT_PUPIL_GRID,
             mtf_frequencies_cy_mm: Vec::new(),
+            ode: false,
         }
     }
 }
@@ -125,6 +134,9 @@ pub struct Score {
     pub boresight_um: f64,
     /// Lowest MTF (tangential or sagittal, over the y-axis field points) per frequency.
     pub mtf_min: Vec<f64>,
+    /// The refocused unit's ODE (`Grading::ode`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ode: Option<f64>,
 }
 
 /// Intercepts and slopes of one field point's rays, per wavelength, with each ray's weight.
@@ -279,15 +291,19 @@ pub fn score(
         .sum::<f64>()
         .sqrt()
         * 1e3;
+    let unit = refocused(lens, focus_shift_mm);
     let mtf_min = if grading.mtf_frequencies_cy_mm.is_empty() {
         Vec::new()
     } else {
-        lowest_mtf(
-            &refocused(lens, focus_shift_mm),
-            &spectrum,
-            points,
-            &grading.mtf_frequencies_cy_mm,
-        )?
+        lowest_mtf(&unit, &spectrum, points, &grading.mtf_frequencies_cy_mm)?
+    };
+    let ode = match grading.ode {
+        true => Some(
+            unicac_ode::evaluate(&unit, &unicac_ode::OdeSettings::default())?
+                .scores
+                .ode,
+        ),
+        false => None,
     };
     Ok(Score {
         focus_shift_mm,
@@ -296,6 +312,7 @@ pub fn score(
         rms_max_um,
         boresight_um,
         mtf_min,
+        ode,
     })
 }
 

@@ -238,7 +238,7 @@ fn adopt_record(folder: &Path, record: &RunRecord) -> ToleranceResult<()> {
                 ("lens", existing.lens != record.lens),
                 ("tolerance file", existing.spec != record.spec),
                 (
-                    "grading (pupil grid, MTF frequencies)",
+                    "grading (pupil grid, MTF frequencies, ODE)",
                     existing.grading != record.grading,
                 ),
                 ("seed", existing.seed != record.seed),
@@ -374,6 +374,14 @@ impl Summary {
                 Better::Higher,
                 nominal.mtf_min[k],
                 &column(&|s| s.mtf_min[k]),
+            ));
+        }
+        if let Some(nominal_ode) = nominal.ode {
+            statistics.push(Statistic::of(
+                "ode".into(),
+                Better::Higher,
+                nominal_ode,
+                &column(&|s| s.ode.unwrap_or(f64::NAN)),
             ));
         }
         Summary {

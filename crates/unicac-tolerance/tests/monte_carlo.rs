@@ -17,6 +17,7 @@ fn grading() -> Grading {
     Grading {
         pupil_grid: 16,
         mtf_frequencies_cy_mm: Vec::new(),
+        ode: false,
     }
 }
 
@@ -165,6 +166,34 @@ fn a_unit_decentred_in_y_grades_the_x_fields_alike_and_the_y_fields_apart() {
         scored.boresight_um > 1.0,
         "a decentred element moves the on-axis image"
     );
+}
+
+#[test]
+fn the_ode_column_is_the_refocused_units_ode() {
+    let lens = cooke();
+    let unit = apply(&lens, &[change(ChangeKind::ElementDecentreY, [3, 4], 0.2)]);
+    let points = field_points(&lens).unwrap();
+    let with_ode = Grading {
+        ode: true,
+        ..grading()
+    };
+    let scored = score(&unit, &points, &with_ode, Compensator::BackFocus).unwrap();
+    let direct = unicac_ode::evaluate(
+        &refocused(&unit, scored.focus_shift_mm),
+        &unicac_ode::OdeSettings::default(),
+    )
+    .unwrap();
+    assert_eq!(scored.ode, Some(direct.scores.ode));
+    let nominal = score(&lens, &points, &with_ode, Compensator::BackFocus).unwrap();
+    let (built, design) = (scored.ode.unwrap(), nominal.ode.unwrap());
+    assert!(
+        built < design,
+        "the decentred unit grades worse: {built} vs {design}"
+    );
+    // Off, the score carries none and its JSON no key (run files keep their bytes).
+    let plain = score(&unit, &points, &grading(), Compensator::BackFocus).unwrap();
+    assert_eq!(plain.ode, None);
+    assert!(!serde_json::to_string(&plain).unwrap().contains("ode"));
 }
 
 /// Every file under `folder` (relative name -> bytes).

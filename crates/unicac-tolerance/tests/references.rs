@@ -54,6 +54,7 @@ fn units_graded_like_optiland() {
     let grading = Grading {
         pupil_grid: reference["pupil_grid"].as_u64().unwrap() as usize,
         mtf_frequencies_cy_mm: Vec::new(),
+        ode: false,
     };
     let nominal = score(&lens, &points, &grading, Compensator::BackFocus).unwrap();
     check(&nominal, &reference["nominal"], "nominal");

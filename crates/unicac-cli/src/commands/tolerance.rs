@@ -43,6 +43,7 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
     let grading = Grading {
         pupil_grid: args.pupil_grid,
         mtf_frequencies_cy_mm: args.mtf_cy_mm.clone(),
+        ode: args.ode,
     };
     let progress = ProgressDisplay::new("tolerance");
     let shard = super::shard_arg(args.shard.as_deref())?;
