@@ -42,6 +42,8 @@ named_choice! {
     Split {
         Test = "test",
         Val = "val",
+        /// The test pairs rendered through built units of the test lenses (`dataset build --as-built`).
+        AsBuilt = "as_built",
     }
 }
 

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use unicac_dataset::folder::Dataset;
 use unicac_dataset::{EdgeRow, PairRow};
 
-use crate::choices::{Benchmark, ClassicalMethod, Metric};
+use crate::choices::{Benchmark, ClassicalMethod, Metric, Split as SplitName};
 use crate::error::{BenchError, Result};
 use crate::report::LensInfo;
 use crate::settings::{BenchSettings, MAX_THREADS, MAX_WIENER_NSR};
@@ -37,6 +37,15 @@ pub(crate) struct Plan {
     pub edges: Vec<EdgeRow>,
     /// The dataset's PSF basis, read when a model takes `psf_code`.
     pub basis: Option<unicac_dataset::psf_basis::PsfBasis>,
+    /// For the as-built split: the design lenses' test pairs and the designs, scored beside the units'
+    /// pairs so the report can say what each method loses on units as built.
+    pub designs: Option<Split>,
+}
+
+/// A split's pairs and their lenses.
+pub(crate) struct Split {
+    pub pairs: Vec<PairRow>,
+    pub lenses: BTreeMap<String, LensInfo>,
 }
 
 /// The learned metrics that could be loaded.
@@ -62,7 +71,7 @@ pub(crate) fn plan(s: &BenchSettings) -> Result<Plan> {
         })
         .collect::<Result<Vec<LoadedModel>>>()?;
     let runtime = runtime(s, !loaded.is_empty(), &mut notices)?;
-    let (dataset, pairs, lenses) = read_split(s)?;
+    let (dataset, Split { pairs, lenses }, designs) = read_split(s)?;
     let has_psf = pairs.iter().all(|p| !p.psf.is_empty());
     let has_fov = pairs.iter().all(|p| !p.fov.is_empty());
     check_model_inputs(s, &loaded, has_psf, has_fov)?;
@@ -104,6 +113,7 @@ pub(crate) fn plan(s: &BenchSettings) -> Result<Plan> {
         judges,
         edges,
         basis,
+        designs,
     })
 }
 
@@ -200,21 +210,30 @@ fn runtime(
     })
 }
 
-/// The dataset, the pairs of the asked split and their lenses (each pair's lens must be listed).
-fn read_split(s: &BenchSettings) -> Result<(Dataset, Vec<PairRow>, BTreeMap<String, LensInfo>)> {
+/// The dataset, the pairs of the asked split and their lenses (each pair's lens must be listed), and
+/// for the as-built split the design references.
+fn read_split(s: &BenchSettings) -> Result<(Dataset, Split, Option<Split>)> {
     let dataset = Dataset::open(&s.dataset)?;
+    if s.split == SplitName::AsBuilt {
+        let [units, designs] = read_as_built(s, &dataset)?;
+        return Ok((dataset, units, Some(designs)));
+    }
+    let split = read_pairs(s, &dataset, s.split)?;
+    Ok((dataset, split, None))
+}
+
+/// The pairs of split `split` and their lenses (each pair's lens must be listed).
+fn read_pairs(s: &BenchSettings, dataset: &Dataset, split: SplitName) -> Result<Split> {
     let lens_rows = dataset.lenses()?;
     let pairs: Vec<PairRow> = dataset
         .pairs()?
         .into_iter()
-        .filter(|p| p.split == s.split.name())
+        .filter(|p| p.split == split.name())
         .collect();
     if pairs.is_empty() {
         return Err(invalid(format!(
-            "{}: the dataset has no `{}` split (no pairs); build it with a {} split",
+            "{}: the dataset has no `{split}` split (no pairs); build it with a {split} split",
             s.dataset.display(),
-            s.split,
-            s.split
         )));
     }
     let lenses: BTreeMap<String, LensInfo> = lens_rows
@@ -248,7 +267,51 @@ fn read_split(s: &BenchSettings) -> Result<(Dataset, Vec<PairRow>, BTreeMap<Stri
             pair.pair_id, pair.lens_id
         )));
     }
-    Ok((dataset, pairs, lenses))
+    Ok(Split { pairs, lenses })
+}
+
+/// The as-built split: the units' pairs and the design references' (each unit or reference as a lens:
+/// its design's levels, its own ODE and RMS).
+fn read_as_built(s: &BenchSettings, dataset: &Dataset) -> Result<[Split; 2]> {
+    let Some((units, pairs)) = unicac_dataset::builder::as_built::read_as_built(&dataset.dir)? else {
+        return Err(invalid(format!(
+            "{}: the dataset has no as-built split; build it with `unicac dataset build --as-built N \
+             --tolerances TOL.json`",
+            s.dataset.display()
+        )));
+    };
+    let lens_info = |u: &unicac_dataset::builder::as_built::UnitRow| {
+        let levels = [
+            (Benchmark::Ode, u.level),
+            (Benchmark::Us, u.us_level),
+            (Benchmark::Uc, u.uc_level),
+        ]
+        .into_iter()
+        .filter_map(|(b, v)| Some((b, v? as u8)))
+        .collect();
+        let info = LensInfo {
+            lens_id: u.unit_id.clone(),
+            levels,
+            ode: u.scores.ode,
+            rms_radius_um: u.scores.rms_radius_um,
+        };
+        (u.unit_id.clone(), info)
+    };
+    // The design references (`unit` None) apart from the units.
+    let split = |designs: bool| {
+        let lenses: BTreeMap<String, LensInfo> = units
+            .iter()
+            .filter(|u| u.unit.is_none() == designs)
+            .map(lens_info)
+            .collect();
+        let pairs = pairs
+            .iter()
+            .filter(|p| lenses.contains_key(&p.lens_id))
+            .cloned()
+            .collect();
+        Split { pairs, lenses }
+    };
+    Ok([split(false), split(true)])
 }
 
 /// Every input a model declares is one the dataset provides.

@@ -52,6 +52,7 @@ fn benchmark(s: &BenchSettings, progress: &dyn Progress, plan: Plan) -> Result<(
         judges: LearnedJudges { lpips, fid, clip },
         edges,
         basis,
+        designs,
     } = plan;
     let wiener_nsr = s
         .methods
@@ -80,7 +81,11 @@ fn benchmark(s: &BenchSettings, progress: &dyn Progress, plan: Plan) -> Result<(
     let edge_px = |groups: &[crate::edges::EdgeGroup]| -> usize {
         groups.iter().map(|g| g[0].size_px * g[0].size_px).sum()
     };
-    let pairs_px: usize = pairs.iter().map(pair_px).sum();
+    let pairs_px: usize = pairs
+        .iter()
+        .chain(designs.iter().flat_map(|d| &d.pairs))
+        .map(pair_px)
+        .sum();
     let total = pairs_px + edge_lenses.iter().map(|(_, g)| edge_px(g)).sum::<usize>();
     progress.stage(PROGRESS_STAGE, total);
     let mut scores = Scores::default();
@@ -99,6 +104,19 @@ fn benchmark(s: &BenchSettings, progress: &dyn Progress, plan: Plan) -> Result<(
             scores.oiqe.insert(key, v);
         }
     }
+    // The as-built split's designs, through the same methods: what the units' pairs are compared with.
+    let mut design_scores = Scores::default();
+    if let Some(designs) = &designs {
+        let mut design_pass = Pass {
+            pairs: &designs.pairs,
+            lenses: &designs.lenses,
+            ..pass
+        };
+        for pair in &designs.pairs {
+            design_pass.score_pair(pair, &mut entries, &mut design_scores)?;
+            progress.advance(pair_px(pair));
+        }
+    }
     let names: Vec<String> = entries.iter().map(|e| e.info.name.clone()).collect();
     for e in &entries {
         if !e.info.failures.is_empty() {
@@ -115,6 +133,10 @@ fn benchmark(s: &BenchSettings, progress: &dyn Progress, plan: Plan) -> Result<(
         .map(|e| e.info.name.clone())
         .collect();
     let results = summarise(&scores, &names, &learned, &lenses, &s.benchmarks);
+    let as_built = designs.as_ref().map(|d| crate::report::as_built::AsBuiltReport {
+        units_per_lens: pairs.len() / d.pairs.len().max(1),
+        rows: crate::report::as_built::as_built_loss(&scores.pairs, &design_scores.pairs, &names),
+    });
     let report = Report {
         unicac_version: env!("CARGO_PKG_VERSION"),
         dataset: s.dataset.clone(),
@@ -129,6 +151,7 @@ fn benchmark(s: &BenchSettings, progress: &dyn Progress, plan: Plan) -> Result<(
         onnxruntime: runtime.map(|r| r.located().clone()),
         models: entries.into_iter().map(|e| e.info).collect(),
         results,
+        as_built,
     };
     let written = write_report(&s.out, &report, &scores.pairs)?;
     Ok((report, written))

@@ -114,6 +114,13 @@ pub struct DatasetBuildArgs {
     /// manifest's `flags` column)
     #[arg(long)]
     pub exclude_flagged: bool,
+    /// Also build every test lens N times (1-16) within --tolerances and render its test pairs through
+    /// each unit: the as-built split (`as_built/`; `unicac bench --split as_built`, docs/dataset.md)
+    #[arg(long, value_name = "N", requires = "tolerances")]
+    pub as_built: Option<usize>,
+    /// The tolerance file the as-built units are drawn within (docs/tolerancing.md)
+    #[arg(long, value_name = "TOL.json", requires = "as_built")]
+    pub tolerances: Option<PathBuf>,
     /// Where the pairs' image passes (blur, warp, shading) run: cpu (the reference, bit-reproducible on
     /// every machine; the default), gpu (within 1e-6 of the CPU, recorded in dataset.json; refused when
     /// no adapter opens) or auto (gpu on a machine with a hardware GPU, else cpu).

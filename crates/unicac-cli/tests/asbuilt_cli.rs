@@ -160,3 +160,140 @@ fn a_tilt_out_of_range_is_an_error_naming_the_field() {
         "{message}"
     );
 }
+
+/// A one-level dataset of three bundled lenses (one test lens) with `--as-built UNITS` drawn within
+/// `tolerances` (a JSON text).
+fn build_as_built(name: &str, tolerances: &str, units: &str) -> (PathBuf, Output) {
+    let spec = scratch(&format!("{name}.json"));
+    std::fs::write(&spec, tolerances).unwrap();
+    let out_dir = scratch(name);
+    let out = unicac(&[
+        "dataset",
+        "build",
+        "--lenses",
+        "builtin:cooke_triplet",
+        "builtin:petzval",
+        "builtin:double_gauss",
+        "--images",
+        "dead-leaves:2:96x72",
+        "--test-images",
+        "dead-leaves:2:96x72",
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--levels",
+        "1",
+        "--test-lenses-per-level",
+        "1",
+        "--val-lenses",
+        "1",
+        "--pairs-per-lens",
+        "1",
+        "--crop",
+        "48x48",
+        "--as-built",
+        units,
+        "--tolerances",
+        spec.to_str().unwrap(),
+        "--json",
+    ]);
+    (out_dir, out)
+}
+
+fn as_built_bench(dataset: &std::path::Path, name: &str) -> Value {
+    let report = scratch(name);
+    let out = unicac(&[
+        "bench",
+        "--dataset",
+        dataset.to_str().unwrap(),
+        "--split",
+        "as_built",
+        "--metrics",
+        "psnr,ssim",
+        "--out",
+        report.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&std::fs::read(report.join("results.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn the_as_built_split_renders_units_beside_their_design_and_the_bench_scores_the_loss() {
+    // Errors far below any traced quantity: every unit renders as its design's reference does.
+    let (dataset, out) = build_as_built("as-built-zero", r#"{"element_decentre_mm": 1e-12}"#, "1");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        report["as_built_pairs_rendered"], 4,
+        "2 test pairs x (the design + 1 unit)"
+    );
+    let results = as_built_bench(&dataset, "bench-zero");
+    let rows = results["as_built"]["rows"].as_array().unwrap();
+    assert!(!rows.is_empty());
+    for row in rows {
+        let change = row["psnr"]["difference"].as_f64().unwrap();
+        assert!(change.abs() < 0.01, "{row}");
+    }
+    // A rerun finds everything done.
+    let (_, again) = build_as_built("as-built-zero", r#"{"element_decentre_mm": 1e-12}"#, "1");
+    let report: Value = serde_json::from_slice(&again.stdout).unwrap();
+    assert_eq!(report["as_built_pairs_rendered"], 0);
+
+    // Textbook tolerances: the unit carries its drawn errors and an ODE of its own.
+    let textbook = std::fs::read_to_string(repo("docs/tolerancing/textbook.json")).unwrap();
+    let (dataset, out) = build_as_built("as-built-textbook", &textbook, "1");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let units = std::fs::read_to_string(dataset.join("as_built/units.jsonl")).unwrap();
+    let units: Vec<Value> = units.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(units.len(), 2, "the design's reference and one unit");
+    assert!(units[0]["unit"].is_null() && units[1]["unit"] == 0);
+    assert!(!units[1]["changes"].as_array().unwrap().is_empty());
+    assert!(units[1]["ode"].as_f64().unwrap() > 0.0);
+    let results = as_built_bench(&dataset, "bench-textbook");
+    assert_eq!(results["split"], "as_built");
+    assert_eq!(results["as_built"]["units_per_lens"], 1);
+}
+
+#[test]
+fn as_built_flags_are_refused_alone_or_beyond_their_limit() {
+    let out = unicac(&[
+        "dataset",
+        "build",
+        "--lenses",
+        "builtin:cooke_triplet",
+        "--images",
+        "dead-leaves:1:64x48",
+        "--test-images",
+        "dead-leaves:1:64x48",
+        "--out",
+        scratch("alone").to_str().unwrap(),
+        "--as-built",
+        "2",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "clap refuses --as-built without --tolerances"
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--tolerances"));
+    let spec = scratch("too-many.json");
+    std::fs::write(&spec, r#"{"radius_fraction": 0.001}"#).unwrap();
+    let out = unicac(&[
+        "dataset",
+        "build",
+        "--lenses",
+        "builtin:cooke_triplet",
+        "--images",
+        "dead-leaves:1:64x48",
+        "--test-images",
+        "dead-leaves:1:64x48",
+        "--out",
+        scratch("too-many").to_str().unwrap(),
+        "--as-built",
+        "17",
+        "--tolerances",
+        spec.to_str().unwrap(),
+    ]);
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(message.contains("--as-built 17: takes 1 to 16"), "{message}");
+    assert!(!scratch("too-many").exists());
+}

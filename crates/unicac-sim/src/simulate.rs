@@ -39,6 +39,10 @@ pub struct SimulationSettings {
     /// For a lens that is not rotationally symmetric: PSF lattice intervals along the image's longer
     /// side (`planar`; a field is traced at every lattice node).
     pub planar_psf_intervals: usize,
+    /// Use the planar maps even for a rotationally symmetric lens (what the dataset's as-built split
+    /// renders its designs with, so that a design and its units share one path; the radial path turns
+    /// its kernels by resampling, which spreads kernels of a few pixels: docs/tolerancing.md).
+    pub planar: bool,
     /// Kernel-node intervals along the image's longer side. Field-relative, so the interpolation error
     /// stays the same at every resolution (the PSF changes over a fraction of the field, not over a
     /// number of pixels); the spacing never drops below `MIN_NODE_SPACING_PX`.
@@ -78,6 +82,7 @@ impl Default for SimulationSettings {
             wavelengths: 31,
             radial: DEFAULT_RADIAL_SAMPLING,
             planar_psf_intervals: DEFAULT_PLANAR_PSF_INTERVALS,
+            planar: false,
             node_intervals: 20,
             method: Method::Auto,
             kernel_tail: KERNEL_TAIL_TOLERANCE,
@@ -172,7 +177,8 @@ impl LensSimulator {
         let weights = SpectralWeights::new(&settings.response, &visible_wavelengths_um(settings.wavelengths));
         let tracer = PsfTracer::new(lens, weights, psf_settings.clone())?;
         let lens_sha256 = lens_fingerprint(lens);
-        let (optics, psfs_from_cache, cache_warning) = if lens.is_rotationally_symmetric() {
+        let (optics, psfs_from_cache, cache_warning) = if lens.is_rotationally_symmetric() && !settings.planar
+        {
             radial_optics(&tracer, &chief, &grid, &settings, &psf_settings, &lens_sha256)?
         } else {
             let planar = PlanarField::trace(lens, &tracer, &chief, grid, settings.planar_psf_intervals)?;

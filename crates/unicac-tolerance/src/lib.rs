@@ -22,6 +22,7 @@ pub use error::{ToleranceError, ToleranceResult};
 pub use evaluate::{field_points, score, FieldPoint, Grading, Score};
 pub use perturb::{apply, draw, elements, Change, ChangeKind};
 pub use run::{
-    run_folder, run_trial, unit_lens, Better, MonteCarlo, RunRecord, Statistic, Summary, Trial, MAX_TRIALS,
+    built_unit, built_unit_at_design_focus, run_folder, run_trial, unit_lens, Better, BuiltUnit, MonteCarlo,
+    RunRecord, Statistic, Summary, Trial, MAX_TRIALS,
 };
 pub use spec::{Compensator, Distribution, ToleranceSpec};

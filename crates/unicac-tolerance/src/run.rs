@@ -73,15 +73,50 @@ pub fn run_trial(nominal: &Lens, record: &RunRecord, trial: u64) -> Trial {
 /// The lens of built unit `trial` as it was graded: its drawn errors applied and the compensator's
 /// image shift in place (what `--write-units` writes as a lens file).
 pub fn unit_lens(nominal: &Lens, request: &MonteCarlo, trial: u64) -> ToleranceResult<Lens> {
+    Ok(built_unit(nominal, request, trial)?.lens)
+}
+
+/// One built unit: its drawn errors, the lens as graded and its score.
+pub struct BuiltUnit {
+    pub changes: Vec<Change>,
+    /// The errors applied and the compensator's image shift in place.
+    pub lens: Lens,
+    pub score: Score,
+}
+
+/// Unit `trial` of `request`, drawn, built, graded and refocused.
+pub fn built_unit(nominal: &Lens, request: &MonteCarlo, trial: u64) -> ToleranceResult<BuiltUnit> {
     let changes = draw(nominal, &request.spec, request.seed, trial);
     let built = apply(nominal, &changes);
-    let graded = score(
+    let score = score(
         &built,
         &field_points(nominal)?,
         &request.grading,
         request.spec.compensator,
     )?;
-    Ok(unicac_analysis::refocused(&built, graded.focus_shift_mm))
+    let lens = unicac_analysis::refocused(&built, score.focus_shift_mm);
+    Ok(BuiltUnit { changes, lens, score })
+}
+
+/// `built_unit` focused as its design is: the compensator moves the image by the unit's best-focus
+/// shift minus the design's own (`focus_shift_mm` is that difference), so a unit sits where its design
+/// sits relative to best focus and differs from it by its errors alone, not by a refocus the design
+/// never had (a lens file is not always at the compensator's best focus).
+pub fn built_unit_at_design_focus(
+    nominal: &Lens,
+    request: &MonteCarlo,
+    trial: u64,
+) -> ToleranceResult<BuiltUnit> {
+    let design = score(
+        nominal,
+        &field_points(nominal)?,
+        &request.grading,
+        request.spec.compensator,
+    )?;
+    let mut unit = built_unit(nominal, request, trial)?;
+    unit.lens = unicac_analysis::refocused(&unit.lens, -design.focus_shift_mm);
+    unit.score.focus_shift_mm -= design.focus_shift_mm;
+    Ok(unit)
 }
 
 /// What to run: the same request on the same folder continues the same trials.

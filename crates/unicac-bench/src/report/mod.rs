@@ -16,6 +16,7 @@
 //! - `rank_stability`: each level's ranks with bootstrap intervals over lenses and scenes ([`ranks`]).
 
 pub mod analysis_md;
+pub mod as_built;
 pub mod folder;
 pub mod html;
 pub mod predictors;

@@ -43,6 +43,9 @@ pub struct Report {
     pub models: Vec<ModelInfo>,
     #[serde(flatten)]
     pub results: Results,
+    /// With `--split as_built`: each method's loss against the designs (`report::as_built`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub as_built: Option<super::as_built::AsBuiltReport>,
 }
 
 fn csv_number(v: Option<f64>) -> String {
@@ -169,6 +172,13 @@ pub fn write_report(dir: &Path, report: &Report, pairs: &[PairScore]) -> Result<
             &format!("tables/{benchmark}.tex"),
             tables::latex(&report.results.rows, &names, benchmark).as_bytes(),
         )?;
+    }
+    if let Some(as_built) = &report.as_built {
+        md.push_str(&super::as_built::markdown(
+            &as_built.rows,
+            as_built.units_per_lens,
+        ));
+        md.push('\n');
     }
     md.push_str(&cost_table(&report.models));
     md.push_str(&super::analysis_md::markdown(&report.results.analysis));

@@ -71,6 +71,12 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     settings.psf_basis_from = args.psf_basis_from.clone();
     settings.unseen_by = args.unseen_by.clone();
     settings.exclude_flagged = args.exclude_flagged;
+    if let (Some(units), Some(path)) = (args.as_built, &args.tolerances) {
+        settings.as_built = Some(unicac_dataset::builder::as_built::AsBuiltSettings {
+            units,
+            tolerances: super::tolerance::read_tolerance_file("--tolerances", path)?,
+        });
+    }
     (settings.device, settings.image) = render_device(args.device)?;
     let shard = super::shard_arg(args.shard.as_deref())?;
     let threads = args.threads.unwrap_or(0);
@@ -97,7 +103,7 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
     } else {
         let total: usize = report.pairs.values().sum();
         println!(
-            "{} {}: {} lenses ({}), {} pairs ({}), {} edge patches; this run: {} ODEs ({} cached), {} PSF tables, {} pairs in {:.1} s ({:.2} pairs/s){}",
+            "{} {}: {} lenses ({}), {} pairs ({}), {} edge patches; this run: {} ODEs ({} cached), {} PSF tables, {} pairs in {:.1} s ({:.2} pairs/s){}{}",
             if report.complete { "built" } else { "partial" },
             args.out.display(),
             report.lenses.values().sum::<usize>(),
@@ -111,6 +117,11 @@ pub fn build(args: &DatasetBuildArgs) -> Result<()> {
             report.pairs_rendered,
             seconds,
             report.pairs_rendered as f64 / seconds.max(1e-9),
+            if report.as_built_pairs_rendered > 0 {
+                format!("; {} as-built pairs", report.as_built_pairs_rendered)
+            } else {
+                String::new()
+            },
             if report.complete { String::new() } else { format!(" (shard {}; dataset.json is written when every shard is done)", report.shard) }
         );
     }

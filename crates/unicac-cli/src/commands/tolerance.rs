@@ -13,6 +13,15 @@ use unicac_tolerance::{
 
 /// Largest tolerance file read.
 const MAX_SPEC_BYTES: u64 = 1 << 20;
+
+/// A tolerance file (docs/tolerancing.md) given by `flag`, read within `MAX_SPEC_BYTES` and checked.
+pub fn read_tolerance_file(flag: &str, path: &std::path::Path) -> Result<ToleranceSpec> {
+    let bytes = unicac_io::read_capped(path, MAX_SPEC_BYTES, "MAX_SPEC_BYTES")
+        .with_context(|| format!("{flag} {}", path.display()))?;
+    let text =
+        String::from_utf8(bytes).with_context(|| format!("{flag} {}: not UTF-8 text", path.display()))?;
+    ToleranceSpec::from_json(&text).with_context(|| format!("{flag} {}", path.display()))
+}
 /// Most units `--write-units` writes in one call.
 const MAX_WRITTEN_UNITS: usize = 1000;
 /// Where `--write-units` puts them, inside the run folder.
@@ -31,11 +40,7 @@ pub fn run(args: &ToleranceArgs) -> Result<()> {
         plan.output("--out", unit_path(&args.out, trial));
     }
     plan.check()?;
-    let bytes = unicac_io::read_capped(&args.spec, MAX_SPEC_BYTES, "MAX_SPEC_BYTES")
-        .with_context(|| format!("--spec {}", args.spec.display()))?;
-    let text = String::from_utf8(bytes)
-        .with_context(|| format!("--spec {}: not UTF-8 text", args.spec.display()))?;
-    let spec = ToleranceSpec::from_json(&text).with_context(|| format!("--spec {}", args.spec.display()))?;
+    let spec = read_tolerance_file("--spec", &args.spec)?;
     let lens_spec = load_spec(&args.lens.lens)?;
     let lens = Lens::from_spec(&lens_spec).with_context(|| args.lens.lens.clone())?;
     // The lens's identity is its JSON form's hash: a .zmx and its .json conversion are one lens.

@@ -14,6 +14,7 @@
 //! Everything that can fail on bad input (lens files, images, the ODE, PSF maps larger than the
 //! frame, a library too small) is checked before the first dataset file is written.
 
+pub mod as_built;
 pub mod claim;
 mod duplicates;
 pub mod grading;
@@ -104,6 +105,10 @@ pub struct BuildSettings {
     /// The image device of `device = gpu` (`unicac_sim::ImageBackend`); the CPU path otherwise.
     #[serde(skip)]
     pub image: unicac_sim::ImageBackend,
+    /// The as-built split (`as_built`): units per test lens and the tolerances they are drawn within.
+    /// Recorded only when asked for (older records stay valid).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub as_built: Option<as_built::AsBuiltSettings>,
 }
 
 /// The device a dataset's pairs are rendered on (`BuildSettings::device`).
@@ -163,6 +168,7 @@ impl BuildSettings {
             exclude_flagged: false,
             device: RenderDevice::Cpu,
             image: unicac_sim::ImageBackend::cpu(),
+            as_built: None,
         }
     }
 
@@ -239,6 +245,9 @@ impl BuildSettings {
                 format!("{}: must be in [0, 1]", self.white_balance_jitter),
             ));
         }
+        if let Some(as_built) = &self.as_built {
+            as_built.check()?;
+        }
         Ok(())
     }
 
@@ -284,6 +293,8 @@ pub struct BuildReport {
     pub pairs_rendered: usize,
     pub psf_tables_written: usize,
     pub edge_patches_written: usize,
+    /// As-built pairs rendered (by the run that completes the dataset, `as_built`).
+    pub as_built_pairs_rendered: usize,
     pub odes_computed: usize,
     pub odes_from_cache: usize,
     pub temporaries_removed: usize,
@@ -396,8 +407,22 @@ pub fn build(
     let edge_patches_written =
         write_edge_patches(out, &plan, &planned, &assignment, &work, &ode_settings, progress)?;
     let complete = dataset_complete(out, &plan);
+    let mut as_built_pairs_rendered = 0;
     if complete {
         finish(out, &plan, adopted_basis, progress)?;
+        if let Some(as_built) = &settings.as_built {
+            let context = as_built::Context {
+                settings,
+                as_built,
+                out,
+                plan: &plan,
+                planned: &planned,
+                scenes: &scenes,
+                ode: &ode_settings,
+                depth: sample_depth(settings),
+            };
+            as_built_pairs_rendered = as_built::render_as_built(&context, progress)?;
+        }
     }
     Ok(BuildReport {
         out: out.to_path_buf(),
@@ -410,6 +435,7 @@ pub fn build(
         pairs_rendered: rendered.pairs,
         psf_tables_written: rendered.tables,
         edge_patches_written,
+        as_built_pairs_rendered,
         odes_computed: planned.len() - odes_from_cache,
         odes_from_cache,
         temporaries_removed,
@@ -619,11 +645,7 @@ fn render_pairs(
     simulator: &dyn Fn(&PlannedLens) -> Result<unicac_sim::LensSimulator>,
     progress: &dyn Progress,
 ) -> Result<Rendered> {
-    let depth = if settings.bit_depth == 16 {
-        SampleDepth::Sixteen
-    } else {
-        SampleDepth::Eight
-    };
+    let depth = sample_depth(settings);
     let missing: Vec<&PairRow> = (work.pairs.iter())
         .map(|&p| &plan.pairs[p])
         .filter(|pair| !pair_complete(out, pair))
@@ -1118,6 +1140,15 @@ fn dataset_complete(out: &Path, plan: &Plan) -> bool {
             .filter(|l| !l.psf.is_empty())
             .all(|l| out.join(&l.psf).join(crate::psf_table::TABLE_JSON).exists())
         && out.join(fov_relative(plan.frame_px)).exists()
+}
+
+/// The PNG sample depth of the pairs (`bit_depth`).
+fn sample_depth(settings: &BuildSettings) -> SampleDepth {
+    if settings.bit_depth == 16 {
+        SampleDepth::Sixteen
+    } else {
+        SampleDepth::Eight
+    }
 }
 
 fn write_png(path: &Path, image: &Planar, depth: SampleDepth) -> Result<()> {

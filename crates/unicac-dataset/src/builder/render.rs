@@ -26,18 +26,47 @@ pub fn simulator(
     if !lens.is_rotationally_symmetric() {
         return Err(unicac_sim::SimError::Unsupported(
             "the lens is decentred or tilted: dataset builds take rotationally symmetric lenses (their PSF \
-             tables sample one field radius); simulate a built unit with `unicac simulate`"
+             tables sample one field radius); a built unit goes into the as-built split (`--as-built`)"
                 .into(),
         ));
     }
-    let settings = SimulationSettings {
+    let settings = settings(distortion, illumination, cache, image);
+    LensSimulator::new(lens, frame_px[0], frame_px[1], Some(pixel_um), settings)
+}
+
+/// The simulation settings of every pair: the library's defaults with the build's switches.
+fn settings(
+    distortion: bool,
+    illumination: bool,
+    cache: Option<PsfCache>,
+    image: ImageBackend,
+) -> SimulationSettings {
+    SimulationSettings {
         distortion,
         illumination,
         cache,
         image,
         ..SimulationSettings::default()
-    };
-    LensSimulator::new(lens, frame_px[0], frame_px[1], Some(pixel_um), settings)
+    }
+}
+
+/// The simulator of an as-built unit, or of its design as the as-built split renders it: the planar
+/// maps (not cached) on the design's sensor, the rays aimed as the design's are (`Aiming::Auto`
+/// decided on the design: `auto` would aim every unit for real, and a design aimed paraxially would
+/// then differ from its units by the aiming as well as by their errors).
+pub fn unit_simulator(
+    unit: &unicac_optics::Lens,
+    design: &unicac_optics::Lens,
+    frame_px: [usize; 2],
+    pixel_um: f64,
+    distortion: bool,
+    illumination: bool,
+    image: ImageBackend,
+) -> std::result::Result<LensSimulator, unicac_sim::SimError> {
+    let mut settings = settings(distortion, illumination, None, image);
+    settings.psf.aiming = unicac_trace::AutoAiming::decide(design)?.aiming;
+    settings.planar = true;
+    LensSimulator::new(unit, frame_px[0], frame_px[1], Some(pixel_um), settings)
 }
 
 /// The sensor/ISP configuration a pair row records.
