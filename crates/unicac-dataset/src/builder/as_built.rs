@@ -25,7 +25,7 @@ use unicac_ode::OdeScores;
 use unicac_optics::Lens;
 use unicac_tolerance::{Change, Grading, MonteCarlo, ToleranceSpec};
 
-use super::{check_relative, pair_complete, render, sources, write_png, PlannedLens};
+use super::{pair_complete, render, render_and_write, sources, PlannedLens};
 use crate::error::{DatasetError, Result};
 use crate::manifest::{self, LensRow, PairRow};
 use crate::seeds::derive_seed;
@@ -203,6 +203,9 @@ pub(super) fn render_as_built(context: &Context, progress: &dyn Progress) -> Res
     let test: Vec<usize> = (0..plan.lenses.len())
         .filter(|&i| plan.lenses[i].split == "test")
         .collect();
+    if finished(out, plan, &test, as_built.units)? {
+        return Ok(0);
+    }
     progress.stage("as-built units", test.len() * (as_built.units + 1));
     let mut units: Vec<(UnitRow, Lens, usize)> = Vec::new();
     for &i in &test {
@@ -239,15 +242,15 @@ pub(super) fn render_as_built(context: &Context, progress: &dyn Progress) -> Res
                 "as-built unit {}",
                 unit.unit_id
             )))?;
-            missing.par_iter().try_for_each(|pair| -> Result<()> {
-                let image = scene_cache.get(scenes[pair.image_id.as_str()])?;
-                let frame = sources::cut(&image, pair.scene_crop);
-                let pixels = render::render_pair(&sim, &frame, pair)?;
-                write_png(&out.join(&pair.gt), &pixels.gt, depth)?;
-                write_png(&out.join(&pair.lq), &pixels.lq, depth)?;
-                // Last: its presence marks the pair complete.
-                manifest::write_json(&out.join(check_relative(pair)), &pixels.check)?;
-                Ok(())
+            missing.par_iter().try_for_each(|pair| {
+                render_and_write(
+                    out,
+                    &sim,
+                    &scene_cache,
+                    scenes[pair.image_id.as_str()],
+                    pair,
+                    depth,
+                )
             })?;
             rendered += missing.len();
         }
@@ -259,6 +262,22 @@ pub(super) fn render_as_built(context: &Context, progress: &dyn Progress) -> Res
     let rows = super::with_checks(out, &rows)?;
     manifest::write_atomically(&out.join(AS_BUILT_PAIRS_JSONL), &manifest::jsonl_bytes(&rows))?;
     Ok(rendered)
+}
+
+/// Whether a previous run wrote the whole split: both manifests, one row per expected unit and design
+/// reference, every pair complete (then nothing is graded or rendered again).
+fn finished(out: &Path, plan: &super::Plan, test: &[usize], units: usize) -> Result<bool> {
+    let Some((rows, pairs)) = read_as_built(out)? else {
+        return Ok(false);
+    };
+    let expected: Vec<String> = (test.iter())
+        .flat_map(|&i| {
+            let id = &plan.lenses[i].lens_id;
+            std::iter::once(format!("{id}__d")).chain((0..units).map(move |k| format!("{id}__u{k}")))
+        })
+        .collect();
+    let found: Vec<&str> = rows.iter().map(|r| r.unit_id.as_str()).collect();
+    Ok(found == expected && pairs.iter().all(|p| pair_complete(out, p)))
 }
 
 /// A dataset's as-built units and pairs (`as_built/`), or None when it was built without them.

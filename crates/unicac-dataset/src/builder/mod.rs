@@ -682,19 +682,38 @@ fn render_pairs(
             rendered.tables += 1;
         }
         pairs.par_iter().try_for_each(|pair| -> Result<()> {
-            let image = scene_cache.get(scenes[pair.image_id.as_str()])?;
-            let frame = sources::cut(&image, pair.scene_crop);
-            let pixels = render::render_pair(&sim, &frame, pair)?;
-            write_png(&out.join(&pair.gt), &pixels.gt, depth)?;
-            write_png(&out.join(&pair.lq), &pixels.lq, depth)?;
-            // Last: its presence marks the pair complete.
-            manifest::write_json(&out.join(check_relative(pair)), &pixels.check)?;
+            render_and_write(
+                out,
+                &sim,
+                &scene_cache,
+                scenes[pair.image_id.as_str()],
+                pair,
+                depth,
+            )?;
             progress.advance(1);
             Ok(())
         })?;
         rendered.pairs += pairs.len();
     }
     Ok(rendered)
+}
+
+/// Renders one pair from its scene and writes its GT, LQ and, last (its presence marks the pair
+/// complete), its checks.
+fn render_and_write(
+    out: &Path,
+    sim: &unicac_sim::LensSimulator,
+    scene_cache: &sources::SceneCache,
+    scene: &Scene,
+    pair: &PairRow,
+    depth: SampleDepth,
+) -> Result<()> {
+    let image = scene_cache.get(scene)?;
+    let frame = sources::cut(&image, pair.scene_crop);
+    let pixels = render::render_pair(sim, &frame, pair)?;
+    write_png(&out.join(&pair.gt), &pixels.gt, depth)?;
+    write_png(&out.join(&pair.lq), &pixels.lq, depth)?;
+    manifest::write_json(&out.join(check_relative(pair)), &pixels.check)
 }
 
 /// The ODE edge patches of the shard's test lenses not yet written; returns how many files were
