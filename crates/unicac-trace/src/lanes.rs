@@ -755,21 +755,39 @@ fn localize_phase<S: Simd>(simd: S, frame: &Frame, b: &mut Block) {
     let (ls, _) = S::as_mut_simd_f64s(&mut b.l);
     let (ms, _) = S::as_mut_simd_f64s(&mut b.m);
     let (ns, _) = S::as_mut_simd_f64s(&mut b.n);
-    let r = frame.rotation.map(|row| row.map(|e| v.splat(e)));
-    let o = frame.origin.map(|e| v.splat(e));
-    // R^T w, with the scalar code's order: (r0k w0 + r1k w1) + r2k w2.
-    let to_local = |w: [S::f64s; 3], k: usize| {
-        v.add(
-            v.add(v.mul(r[0][k], w[0]), v.mul(r[1][k], w[1])),
-            v.mul(r[2][k], w[2]),
-        )
-    };
+    let r = splat_rotation(v, &frame.rotation);
+    let o = [v.splat(frame.origin[0]), v.splat(frame.origin[1]), v.splat(frame.origin[2])];
+    // R^T w: column k of R against w.
+    let columns = [
+        [r[0][0], r[1][0], r[2][0]],
+        [r[0][1], r[1][1], r[2][1]],
+        [r[0][2], r[1][2], r[2][2]],
+    ];
     for j in 0..xs.len() {
         let d = [v.sub(xs[j], o[0]), v.sub(ys[j], o[1]), v.sub(zs[j], o[2])];
         let dir = [ls[j], ms[j], ns[j]];
-        [xs[j], ys[j], zs[j]] = [0, 1, 2].map(|k| to_local(d, k));
-        [ls[j], ms[j], ns[j]] = [0, 1, 2].map(|k| to_local(dir, k));
+        xs[j] = combine(v, columns[0], d);
+        ys[j] = combine(v, columns[1], d);
+        zs[j] = combine(v, columns[2], d);
+        ls[j] = combine(v, columns[0], dir);
+        ms[j] = combine(v, columns[1], dir);
+        ns[j] = combine(v, columns[2], dir);
     }
+}
+
+/// (a0 w0 + a1 w1) + a2 w2, the scalar code's order (`Frame`'s rotations). A function rather than a
+/// closure: closures do not inherit the SIMD context's target features, so their intrinsics would be
+/// calls (they were, at 44% of a decentred lens's trace time).
+#[inline(always)]
+fn combine<S: Simd>(v: Lanes<S>, a: [S::f64s; 3], w: [S::f64s; 3]) -> S::f64s {
+    v.add(v.add(v.mul(a[0], w[0]), v.mul(a[1], w[1])), v.mul(a[2], w[2]))
+}
+
+/// A rotation's entries as lanes.
+#[inline(always)]
+fn splat_rotation<S: Simd>(v: Lanes<S>, rotation: &[[f64; 3]; 3]) -> [[S::f64s; 3]; 3] {
+    let row = |r: &[f64; 3]| [v.splat(r[0]), v.splat(r[1]), v.splat(r[2])];
+    [row(&rotation[0]), row(&rotation[1]), row(&rotation[2])]
 }
 
 /// After `finish_phase` (and the swap of the point sets): lanes that arrived go back to global
@@ -791,21 +809,19 @@ fn globalize_phase<S: Simd>(simd: S, frame: &Frame, b: &mut Block) {
     let (sms, _) = S::as_simd_f64s(&b.saved_m);
     let (sns, _) = S::as_simd_f64s(&b.saved_n);
     let (arriveds, _) = S::as_simd_u64s(&b.arrived);
-    let r = frame.rotation.map(|row| row.map(|e| v.splat(e)));
-    let o = frame.origin.map(|e| v.splat(e));
-    // R w, with the scalar code's order: (rk0 w0 + rk1 w1) + rk2 w2.
-    let to_global = |w: [S::f64s; 3], k: usize| {
-        v.add(
-            v.add(v.mul(r[k][0], w[0]), v.mul(r[k][1], w[1])),
-            v.mul(r[k][2], w[2]),
-        )
-    };
+    let r = splat_rotation(v, &frame.rotation);
+    let o = [v.splat(frame.origin[0]), v.splat(frame.origin[1]), v.splat(frame.origin[2])];
+    // R w: row k of R against w.
     for j in 0..xs.len() {
         let arrived = simd.equal_u64s(arriveds[j], simd.splat_u64s(!0));
         let p = [xs[j], ys[j], zs[j]];
         let dir = [ls[j], ms[j], ns[j]];
-        let moved = [0, 1, 2].map(|k| v.add(o[k], to_global(p, k)));
-        let turned = [0, 1, 2].map(|k| to_global(dir, k));
+        let moved = [
+            v.add(o[0], combine(v, r[0], p)),
+            v.add(o[1], combine(v, r[1], p)),
+            v.add(o[2], combine(v, r[2], p)),
+        ];
+        let turned = [combine(v, r[0], dir), combine(v, r[1], dir), combine(v, r[2], dir)];
         xs[j] = v.select(arrived, moved[0], sxs[j]);
         ys[j] = v.select(arrived, moved[1], sys[j]);
         zs[j] = v.select(arrived, moved[2], szs[j]);
