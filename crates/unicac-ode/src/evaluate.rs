@@ -271,41 +271,6 @@ impl EvaluationSetup {
     /// a unit's at each of `azimuths_deg`, turned so that every field lies on +y (the sagittal and
     /// tangential edges then mean what they mean on a symmetric lens's +y fields).
     pub fn field_kernels(&self, fractions: &[f64]) -> Result<Vec<FieldKernels>, OdeError> {
-        if self.azimuths_deg.len() > 1 {
-            return self.unit_field_kernels(fractions);
-        }
-        let angles: Vec<f64> = fractions
-            .iter()
-            .map(|f| self.chief.angle_for_height(f * self.half_diagonal_mm))
-            .collect();
-        let set = self
-            .tracer
-            .common_size_psfs(&angles, false, DarkFields::Refused)
-            .map_err(|error| match error {
-                PsfError::FieldVignetted { field_deg, .. } => OdeError::Vignetted {
-                    field_fraction: angles
-                        .iter()
-                        .position(|&a| a == field_deg)
-                        .map_or(f64::NAN, |i| fractions[i]),
-                    field_deg,
-                },
-                other => other.into(),
-            })?;
-        Ok(fractions
-            .iter()
-            .zip(&angles)
-            .zip(set.psfs)
-            .map(|((&fraction, &angle), psf)| FieldKernels {
-                fraction,
-                angle_deg: angle,
-                azimuth_deg: 0.0,
-                kernels: psf.kernels,
-            })
-            .collect())
-    }
-
-    /// `field_kernels` of a built unit: every off-axis fraction at every azimuth.
-    fn unit_field_kernels(&self, fractions: &[f64]) -> Result<Vec<FieldKernels>, OdeError> {
         let fields = self.fields(fractions);
         let angles: Vec<[f64; 2]> = fields.iter().map(|f| f.2).collect();
         let set = self
@@ -327,10 +292,13 @@ impl EvaluationSetup {
                 fraction,
                 angle_deg: self.chief.angle_for_height(fraction * self.half_diagonal_mm),
                 azimuth_deg,
-                // Azimuths are whole quarter turns: turned back to +y exactly.
-                kernels: (psf.kernels.iter())
-                    .map(|k| k.quarter_turned(-((azimuth_deg / 90.0).round() as i32)))
-                    .collect(),
+                // Azimuths are whole quarter turns: turned back to +y exactly (none on +y).
+                kernels: match azimuth_deg {
+                    0.0 => psf.kernels,
+                    _ => (psf.kernels.iter())
+                        .map(|k| k.quarter_turned(-((azimuth_deg / 90.0).round() as i32)))
+                        .collect(),
+                },
             })
             .collect())
     }

@@ -756,7 +756,11 @@ fn localize_phase<S: Simd>(simd: S, frame: &Frame, b: &mut Block) {
     let (ms, _) = S::as_mut_simd_f64s(&mut b.m);
     let (ns, _) = S::as_mut_simd_f64s(&mut b.n);
     let r = splat_rotation(v, &frame.rotation);
-    let o = [v.splat(frame.origin[0]), v.splat(frame.origin[1]), v.splat(frame.origin[2])];
+    let o = [
+        v.splat(frame.origin[0]),
+        v.splat(frame.origin[1]),
+        v.splat(frame.origin[2]),
+    ];
     // R^T w: column k of R against w.
     let columns = [
         [r[0][0], r[1][0], r[2][0]],
@@ -810,7 +814,11 @@ fn globalize_phase<S: Simd>(simd: S, frame: &Frame, b: &mut Block) {
     let (sns, _) = S::as_simd_f64s(&b.saved_n);
     let (arriveds, _) = S::as_simd_u64s(&b.arrived);
     let r = splat_rotation(v, &frame.rotation);
-    let o = [v.splat(frame.origin[0]), v.splat(frame.origin[1]), v.splat(frame.origin[2])];
+    let o = [
+        v.splat(frame.origin[0]),
+        v.splat(frame.origin[1]),
+        v.splat(frame.origin[2]),
+    ];
     // R w: row k of R against w.
     for j in 0..xs.len() {
         let arrived = simd.equal_u64s(arriveds[j], simd.splat_u64s(!0));
@@ -821,7 +829,11 @@ fn globalize_phase<S: Simd>(simd: S, frame: &Frame, b: &mut Block) {
             v.add(o[1], combine(v, r[1], p)),
             v.add(o[2], combine(v, r[2], p)),
         ];
-        let turned = [combine(v, r[0], dir), combine(v, r[1], dir), combine(v, r[2], dir)];
+        let turned = [
+            combine(v, r[0], dir),
+            combine(v, r[1], dir),
+            combine(v, r[2], dir),
+        ];
         xs[j] = v.select(arrived, moved[0], sxs[j]);
         ys[j] = v.select(arrived, moved[1], sys[j]);
         zs[j] = v.select(arrived, moved[2], szs[j]);
