@@ -30,6 +30,7 @@ pub mod digest;
 mod plan;
 pub mod progress;
 mod read;
+pub mod serde_skip;
 pub mod shard;
 
 pub use atomic::{

@@ -88,10 +88,6 @@ impl Default for OdeSettings {
 /// A symmetric lens is graded on +y only (one azimuth stands for all).
 pub const UNIT_AZIMUTHS_DEG: [f64; 4] = [0.0, 90.0, 180.0, 270.0];
 
-fn is_zero(value: &f64) -> bool {
-    *value == 0.0
-}
-
 /// Scores of one field in one channel.
 #[derive(Debug, Clone, Serialize)]
 pub struct FieldChannelScore {
@@ -99,7 +95,7 @@ pub struct FieldChannelScore {
     pub field_deg: f64,
     /// The field's azimuth (deg, from sensor +y towards +x; `UNIT_AZIMUTHS_DEG`): only a built unit's
     /// fields have one (absent when 0).
-    #[serde(skip_serializing_if = "is_zero")]
+    #[serde(skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub azimuth_deg: f64,
     pub channel: &'static str,
     pub psnr_db: f64,

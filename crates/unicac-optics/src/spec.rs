@@ -94,7 +94,7 @@ pub struct SurfaceSpec {
     /// Alternative to `curvature_per_mm`; 0 or null is a plane.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radius_mm: Option<f64>,
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub conic: f64,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub aspheric_coefficients: Vec<f64>,
@@ -104,7 +104,7 @@ pub struct SurfaceSpec {
     pub material: Option<MaterialSpec>,
     /// The glass after this surface departs from its material's index by this at every wavelength
     /// (dispersion kept): a melt's index error, as `unicac tolerance` writes built units; absent: 0.
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub index_offset: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub semi_diameter_mm: Option<f64>,
@@ -113,18 +113,14 @@ pub struct SurfaceSpec {
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub label: String,
     /// Decentre and tilt of this surface alone (docs/lens-format.md "Decentres and tilts"); absent: 0.
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub decentre_x_mm: f64,
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub decentre_y_mm: f64,
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub tilt_x_deg: f64,
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub tilt_y_deg: f64,
-}
-
-fn is_zero(x: &f64) -> bool {
-    *x == 0.0
 }
 
 impl SurfaceSpec {

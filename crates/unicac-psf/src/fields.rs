@@ -468,7 +468,7 @@ pub struct PsfMetadata {
     pub mode: PsfMode,
     pub field_deg: f64,
     /// The field's x angle (deg), when it has one (a lens that is not rotationally symmetric).
-    #[serde(skip_serializing_if = "is_zero")]
+    #[serde(skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub field_x_deg: f64,
     pub pixel_um: f64,
     pub kernel_px: usize,
@@ -515,8 +515,4 @@ pub struct PsfReport {
     pub lens_sha256: String,
     pub from_cache: bool,
     pub out: String,
-}
-
-fn is_zero(value: &f64) -> bool {
-    *value == 0.0
 }

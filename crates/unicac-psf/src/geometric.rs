@@ -118,7 +118,7 @@ pub struct FieldPsf {
     pub field_deg: f64,
     /// Its x angle (deg): 0 for the fields along y that a rotationally symmetric lens needs (and then
     /// left out of the JSON); a lens that is not symmetric has PSFs of their own at any (x, y).
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub field_x_deg: f64,
     /// Primary-wavelength real chief ray on the image surface (the kernels' centre).
     pub reference_mm: [f64; 2],
@@ -128,10 +128,6 @@ pub struct FieldPsf {
     /// Energy outside the kernel, per channel, before normalisation (non-zero when the size was capped).
     pub energy_cut: Vec<f64>,
     pub rays_traced: usize,
-}
-
-fn is_zero(value: &f64) -> bool {
-    *value == 0.0
 }
 
 /// The primary-wavelength real chief ray (aimed at the stop centre, unclipped): the point every PSF of

@@ -37,12 +37,8 @@ pub struct Grading {
     pub mtf_frequencies_cy_mm: Vec<f64>,
     /// Also the ODE of each refocused unit (docs/ode.md: every off-axis field at four azimuths; about a
     /// second per unit). Absent from run files when off, so runs without it keep their bytes.
-    #[serde(default, skip_serializing_if = "is_false")]
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub ode: bool,
-}
-
-fn is_false(value: &bool) -> bool {
-    !*value
 }
 
 impl Default for Grading {

@@ -14,7 +14,7 @@ use unicac_optics::Lens;
 pub struct Spot {
     pub field_deg: f64,
     /// The field's x angle (deg), for a lens that is not rotationally symmetric (absent when 0).
-    #[serde(skip_serializing_if = "is_zero")]
+    #[serde(skip_serializing_if = "unicac_io::serde_skip::is_zero")]
     pub field_x_deg: f64,
     pub wavelength_um: f64,
     pub rays_traced: usize,
@@ -35,10 +35,6 @@ pub struct Spot {
     /// Image-surface intercepts of the rays that arrived.
     #[serde(skip)]
     pub points_mm: Vec<[f64; 2]>,
-}
-
-fn is_zero(value: &f64) -> bool {
-    *value == 0.0
 }
 
 /// The system and aimer for one wavelength, built once and reused for every field.
