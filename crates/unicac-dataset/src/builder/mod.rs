@@ -672,7 +672,7 @@ fn render_pairs(
         }
         let sim = simulator(&planned[i])?;
         if needs_table {
-            // `render::simulator` takes symmetric lenses only, so there is always a radial map.
+            // `check_inputs` refused every lens that is not rotationally symmetric: there is a radial map.
             let radial = sim.radial().ok_or_else(|| {
                 DatasetError::simulation(format!("lens {}", row.lens_id))(unicac_sim::SimError::Unsupported(
                     "no radial PSF map".into(),

@@ -12,7 +12,8 @@ use unicac_image::Planar;
 use unicac_psf::{visible_wavelengths_um, SpectralWeights};
 use unicac_sim::{ImageBackend, LensSimulator, PsfCache, RadialPsfs, SimulationSettings};
 
-/// The simulator of a lens on the build's sensor (`lens` already carries the build sensor).
+/// The simulator of a lens on the build's sensor (`lens` already carries the build sensor; a lens of
+/// the build is rotationally symmetric, `check_inputs`, so its PSFs lie along one radius).
 pub fn simulator(
     lens: &unicac_optics::Lens,
     frame_px: [usize; 2],
@@ -22,14 +23,6 @@ pub fn simulator(
     cache: Option<PsfCache>,
     image: ImageBackend,
 ) -> std::result::Result<LensSimulator, unicac_sim::SimError> {
-    // The PSF tables, the PSF basis and the pair checks describe one field radius (docs/dataset.md).
-    if !lens.is_rotationally_symmetric() {
-        return Err(unicac_sim::SimError::Unsupported(
-            "the lens is decentred or tilted: dataset builds take rotationally symmetric lenses (their PSF \
-             tables sample one field radius); a built unit goes into the as-built split (`--as-built`)"
-                .into(),
-        ));
-    }
     let settings = settings(distortion, illumination, cache, image);
     LensSimulator::new(lens, frame_px[0], frame_px[1], Some(pixel_um), settings)
 }
