@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use unicac_dataset::folder::Dataset;
 use unicac_dataset::{EdgeRow, PairRow};
 
-use crate::choices::{Benchmark, ClassicalMethod, Metric, Split as SplitName};
+use crate::choices::{Benchmark, ClassicalMethod, Metric, Split};
 use crate::error::{BenchError, Result};
 use crate::report::LensInfo;
 use crate::settings::{BenchSettings, MAX_THREADS, MAX_WIENER_NSR};
@@ -39,11 +39,11 @@ pub(crate) struct Plan {
     pub basis: Option<unicac_dataset::psf_basis::PsfBasis>,
     /// For the as-built split: the design lenses' test pairs and the designs, scored beside the units'
     /// pairs so the report can say what each method loses on units as built.
-    pub designs: Option<Split>,
+    pub designs: Option<SplitRows>,
 }
 
 /// A split's pairs and their lenses.
-pub(crate) struct Split {
+pub(crate) struct SplitRows {
     pub pairs: Vec<PairRow>,
     pub lenses: BTreeMap<String, LensInfo>,
 }
@@ -71,7 +71,7 @@ pub(crate) fn plan(s: &BenchSettings) -> Result<Plan> {
         })
         .collect::<Result<Vec<LoadedModel>>>()?;
     let runtime = runtime(s, !loaded.is_empty(), &mut notices)?;
-    let (dataset, Split { pairs, lenses }, designs) = read_split(s)?;
+    let (dataset, SplitRows { pairs, lenses }, designs) = read_split(s)?;
     let has_psf = pairs.iter().all(|p| !p.psf.is_empty());
     let has_fov = pairs.iter().all(|p| !p.fov.is_empty());
     check_model_inputs(s, &loaded, has_psf, has_fov)?;
@@ -212,9 +212,9 @@ fn runtime(
 
 /// The dataset, the pairs of the asked split and their lenses (each pair's lens must be listed), and
 /// for the as-built split the design references.
-fn read_split(s: &BenchSettings) -> Result<(Dataset, Split, Option<Split>)> {
+fn read_split(s: &BenchSettings) -> Result<(Dataset, SplitRows, Option<SplitRows>)> {
     let dataset = Dataset::open(&s.dataset)?;
-    if s.split == SplitName::AsBuilt {
+    if s.split == Split::AsBuilt {
         let [units, designs] = read_as_built(s, &dataset)?;
         return Ok((dataset, units, Some(designs)));
     }
@@ -223,7 +223,7 @@ fn read_split(s: &BenchSettings) -> Result<(Dataset, Split, Option<Split>)> {
 }
 
 /// The pairs of split `split` and their lenses (each pair's lens must be listed).
-fn read_pairs(s: &BenchSettings, dataset: &Dataset, split: SplitName) -> Result<Split> {
+fn read_pairs(s: &BenchSettings, dataset: &Dataset, split: Split) -> Result<SplitRows> {
     let lens_rows = dataset.lenses()?;
     let pairs: Vec<PairRow> = dataset
         .pairs()?
@@ -267,12 +267,12 @@ fn read_pairs(s: &BenchSettings, dataset: &Dataset, split: SplitName) -> Result<
             pair.pair_id, pair.lens_id
         )));
     }
-    Ok(Split { pairs, lenses })
+    Ok(SplitRows { pairs, lenses })
 }
 
 /// The as-built split: the units' pairs and the design references' (each unit or reference as a lens:
 /// its design's levels, its own ODE and RMS).
-fn read_as_built(s: &BenchSettings, dataset: &Dataset) -> Result<[Split; 2]> {
+fn read_as_built(s: &BenchSettings, dataset: &Dataset) -> Result<[SplitRows; 2]> {
     let Some((units, pairs)) = unicac_dataset::builder::as_built::read_as_built(&dataset.dir)? else {
         return Err(invalid(format!(
             "{}: the dataset has no as-built split; build it with `unicac dataset build --as-built N \
@@ -309,7 +309,7 @@ fn read_as_built(s: &BenchSettings, dataset: &Dataset) -> Result<[Split; 2]> {
             .filter(|p| lenses.contains_key(&p.lens_id))
             .cloned()
             .collect();
-        Split { pairs, lenses }
+        SplitRows { pairs, lenses }
     };
     Ok([split(false), split(true)])
 }

@@ -112,6 +112,16 @@ pub enum FieldOptics {
     Planar(PlanarField),
 }
 
+impl FieldOptics {
+    /// Side of the PSF kernels (pixels, odd).
+    pub fn kernel_size(&self) -> usize {
+        match self {
+            FieldOptics::Radial { psfs, .. } => psfs.kernel_size,
+            FieldOptics::Planar(planar) => planar.kernel_size,
+        }
+    }
+}
+
 pub struct LensSimulator {
     pub grid: SensorGrid,
     /// The real chief ray over the field: of the lens, or of its centred twin (`Lens::nominal`) when
@@ -184,10 +194,7 @@ impl LensSimulator {
             let planar = PlanarField::trace(lens, &tracer, &chief, grid, settings.planar_psf_intervals)?;
             (FieldOptics::Planar(planar), false, None)
         };
-        let kernel_size = match &optics {
-            FieldOptics::Radial { psfs, .. } => psfs.kernel_size,
-            FieldOptics::Planar(planar) => planar.kernel_size,
-        };
+        let kernel_size = optics.kernel_size();
         if kernel_size > grid.width_px.min(grid.height_px) {
             return Err(InvalidParameter::new(
                 "image_px",
@@ -235,10 +242,7 @@ impl LensSimulator {
 
     /// Side of the PSF kernels (pixels, odd).
     pub fn kernel_size(&self) -> usize {
-        match &self.optics {
-            FieldOptics::Radial { psfs, .. } => psfs.kernel_size,
-            FieldOptics::Planar(planar) => planar.kernel_size,
-        }
+        self.optics.kernel_size()
     }
 
     /// The PSF of `channel` that blurs the output image at sensor point (x, y) mm (the field landing
