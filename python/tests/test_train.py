@@ -507,6 +507,53 @@ def test_export_matches_pytorch_at_two_sizes(tmp_path, model):
         assert got.shape == (n, 3, h, w) and np.abs(got - want).max() <= 1e-4
 
 
+@pytest.mark.parametrize("model", ["nafnet", "wiener-nafnet", "restormer"])
+def test_an_exported_model_loads_back_into_its_network_exactly(tmp_path, model):
+    """`--init-from MODEL.onnx`: every weight, the exporter's folded LayerNorm constants included, comes
+    back bit for bit; another architecture, another NSR or a file that is not ONNX is refused by name."""
+    pytest.importorskip("onnxruntime")
+    from unicac.train.export import export_network
+    from unicac.train.onnx_weights import OnnxWeightsError, load_onnx_weights
+
+    torch.manual_seed(1)
+    config = config_mod.load(config_mod.shipped(model))
+    net = build_network(config["network"]).eval()
+    with torch.no_grad():  # every weight away from its initial value (residual scales, norms), mildly
+        for p in net.parameters():
+            p.add_(torch.randn_like(p) * 0.05)
+    out = tmp_path / f"{model}.onnx"
+    meta = {"architecture": net.architecture, "wiener_nsr": "0.01"}
+    export_network(net, out, meta, check=False)
+    torch.manual_seed(2)
+    fresh = build_network(config["network"])
+    state = load_onnx_weights(fresh, out, wiener_nsr=0.01)
+    for name, value in net.state_dict().items():
+        assert torch.equal(state[name], value), name
+    if model == "nafnet":
+        other = build_network(config_mod.load(config_mod.shipped("nafnet-fov"))["network"])
+        with pytest.raises(OnnxWeightsError, match="architecture is 'nafnet'.*'nafnet-fov'"):
+            load_onnx_weights(other, out)
+        with pytest.raises(OnnxWeightsError, match="NSR 0.01.*wiener_nsr is 0.1"):
+            load_onnx_weights(fresh, out, wiener_nsr=0.1)
+        (tmp_path / "junk.onnx").write_bytes(b"not a model")
+        with pytest.raises(OnnxWeightsError, match="junk.onnx: not an ONNX file"):
+            load_onnx_weights(fresh, tmp_path / "junk.onnx")
+
+
+def test_training_starts_from_an_exported_model(tmp_path, dataset):
+    """`train --init-from MODEL.onnx`: iteration 0's validation equals the exported run's last one."""
+    pytest.importorskip("onnxruntime")
+    run = tmp_path / "run"
+    first = Trainer(tiny_config("nafnet", dataset, iters=3), run, quiet=True).train()
+    assert cli_main(["export", str(run), "--out", str(tmp_path / "m.onnx")]) == 0
+    config = tiny_config("nafnet", dataset, iters=1)
+    config["path"]["pretrain_network_g"] = str(tmp_path / "m.onnx")
+    Trainer(config, tmp_path / "tuned", quiet=True).train()
+    rows = [json.loads(line) for line in (tmp_path / "tuned" / "log.jsonl").read_text().splitlines()]
+    start = next(r for r in rows if r["kind"] == "val" and r["iter"] == 0)
+    assert abs(start["psnr_db"] - first["psnr_db"]) < 1e-4
+
+
 @needs_maps
 def test_export_command(tmp_path, dataset, capsys):
     pytest.importorskip("onnxruntime")

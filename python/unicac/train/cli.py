@@ -68,7 +68,7 @@ def _config_from_args(args: argparse.Namespace) -> dict[str, Any]:
         if value is not None:
             section[key] = value
     if args.init_from is not None and not Path(args.init_from).exists():
-        raise config_mod.ConfigError(f"--init-from: {args.init_from} is neither a run folder nor a checkpoint file")
+        raise config_mod.ConfigError(f"--init-from: {args.init_from} is neither a run folder, a checkpoint nor an ONNX file")
     train["allow_small_patch"] = bool(args.allow_small_patch or train["allow_small_patch"])
     train["allow_small_receptive_field"] = bool(args.allow_small_receptive_field or train["allow_small_receptive_field"])
     train["allow_misaligned"] = bool(args.allow_misaligned or train["allow_misaligned"])
@@ -193,8 +193,9 @@ def parser() -> argparse.ArgumentParser:
     t.add_argument("--amp", choices=("auto", "off", "bf16", "fp16"), help="mixed precision (replaces train.amp; auto: "
                    "bf16 or fp16 on a GPU, off on CPU)")
     t.add_argument("--channels-last", choices=("auto", "on", "off"), help="replaces train.channels_last (auto: on for cuda)")
-    t.add_argument("--init-from", help="a finished run folder (or checkpoint) whose weights start this run "
-                   "(replaces path.pretrain_network_g: GAN fine-tuning)")
+    t.add_argument("--init-from", help="a finished run folder, a checkpoint or an exported model (.onnx, e.g. "
+                   "models/bench-small/NAME.onnx) whose weights start this run (replaces path.pretrain_network_g: "
+                   "fine-tuning)")
     t.add_argument("--allow-small-patch", action="store_true", help="warn instead of refusing a patch under twice "
                    "the dataset's largest PSF kernel")
     t.add_argument("--allow-small-receptive-field", action="store_true", help="warn instead of refusing a network "

@@ -95,16 +95,16 @@ def example_inputs(inputs: list[str], height: int, width: int, batch: int = 1, s
     return tensors
 
 
-def export_network(net: Restorer, out: Path, metadata: dict[str, str], check: bool = True) -> dict[str, Any]:
-    """Writes `net` to `out` (ONNX, docs/models.md); returns {"path", "bytes", "parity": max |diff| per
-    checked size} (`check=False`: no parity check, "parity" empty)."""
+def onnx_graph(net: Restorer) -> Any:
+    """`net` as an ONNX ModelProto (no metadata). The exporter names a parameter's initializer after it,
+    except where it folds a reshaped parameter into a constant (`onnx::Mul_N`): `onnx_weights` maps those
+    back."""
     import onnx
 
     module = _OnnxModule(net).eval()
     names = list(net.inputs)
     dynamic = {name: {0: "N", 2: "H", 3: "W"} for name in names + ["restored"]}
     args = tuple(example_inputs(names, 48, 64))
-    out = Path(out)
     with tempfile.TemporaryDirectory() as scratch:
         raw = Path(scratch) / "model.onnx"
         # The TorchScript exporter: exact here and fast (seconds). torch >= 2.9 deprecates it for the
@@ -114,13 +114,22 @@ def export_network(net: Restorer, out: Path, metadata: dict[str, str], check: bo
             warnings.simplefilter("ignore", DeprecationWarning)
             torch.onnx.export(module, args, str(raw), input_names=names, output_names=["restored"],
                               dynamic_axes=dynamic, opset_version=OPSET, dynamo=False)
-        model = onnx.load(str(raw))
-        del model.metadata_props[:]
-        for key, value in metadata.items():
-            entry = model.metadata_props.add()
-            entry.key, entry.value = key, value
-        onnx.checker.check_model(model)
-        data = model.SerializeToString()
+        return onnx.load(str(raw))
+
+
+def export_network(net: Restorer, out: Path, metadata: dict[str, str], check: bool = True) -> dict[str, Any]:
+    """Writes `net` to `out` (ONNX, docs/models.md); returns {"path", "bytes", "parity": max |diff| per
+    checked size} (`check=False`: no parity check, "parity" empty)."""
+    import onnx
+
+    model = onnx_graph(net)
+    del model.metadata_props[:]
+    for key, value in metadata.items():
+        entry = model.metadata_props.add()
+        entry.key, entry.value = key, value
+    onnx.checker.check_model(model)
+    data = model.SerializeToString()
+    out = Path(out)
     report: dict[str, Any] = {"path": str(out), "bytes": len(data), "parity": {}}
     if check:
         report["parity"] = check_parity(net, data)

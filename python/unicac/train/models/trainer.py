@@ -168,13 +168,21 @@ def _distributed(cuda: bool) -> tuple[int, int]:
     return dist.get_rank(), dist.get_world_size()
 
 
-def load_generator_weights(source: str) -> dict[str, torch.Tensor]:
-    """Generator weights from a run folder (its latest checkpoint) or a checkpoint file."""
+def load_generator_weights(source: str, net: Restorer, wiener_nsr: float) -> dict[str, torch.Tensor]:
+    """Generator weights from a run folder (its latest checkpoint), a checkpoint file or an exported
+    model (`.onnx`: `onnx_weights`, checked against the file)."""
     path = Path(source)
     if path.is_dir():
         return RunFolder(path).load_checkpoint()["net"]
     if not path.is_file():
-        raise RunError(f"path.pretrain_network_g: {path} is neither a run folder nor a checkpoint file")
+        raise RunError(f"path.pretrain_network_g: {path} is neither a run folder, a checkpoint nor an ONNX file")
+    if path.suffix.lower() == ".onnx":
+        from ..onnx_weights import OnnxWeightsError, load_onnx_weights
+
+        try:
+            return load_onnx_weights(net, path, wiener_nsr=wiener_nsr)
+        except OnnxWeightsError as error:
+            raise RunError(f"path.pretrain_network_g: {error}") from error
     state = load_checkpoint_file(path)
     return state["net"] if "net" in state else state
 
@@ -210,7 +218,7 @@ class Trainer:
         pretrain = config["path"]["pretrain_network_g"]
         if pretrain and not resume:
             try:
-                self.net.load_state_dict(load_generator_weights(pretrain))
+                self.net.load_state_dict(load_generator_weights(pretrain, self.net, config["datasets"]["train"]["wiener_nsr"]))
             except RuntimeError as error:
                 raise RunError(f"path.pretrain_network_g: {pretrain} does not fit {self.net.architecture}: {error}") from error
         self.ema: Optional[torch.optim.swa_utils.AveragedModel] = None
