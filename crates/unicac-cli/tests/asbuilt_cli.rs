@@ -227,6 +227,15 @@ fn the_as_built_split_renders_units_beside_their_design_and_the_bench_scores_the
         "2 test pairs x (the design + 1 unit)"
     );
     let results = as_built_bench(&dataset, "bench-zero");
+    // pairs.csv lists the units' pairs and their design references' (to regroup the table outside).
+    let csv = std::fs::read_to_string(scratch("bench-zero").join("pairs.csv")).unwrap();
+    let ids: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap())
+        .collect();
+    assert_eq!(ids.iter().filter(|id| id.ends_with("__u0")).count(), 2);
+    assert_eq!(ids.iter().filter(|id| id.ends_with("__d")).count(), 2);
     let rows = results["as_built"]["rows"].as_array().unwrap();
     assert!(!rows.is_empty());
     for row in rows {

@@ -143,6 +143,9 @@ pub struct PlanarField {
     landing_px: Vec<[f64; 2]>,
     /// Relative illumination times vignetting (normalised by the peak transmission) per chief node.
     shading: Vec<[f64; 1]>,
+    /// Ideal radius (pixels from the frame centre) of the lens's largest field: beyond it `field_at`
+    /// takes every field at the largest, so the landing map is flat there and cannot be inverted.
+    field_radius_px: f64,
     psf_lattice: Lattice,
     /// The PSF of each PSF-lattice node's field (rows of nodes first), all of `kernel_size` px.
     pub psfs: Vec<FieldPsf>,
@@ -214,11 +217,13 @@ impl PlanarField {
             })
             .collect::<SimResult<_>>()?;
         let (landing_px, shading) = nodes.into_iter().unzip();
+        let largest_tan = chief.max_angle_deg().to_radians().tan();
         Ok(PlanarField {
             grid,
             chief_lattice,
             landing_px,
             shading,
+            field_radius_px: largest_tan * chief.paraxial_height_per_tan_mm() / (grid.pitch_um * 1e-3),
             psf_lattice,
             psfs: set.psfs,
             kernel_size: set.kernel_px,
@@ -233,18 +238,33 @@ impl PlanarField {
 
     /// The ideal position (frame pixels) whose field lands at `real_px`, by fixed-point iteration
     /// q <- q + (real - landing(q)) from `start` (the previous pixel's answer is a good one); within
-    /// `INVERSE_TOLERANCE_PX` of it in landing.
+    /// `INVERSE_TOLERANCE_PX` of it in landing. Each step is kept within the lens's largest field:
+    /// a pixel that no field of the unit reaches (a corner beyond its image of the largest field) takes
+    /// the field's edge, as the radial path clamps its radius, where the unclamped iteration ran off
+    /// along the flat map's extrapolation (to NaN at a tolerance draw's frame corner).
     pub fn ideal_for(&self, real_px: [f64; 2], start: [f64; 2]) -> [f64; 2] {
-        let mut q = start;
+        let mut q = self.within_field(start);
         for _ in 0..MAX_INVERSE_STEPS {
             let landing = self.landing_px(q);
             let miss = [real_px[0] - landing[0], real_px[1] - landing[1]];
-            q = [q[0] + miss[0], q[1] + miss[1]];
+            q = self.within_field([q[0] + miss[0], q[1] + miss[1]]);
             if miss[0].abs().max(miss[1].abs()) <= INVERSE_TOLERANCE_PX {
                 break;
             }
         }
         q
+    }
+
+    /// `ideal_px`, or the point of the largest field's circle on its azimuth when it lies beyond.
+    fn within_field(&self, ideal_px: [f64; 2]) -> [f64; 2] {
+        let [cx, cy] = self.grid.centre_px();
+        let (dx, dy) = (ideal_px[0] - cx, ideal_px[1] - cy);
+        let radius = dx.hypot(dy);
+        if radius <= self.field_radius_px {
+            return ideal_px;
+        }
+        let scale = self.field_radius_px / radius;
+        [cx + dx * scale, cy + dy * scale]
     }
 
     /// Relative illumination times vignetting of the field ideally imaged at `ideal_px`.
