@@ -11,7 +11,7 @@
 #      training;
 #   3. N units per test lens within TOL.json, and `bench --split as_built` with Wiener and the shipped
 #      models that run without the lost dataset's PSF basis (nafnet-psf-3000 needs it);
-#   4. the table regrouped by the small benchmark's ODE levels (by_level.py).
+#   4. the table regrouped by the small benchmark's ODE levels (scripts/by_level.py).
 # Usage, from the repository after a release build and the Python setup (onnxruntime):
 #   bash docs/as-built-bench/small.sh OUT_DIR [TOL.json, default docs/tolerancing/textbook.json] [N, default 2]
 # Resumable: run it again after an interruption.
@@ -60,6 +60,6 @@ models=(--model nafnet-3000="$M/nafnet-3000.onnx" --model nafnet-psf-control-300
   --benchmarks ode --threads 2 --out bench-nominal
 $U bench --dataset "$dataset" --split as_built --method wiener "${models[@]}" --metrics psnr,ssim,lpips \
   --benchmarks ode --threads 2 --out "bench-as-built-$tag"
-python3 "$repo/docs/as-built-bench/by_level.py" "bench-as-built-$tag/pairs.csv" "$dataset/as_built/units.jsonl" \
+python3 "$repo/scripts/by_level.py" as-built "bench-as-built-$tag/pairs.csv" "$dataset/as_built/units.jsonl" \
   "$levels" > "by-level-$tag.md"
 cat "by-level-$tag.md"
