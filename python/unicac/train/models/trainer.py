@@ -217,8 +217,9 @@ class Trainer:
         self.discriminator = PatchDiscriminator(losses["gan"]["width"]) if losses["gan"]["weight"] > 0 else None
         pretrain = config["path"]["pretrain_network_g"]
         if pretrain and not resume:
+            weights = load_generator_weights(pretrain, self.net, config["datasets"]["train"]["wiener_nsr"])
             try:
-                self.net.load_state_dict(load_generator_weights(pretrain, self.net, config["datasets"]["train"]["wiener_nsr"]))
+                self.net.load_state_dict(weights)
             except RuntimeError as error:
                 raise RunError(f"path.pretrain_network_g: {pretrain} does not fit {self.net.architecture}: {error}") from error
         self.ema: Optional[torch.optim.swa_utils.AveragedModel] = None
