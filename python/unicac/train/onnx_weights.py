@@ -94,7 +94,11 @@ def load_onnx_weights(net: Restorer, path: "os.PathLike[str] | str", wiener_nsr:
     if metadata.get("architecture") != net.architecture:
         raise OnnxWeightsError(f"{path}: its architecture is {metadata.get('architecture')!r}, the config's network is "
                                f"{net.architecture!r}")
-    if wiener_nsr is not None and "wiener_nsr" in metadata and float(metadata["wiener_nsr"]) != float(wiener_nsr):
+    try:
+        file_nsr = float(metadata["wiener_nsr"]) if "wiener_nsr" in metadata else None
+    except ValueError:
+        raise OnnxWeightsError(f"{path}: its metadata wiener_nsr {metadata['wiener_nsr']!r} is not a number") from None
+    if wiener_nsr is not None and file_nsr is not None and file_nsr != float(wiener_nsr):
         raise OnnxWeightsError(f"{path}: trained on Wiener estimates with NSR {metadata['wiener_nsr']}, the config's "
                                f"datasets.train.wiener_nsr is {wiener_nsr}")
     given = _initializers(model)
