@@ -99,6 +99,8 @@ def paired(report: str, levels_pairs: str, a: str, b: str) -> None:
         psnr[(row["model"], row["lens_id"])].append(float(row["psnr_db"]))
     mean_psnr = {key: mean(values) for key, values in psnr.items()}
     lenses = sorted({lens for model, lens in op if model == a})
+    if not lenses:
+        sys.exit(f"{report}/lens_op.csv: no method {a!r} (methods: {', '.join(sorted({m for m, _ in op}))})")
     for model in (a, b):
         missing = [lens for lens in lenses if (model, lens) not in op or lens not in level_of]
         if missing:
@@ -121,4 +123,8 @@ if __name__ == "__main__":
     commands = {"as-built": (as_built, 3), "paired": (paired, 4)}
     if len(sys.argv) < 2 or sys.argv[1] not in commands or len(sys.argv) - 2 != commands[sys.argv[1]][1]:
         sys.exit(__doc__)
-    commands[sys.argv[1]][0](*sys.argv[2:])
+    try:
+        commands[sys.argv[1]][0](*sys.argv[2:])
+    except (OSError, KeyError, ValueError, json.JSONDecodeError) as error:
+        sys.exit(f"by_level.py {sys.argv[1]}: {type(error).__name__}: {error} (expects a bench report's pairs.csv / lens_op.csv, "
+                 "a dataset's as_built/units.jsonl and a pairs.csv with a level column)")
