@@ -12,43 +12,21 @@ onnxruntime the export fails, naming the flag that skips the check (`--no-check`
 from __future__ import annotations
 
 import os
-import tempfile
-import warnings
 from pathlib import Path
-from typing import Any, Optional
-
-import numpy as np
-import torch
-from torch import nn
+from typing import Any
 
 from unicac.outputs import write_bytes
 
-from .archs import INPUT_CHANNELS, Restorer, build_network
+from .archs import Restorer, build_network
 from .models.trainer import RunError, RunFolder, _unicac_version
+from .onnx_graph import ExportError, check_parity, onnx_graph
+
+__all__ = ["CONTRACT_VERSION", "ExportError", "check_parity", "contract_version", "export_network", "export_run",
+           "load_run", "onnx_graph", "read_metadata"]
 
 #: The newest contract version (docs/models.md); a model is written with the lowest that has its inputs.
 CONTRACT_VERSION = "2"
 CONTRACT_OF_INPUT = {"lq": 1, "fov": 1, "psf": 1, "psf_code": 2, "wiener": 2}
-OPSET = 17
-#: Parity sizes checked after export (H, W): unlike each other and not multiples of 8.
-CHECK_SIZES = ((40, 56), (37, 61))
-PARITY_TOLERANCE = 1e-4
-
-
-class ExportError(RuntimeError):
-    pass
-
-
-class _OnnxModule(nn.Module):
-    """Positional inputs in the order of `restorer.inputs`."""
-
-    def __init__(self, restorer: Restorer) -> None:
-        super().__init__()
-        self.restorer = restorer
-
-    def forward(self, *tensors: torch.Tensor) -> torch.Tensor:
-        named = dict(zip(self.restorer.inputs, tensors))
-        return self.restorer(named.pop("lq"), **named)
 
 
 def contract_version(inputs: list[str]) -> str:
@@ -80,43 +58,6 @@ def load_run(run_dir: "os.PathLike[str] | str") -> tuple[Restorer, dict[str, Any
     return net, config, state
 
 
-def example_inputs(inputs: list[str], height: int, width: int, batch: int = 1, seed: int = 0) -> list[torch.Tensor]:
-    generator = torch.Generator().manual_seed(seed)
-    tensors = []
-    for name in inputs:
-        t = torch.rand(batch, INPUT_CHANNELS[name], height, width, generator=generator)
-        if name == "fov":
-            t = t * 2 - 1
-        elif name == "psf":
-            t = (t - 0.5) * 6
-        elif name == "psf_code":
-            t = (t - 0.5) * 4
-        tensors.append(t)
-    return tensors
-
-
-def onnx_graph(net: Restorer) -> Any:
-    """`net` as an ONNX ModelProto (no metadata). The exporter names a parameter's initializer after it,
-    except where it folds a reshaped parameter into a constant (`onnx::Mul_N`): `onnx_weights` maps those
-    back."""
-    import onnx
-
-    module = _OnnxModule(net).eval()
-    names = list(net.inputs)
-    dynamic = {name: {0: "N", 2: "H", 3: "W"} for name in names + ["restored"]}
-    args = tuple(example_inputs(names, 48, 64))
-    with tempfile.TemporaryDirectory() as scratch:
-        raw = Path(scratch) / "model.onnx"
-        # The TorchScript exporter: exact here and fast (seconds). torch >= 2.9 deprecates it for the
-        # torch.export-based one (dynamo=True), which on torch 2.15 takes ~50 s per NAFNet and
-        # specialises the Restormer's H/W; revisit when the legacy path is removed.
-        with torch.no_grad(), warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)
-            torch.onnx.export(module, args, str(raw), input_names=names, output_names=["restored"],
-                              dynamic_axes=dynamic, opset_version=OPSET, dynamo=False)
-        return onnx.load(str(raw))
-
-
 def export_network(net: Restorer, out: Path, metadata: dict[str, str], check: bool = True) -> dict[str, Any]:
     """Writes `net` to `out` (ONNX, docs/models.md); returns {"path", "bytes", "parity": max |diff| per
     checked size} (`check=False`: no parity check, "parity" empty)."""
@@ -135,32 +76,6 @@ def export_network(net: Restorer, out: Path, metadata: dict[str, str], check: bo
         report["parity"] = check_parity(net, data)
     write_bytes(out, data)
     return report
-
-
-def check_parity(net: Restorer, onnx_bytes: bytes, sizes: tuple[tuple[int, int], ...] = CHECK_SIZES) -> dict[str, float]:
-    """Max |onnxruntime - PyTorch| at each size; raises ExportError above PARITY_TOLERANCE, or when
-    onnxruntime is missing (an unchecked export would pass for a checked one)."""
-    try:
-        import onnxruntime as ort
-    except ImportError as error:
-        raise ExportError(
-            f"the onnxruntime parity check cannot run: onnxruntime is not importable ({error}); install it "
-            "(pip install onnxruntime, or the `train` extra) or pass --no-check to export unchecked"
-        ) from error
-    session = ort.InferenceSession(onnx_bytes, providers=["CPUExecutionProvider"])
-    results = {}
-    for height, width in sizes:
-        tensors = example_inputs(net.inputs, height, width, batch=2, seed=height)
-        with torch.no_grad():
-            expected = _OnnxModule(net)(*tensors).float().numpy()
-        got = session.run(["restored"], {name: t.numpy() for name, t in zip(net.inputs, tensors)})[0]
-        if got.shape != expected.shape:
-            raise ExportError(f"onnxruntime returned {got.shape} at {height} x {width}, PyTorch {expected.shape}")
-        diff = float(np.abs(got - expected).max())
-        if not diff <= PARITY_TOLERANCE:
-            raise ExportError(f"onnxruntime differs from PyTorch by {diff:.2e} at {height} x {width} (limit {PARITY_TOLERANCE})")
-        results[f"{height}x{width}"] = diff
-    return results
 
 
 def export_run(run_dir: "os.PathLike[str] | str", out: "os.PathLike[str] | str", check: bool = True) -> dict[str, Any]:

@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from .archs import Restorer
+from .onnx_graph import ExportError, check_parity, onnx_graph
 
 #: Elements a network may have for the index export: float32 holds every integer up to 2^24 exactly.
 MAX_ELEMENTS = 2**24 - 1
@@ -40,7 +41,6 @@ def _initializers(model: Any) -> dict[str, np.ndarray]:
 def _index_map(net: Restorer) -> dict[str, tuple[str, np.ndarray]]:
     """Initializer name -> (state-dict key, the element offsets within that parameter it holds, in the
     initializer's own order)."""
-    from .export import onnx_graph
 
     state = net.state_dict()
     keys = [key for key, value in state.items() if value.is_floating_point()]
@@ -121,8 +121,6 @@ def load_onnx_weights(net: Restorer, path: "os.PathLike[str] | str", wiener_nsr:
 
 
 def _check_against_file(net: Restorer, state: dict[str, torch.Tensor], data: bytes, path: Path) -> None:
-    from .export import ExportError, check_parity
-
     saved = {key: value.clone() for key, value in net.state_dict().items()}
     net.load_state_dict(state)
     was_training = net.training
