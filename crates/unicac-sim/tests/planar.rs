@@ -27,6 +27,18 @@ fn cooke_with(index: usize, placement: Placement) -> Lens {
     Lens::from_spec(&spec).unwrap()
 }
 
+/// The Cooke triplet with a decentre far below any traced quantity's precision: the same optics,
+/// sent down the planar path.
+fn nudged_cooke() -> Lens {
+    cooke_with(
+        1,
+        Placement {
+            decentre_x_mm: 1e-13,
+            ..Placement::default()
+        },
+    )
+}
+
 fn planar(sim: &LensSimulator) -> &PlanarField {
     match &sim.optics {
         FieldOptics::Planar(planar) => planar,
@@ -85,14 +97,7 @@ fn mirrored(kernel: &Kernel) -> Kernel {
 fn a_symmetric_lens_through_the_planar_maps_matches_the_radial_path() {
     let (w, h) = (800, 600);
     let nominal = builtin::lens("cooke_triplet").unwrap();
-    // A decentre far below any traced quantity's precision sends the same optics down the planar path.
-    let nudged = cooke_with(
-        1,
-        Placement {
-            decentre_x_mm: 1e-13,
-            ..Placement::default()
-        },
-    );
+    let nudged = nudged_cooke();
     assert!(!nudged.is_rotationally_symmetric());
     let radial = LensSimulator::new(&nominal, w, h, None, quick_settings()).unwrap();
     let planar_sim = LensSimulator::new(&nudged, w, h, None, quick_settings()).unwrap();
@@ -239,13 +244,7 @@ fn pixels_beyond_the_largest_field_sample_its_edge_as_the_radial_path_does() {
     // run off there (a tolerance draw's corner became NaN in `dataset build --as-built`).
     let (w, h) = (240, 180);
     let nominal = builtin::lens("cooke_triplet").unwrap();
-    let nudged = cooke_with(
-        1,
-        Placement {
-            decentre_x_mm: 1e-13,
-            ..Placement::default()
-        },
-    );
+    let nudged = nudged_cooke();
     let filling = LensSimulator::new(&nominal, w, h, None, quick_settings()).unwrap();
     let pitch_um = filling.grid.pitch_um * 1.25;
     let radial = LensSimulator::new(&nominal, w, h, Some(pitch_um), quick_settings()).unwrap();
