@@ -398,3 +398,18 @@ def test_a_psf_code_model_exports_its_basis(tmp_path, dataset):
     meta = read_metadata(tmp_path / "m.onnx")
     assert meta["unicac_contract"] == "2" and meta["inputs"] == "lq,psf_code"
     assert meta["psf_basis_sha256"] == unicac.psf_basis(dataset)["sha256"]
+    # The basis travels with the run and the model (`m.basis/`, what `dataset build --psf-basis-from`
+    # takes), byte for byte the dataset's: the model stays usable when its dataset is gone.
+    from unicac.dataset import PSF_BASIS_FILES
+
+    for folder in (tmp_path / "run" / "psf_basis", tmp_path / "m.basis"):
+        for name in PSF_BASIS_FILES:
+            assert (folder / name).read_bytes() == (dataset / "psf" / "basis" / name).read_bytes(), (folder, name)
+    # Without the run's copy the dataset's serves; with neither the export names both places.
+    (tmp_path / "run" / "psf_basis" / "basis.json").unlink()
+    assert cli_main(["export", str(tmp_path / "run"), "--out", str(tmp_path / "n.onnx"), "--no-check"]) == 0
+    assert (tmp_path / "n.basis" / "basis.json").is_file()
+    config = (tmp_path / "run" / "config.yml").read_text().replace(str(dataset), str(tmp_path / "gone"))
+    (tmp_path / "run" / "config.yml").write_text(config)
+    assert cli_main(["export", str(tmp_path / "run"), "--out", str(tmp_path / "o.onnx"), "--no-check"]) == 1
+    assert not (tmp_path / "o.onnx").exists() and not (tmp_path / "o.basis").exists()

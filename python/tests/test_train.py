@@ -408,6 +408,33 @@ def test_run_writes_logs_curves_and_checkpoints(tmp_path, dataset):
         Trainer(tiny_config("nafnet-fov", dataset), run, quiet=True)
 
 
+@needs_maps
+def test_a_perceptual_wiener_refinement_logs_lpips_against_the_wiener_estimate(tmp_path, dataset, lpips_cache):
+    """A perceptual run of wiener-nafnet logs its validation LPIPS and the Wiener estimate's own PSNR and
+    LPIPS; before training the network *is* the Wiener estimate, so the two coincide at iteration 0."""
+    config = tiny_config("wiener-nafnet", dataset, iters=3)
+    config["train"]["losses"]["perceptual"].update(weight=0.5, net="alexnet")
+    config["datasets"]["train"]["patch_px"] = 64
+    with pytest.raises(config_mod.ConfigError, match="datasets.val.crop_px: 32 px is below the 64 px"):
+        config_mod.validate(config)  # validation scores LPIPS with the loss's net
+    config["datasets"]["val"]["crop_px"] = 64
+    run = tmp_path / "run"
+    Trainer(config_mod.validate(config), run, quiet=True).train()
+    val = [json.loads(line) for line in (run / "log.jsonl").read_text().splitlines()]
+    val = [r for r in val if r["kind"] == "val"]
+    assert [r["iter"] for r in val] == [0, 3]
+    start, end = val
+    assert abs(start["psnr_db"] - start["wiener_psnr_db"]) < 1e-3, start
+    assert abs(start["lpips"] - start["wiener_lpips"]) < 1e-4 and start["lpips"] > 0, start
+    assert end["wiener_psnr_db"] == start["wiener_psnr_db"] and end["lpips"] != start["lpips"]
+    header = (run / "log.csv").read_text().splitlines()[0].split(",")
+    assert {"lpips", "wiener_psnr_db", "wiener_lpips"} <= set(header)
+    plain = tmp_path / "plain"
+    Trainer(tiny_config("nafnet", dataset, iters=1), plain, quiet=True).train()
+    row = [json.loads(line) for line in (plain / "log.jsonl").read_text().splitlines()][-1]
+    assert row["lpips"] is None and row["wiener_psnr_db"] is None  # nothing it does not compute
+
+
 def _weights(run: Path) -> dict:
     return torch.load(run / "checkpoints" / "latest.pt", weights_only=True)
 

@@ -296,6 +296,39 @@ def torch_dataset(generator: PairGenerator, length: Optional[int] = None) -> Any
 # Built datasets (`unicac dataset build`, docs/dataset.md)
 
 
+#: A PSF basis folder's files (crates/unicac-dataset/src/psf_basis.rs), arrays first: a basis is
+#: complete once basis.json exists, so a copy interrupted before it is no basis at all.
+PSF_BASIS_FILES = ("mean.npy", "components.npy", "basis.json")
+
+
+def basis_sha256(folder: "os.PathLike[str] | str") -> Optional[str]:
+    """The ``sha256`` a PSF basis folder's basis.json records, or None when it has none. (The arrays
+    are checked against it by every reader of the basis: `unicac dataset build --psf-basis-from`,
+    `unicac bench`.)"""
+    import json
+
+    path = Path(folder) / "basis.json"
+    try:
+        return str(json.loads(path.read_text())["sha256"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def copy_psf_basis(source: "os.PathLike[str] | str", target: "os.PathLike[str] | str") -> str:
+    """Copies the PSF basis folder ``source`` to ``target`` (each file atomically, basis.json last);
+    returns its ``sha256``. A psf_code model reads its input in this basis, so the basis travels with
+    the run and with the exported model (``NAME.basis/`` beside ``NAME.onnx``)."""
+    from .outputs import copy_file
+
+    source, target = Path(source), Path(target)
+    sha = basis_sha256(source)
+    if sha is None or not all((source / name).is_file() for name in PSF_BASIS_FILES):
+        raise DatasetFolderError(f"{source}: not a complete PSF basis folder ({', '.join(PSF_BASIS_FILES)})")
+    for name in PSF_BASIS_FILES:
+        copy_file(source / name, target / name)
+    return sha
+
+
 class DatasetFolderError(_native.DatasetError, ValueError):
     """A folder that is not a readable unicac dataset, or a request it cannot serve (the message names
     the folder or file and what is missing). A :class:`unicac.DatasetError` (what Rust's reader raises)

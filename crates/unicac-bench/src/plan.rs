@@ -349,13 +349,21 @@ fn matching_basis(
     for (name, contract, ..) in loaded {
         match &contract.psf_basis_sha256 {
             Some(sha) if contract.wants(ModelInput::PsfCode) && *sha != basis.meta.sha256 => {
+                // `unicac-train export` writes the basis beside the model as NAME.basis/.
+                let beside = contract.path.with_extension("basis");
+                let source = if beside.join(unicac_dataset::psf_basis::BASIS_JSON).is_file() {
+                    beside.display().to_string()
+                } else {
+                    "the model's training dataset".to_string()
+                };
                 return Err(invalid(format!(
                     "model {name} ({}) was trained with PSF basis {sha}, but the dataset {} has basis {}; \
-                     a psf_code model only runs on a dataset with its basis",
+                     a psf_code model only runs on a dataset with its basis (build one with `unicac dataset \
+                     build ... --psf-basis-from {source}`)",
                     contract.path.display(),
                     s.dataset.display(),
                     basis.meta.sha256
-                )))
+                )));
             }
             _ => {}
         }

@@ -101,8 +101,9 @@ pub struct DatasetBuildArgs {
     pub test_images: String,
     #[arg(long)]
     pub out: PathBuf,
-    /// Adopt the PSF basis of this dataset instead of fitting one (a held-out test set for models
-    /// trained on DIR: their `psf_code` input must be in DIR's basis).
+    /// Adopt this PSF basis instead of fitting one: a dataset's, or a model's `NAME.basis/` folder
+    /// (written beside a psf_code model by `unicac-train export`). For a held-out test set of models
+    /// trained elsewhere: their `psf_code` input must be in their training basis.
     #[arg(long, value_name = "DIR")]
     pub psf_basis_from: Option<PathBuf>,
     /// Refuse any lens that is a training or validation lens of this dataset (a test set for models

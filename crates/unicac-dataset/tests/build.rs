@@ -455,6 +455,22 @@ fn a_dataset_can_adopt_another_datasets_psf_basis() {
     assert!(build_with(2, &s, &dir, Shard::ALL).unwrap().complete);
     let read = unicac_dataset::psf_basis::read_dataset_basis;
     assert_eq!(read(&dir).unwrap(), read(reference()).unwrap());
+    // A basis folder on its own (what `unicac-train export` writes beside a psf_code model) serves too.
+    let model_basis = scratch("adopted-basis-model").join("m.basis");
+    std::fs::create_dir_all(&model_basis).unwrap();
+    read(reference()).unwrap().write(&model_basis).unwrap();
+    let from_model = scratch("adopted-basis-from-model");
+    s.psf_basis_from = Some(model_basis.clone());
+    assert!(build_with(2, &s, &from_model, Shard::ALL).unwrap().complete);
+    assert_eq!(read(&from_model).unwrap(), read(reference()).unwrap());
+    // A damaged one is refused before any work, naming the setting and the file.
+    std::fs::write(model_basis.join("mean.npy"), b"not an array").unwrap();
+    let error = build_with(2, &s, &scratch("adopted-basis-damaged"), Shard::ALL).unwrap_err();
+    assert!(
+        matches!(&error, unicac_dataset::DatasetError::Setting { field, .. } if field == "psf_basis_from")
+            && error.to_string().contains("mean.npy"),
+        "{error}"
+    );
     // A folder without a basis is refused before any work, naming the setting.
     let missing = scratch("adopted-basis-missing");
     s.psf_basis_from = Some(missing.join("nowhere"));

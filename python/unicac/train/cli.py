@@ -122,10 +122,10 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from .export import export_run
+    from .export import basis_beside, export_run
 
     require_extension("--out", args.out, ["onnx"])
-    OutputPlan().input_folder(args.run_dir).output("--out", args.out).check()
+    OutputPlan().input_folder(args.run_dir).output("--out", args.out).output("--out", basis_beside(args.out)).check()
     report = export_run(args.run_dir, args.out, check=not args.no_check)
     if not report["parity"]:
         print("unicac-train: warning: --no-check: the onnxruntime parity check was skipped", file=sys.stderr)
@@ -135,6 +135,8 @@ def _export(args: argparse.Namespace) -> int:
         parity = ", ".join(f"{k}: {v:.1e}" for k, v in report["parity"].items()) or "not checked"
         print(f"{report['path']}: {report['architecture']} (inputs {','.join(report['inputs'])}), "
               f"{report['bytes'] / 1e6:.2f} MB, onnxruntime vs PyTorch max diff {parity}")
+        if "psf_basis" in report:
+            print(f"{report['psf_basis']}: its PSF basis (give it to `unicac dataset build --psf-basis-from`)")
     return 0
 
 

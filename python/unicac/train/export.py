@@ -4,7 +4,8 @@ inputs `lq` [N,3,H,W] (+ `fov` [N,2,H,W], `psf` [N,15,H,W], `psf_code` [N,50,H,W
 as the network uses them), output `restored` [N,3,H,W]; N, H and W dynamic; opset 17; metadata
 `unicac_contract` (1, or 2 for a model with a contract-2 input), `architecture`, `inputs`,
 `config_sha256`, `unicac_version`, and `psf_basis_sha256` / `wiener_nsr` for the models that need
-them. A run that keeps EMA weights is exported from them. The exported file is checked in
+them; a `psf_code` model's PSF basis is written beside it (`NAME.basis/`, the folder `unicac dataset
+build --psf-basis-from` takes). A run that keeps EMA weights is exported from them. The exported file is checked in
 onnxruntime against PyTorch at two image sizes before it is moved into place (atomic); without
 onnxruntime the export fails, naming the flag that skips the check (`--no-check`).
 """
@@ -15,6 +16,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from unicac.dataset import basis_sha256, copy_psf_basis
 from unicac.outputs import write_bytes
 
 from .archs import Restorer, build_network
@@ -90,18 +92,45 @@ def export_run(run_dir: "os.PathLike[str] | str", out: "os.PathLike[str] | str",
         "name": str(config["name"]),
         "iterations": str(state.get("iteration", "")),
     }
+    basis_source = None
     if "psf_code" in net.inputs:
         basis = state.get("psf_basis_sha256")
         if not basis:
             raise ExportError(f"{run_dir}: the checkpoint records no psf_basis_sha256, which a psf_code model needs")
         metadata["psf_basis_sha256"] = str(basis)
+        basis_source = _run_basis(Path(run_dir), config, str(basis))
+        if basis_beside(out).exists() and not basis_beside(out).is_dir():
+            raise ExportError(f"--out {out}: {basis_beside(out)} is a file; the model's PSF basis folder goes there")
     if "wiener" in net.inputs:
         metadata["wiener_nsr"] = repr(float(config["datasets"]["train"]["wiener_nsr"]))
     if "net_ema" in state:
         metadata["weights"] = "ema"
     report = export_network(net, Path(out), metadata, check=check)
     report.update({"architecture": net.architecture, "inputs": net.inputs, "iterations": state.get("iteration")})
+    if basis_source is not None:
+        copy_psf_basis(basis_source, basis_beside(out))
+        report["psf_basis"] = str(basis_beside(out))
     return report
+
+
+def basis_beside(model: "os.PathLike[str] | str") -> Path:
+    """Where a psf_code model's PSF basis is written: `NAME.basis/` beside `NAME.onnx` (what `unicac
+    dataset build --psf-basis-from` takes, so a new test set speaks the model's code)."""
+    return Path(model).with_suffix(".basis")
+
+
+def _run_basis(run_dir: Path, config: dict[str, Any], sha: str) -> Path:
+    """The PSF basis a psf_code run trained with: the copy the run keeps, else its dataset's, whichever
+    records `sha`; ExportError when neither does (the model would be unusable on any new dataset)."""
+    dataroot = config["datasets"]["train"].get("dataroot")
+    candidates = [RunFolder(run_dir).psf_basis] + ([Path(dataroot) / "psf" / "basis"] if dataroot else [])
+    for folder in candidates:
+        if basis_sha256(folder) == sha:
+            return folder
+    raise ExportError(
+        f"{run_dir}: the PSF basis {sha} this psf_code model was trained with is in neither "
+        f"{' nor '.join(str(c) for c in candidates)}; without it the model runs on no new dataset"
+    )
 
 
 def read_metadata(path: "os.PathLike[str] | str") -> dict[str, str]:

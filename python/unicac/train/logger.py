@@ -17,7 +17,9 @@ from unicac.outputs import write_bytes, write_with
 #: The files a run's log writes into the run folder.
 JSONL, CSV, CURVES = "log.jsonl", "log.csv", "curves.png"
 LOG_FILES = (JSONL, CSV, CURVES)
-LOG_FIELDS = ["iter", "kind", "loss", "lr", "it_per_s", "psnr_db", "ssim", "prediction_l1", "seconds"]
+#: A `val` row's scores (Trainer.validate; empty where the run does not compute them).
+VALIDATION_LOG_FIELDS = ["psnr_db", "ssim", "lpips", "prediction_l1", "wiener_psnr_db", "wiener_lpips"]
+LOG_FIELDS = ["iter", "kind", "loss", "lr", "it_per_s", *VALIDATION_LOG_FIELDS, "seconds"]
 
 
 class RunLog:
@@ -49,8 +51,10 @@ class RunLog:
         write_bytes(self.folder / CSV, buffer.getvalue().encode())
 
     def plot(self) -> Optional[Path]:
-        """`curves.png`: training loss (left) and validation PSNR / SSIM (right) against iteration.
-        Needs matplotlib (in the `train` extra); returns None without it."""
+        """`curves.png`: training loss (left), validation PSNR / SSIM (middle; the Wiener estimate's PSNR
+        dashed for a network that refines it) and, for runs with a perceptual loss, validation LPIPS
+        (right; the Wiener estimate's dashed) against iteration. Needs matplotlib (in the `train`
+        extra); returns None without it."""
         try:
             import matplotlib
 
@@ -60,7 +64,9 @@ class RunLog:
             return None
         train = [r for r in self.rows if r["kind"] == "train"]
         val = [r for r in self.rows if r["kind"] == "val"]
-        figure, (left, right) = plt.subplots(1, 2, figsize=(10, 3.6))
+        perceptual = [r for r in val if r.get("lpips") is not None]
+        figure, axes = plt.subplots(1, 3 if perceptual else 2, figsize=(15 if perceptual else 10, 3.6))
+        left, right = axes[0], axes[1]
         left.plot([r["iter"] for r in train], [r["loss"] for r in train], lw=1)
         left.set_xlabel("iteration")
         left.set_ylabel("training loss")
@@ -68,17 +74,34 @@ class RunLog:
         left.grid(alpha=0.3)
         if val:
             right.plot([r["iter"] for r in val], [r["psnr_db"] for r in val], "o-", color="C1", label="PSNR")
+            _reference(right, val, "wiener_psnr_db", "C1")
             right.set_ylabel("validation PSNR (dB)")
             twin = right.twinx()
             twin.plot([r["iter"] for r in val], [r["ssim"] for r in val], "s--", color="C2", label="SSIM")
             twin.set_ylabel("validation SSIM")
         right.set_xlabel("iteration")
         right.grid(alpha=0.3)
+        if perceptual:
+            axis = axes[2]
+            axis.plot([r["iter"] for r in perceptual], [r["lpips"] for r in perceptual], "o-", color="C3", label="restored")
+            _reference(axis, perceptual, "wiener_lpips", "C3")
+            axis.set_xlabel("iteration")
+            axis.set_ylabel("validation LPIPS (lower is better)")
+            axis.grid(alpha=0.3)
         figure.tight_layout()
         path = self.folder / CURVES
         write_with(path, lambda handle: figure.savefig(handle, format="png", dpi=100))
         plt.close(figure)
         return path
+
+
+def _reference(axis: Any, rows: list[dict[str, Any]], key: str, color: str) -> None:
+    """The Wiener estimate's score as a dashed line (the network starts from it and should stay on the
+    better side of it)."""
+    points = [(r["iter"], r[key]) for r in rows if r.get(key) is not None]
+    if points:
+        axis.plot(*zip(*points), ":", color=color, label="Wiener estimate")
+        axis.legend(loc="best", fontsize=8)
 
 
 class Progress:

@@ -331,6 +331,19 @@ fn other_dataset(field: &str, dir: &Path) -> Result<crate::folder::Dataset> {
     crate::folder::Dataset::open(dir).map_err(|e| DatasetError::setting(field, e.to_string()))
 }
 
+/// The basis `psf_basis_from` names: a basis folder itself (basis.json inside: the `NAME.basis/` that
+/// `unicac-train export` writes beside a psf_code model, whose dataset may be long gone) or a finished
+/// dataset's.
+fn adopted_basis(dir: &Path) -> Result<crate::PsfBasis> {
+    use crate::psf_basis::{read_dataset_basis, PsfBasis, BASIS_JSON};
+    let read = if dir.join(BASIS_JSON).is_file() {
+        PsfBasis::read(dir)
+    } else {
+        read_dataset_basis(&other_dataset("psf_basis_from", dir)?.dir)
+    };
+    read.map_err(|e| DatasetError::setting("psf_basis_from", format!("{}: {e}", dir.display())))
+}
+
 /// Builds (or resumes, or builds one shard of) the dataset in `out`: every check, the claim on `out`,
 /// the grades and the plan, this shard's PSF maps, then the files (manifests, pairs, PSF tables, edge
 /// patches) and, by the run that completes it, the PSF basis and `dataset.json`.
@@ -462,16 +475,11 @@ struct Inputs {
 fn check_inputs(settings: &BuildSettings, out: &Path) -> Result<Inputs> {
     settings.check()?;
     placement::check_output_placement(settings, out)?;
-    let adopted_basis =
-        match &settings.psf_basis_from {
-            Some(dir) => {
-                let dataset = other_dataset("psf_basis_from", dir)?;
-                Some(crate::psf_basis::read_dataset_basis(&dataset.dir).map_err(|e| {
-                    DatasetError::setting("psf_basis_from", format!("{}: {e}", dir.display()))
-                })?)
-            }
-            None => None,
-        };
+    let adopted_basis = settings
+        .psf_basis_from
+        .as_deref()
+        .map(adopted_basis)
+        .transpose()?;
     let settings_json = serde_json::to_value(settings).expect("settings serialise");
     claim::check_output(
         out,

@@ -48,6 +48,7 @@ import torch.nn.functional as F
 from torch import nn
 from torch.utils.data import DataLoader
 
+from unicac.dataset import PSF_BASIS_FILES, copy_psf_basis
 from unicac.outputs import clean_stale_temporaries, write_bytes, write_with
 
 from .. import config as config_mod
@@ -55,8 +56,8 @@ from ..archs import PatchDiscriminator, Restorer, build_network, count_parameter
 from ..archs.nafnet import PRIOR_SCALE
 from ..archs.receptive import receptive_field_px
 from ..data import IterationSampler, build_train_set, build_val_set, collate
-from ..logger import LOG_FILES, Progress, RunLog
-from ..losses import LPIPS, gan_loss, pixel_loss
+from ..logger import LOG_FILES, VALIDATION_LOG_FIELDS, Progress, RunLog
+from ..losses import LPIPS, MIN_SIDE_PX, gan_loss, pixel_loss
 from ..metrics import psnr, ssim
 
 
@@ -99,10 +100,13 @@ class RunFolder:
         self.config = self.path / "config.yml"
         self.info = self.path / "run.json"
         self.checkpoint = self.path / "checkpoints" / "latest.pt"
+        #: A psf_code model's PSF basis, kept with the run (its dataset may not outlive it).
+        self.psf_basis = self.path / "psf_basis"
 
     def outputs(self, resume: bool) -> list[Path]:
         """The files a run writes here (a resumed run keeps the config.yml it was started with)."""
         files = [self.info, self.checkpoint] + [self.path / name for name in LOG_FILES]
+        files += [self.psf_basis / name for name in PSF_BASIS_FILES]
         return files if resume else [self.config] + files
 
     def load_config(self) -> dict[str, Any]:
@@ -390,6 +394,7 @@ class Trainer:
         state = self._state(iteration)
         write_with(self.run.checkpoint, lambda handle: torch.save(state, handle))
         self.log.flush()
+        self.log.plot()  # curves a stopped run still shows
 
     def _resume(self) -> None:
         if not self.run.checkpoint.is_file():
@@ -431,6 +436,8 @@ class Trainer:
             **extra,
         }
         write_bytes(self.run.info, (json.dumps(info, indent=2) + "\n").encode())
+        if self.recipe["psf_basis_sha256"]:
+            copy_psf_basis(self.train_set.folder.psf_basis_dir, self.run.psf_basis)
 
     # -- loop ------------------------------------------------------------------------------------
 
@@ -525,27 +532,38 @@ class Trainer:
     def _log_validation(self, iteration: int, t0: float, progress: Progress) -> dict[str, float]:
         """Validates, logs the scores as iteration `iteration`'s `val` row and reports them."""
         scores = self.validate()
-        self.log.add(iter=iteration, kind="val", psnr_db=scores["psnr_db"], ssim=scores["ssim"],
-                     prediction_l1=scores.get("prediction_l1"), seconds=time.perf_counter() - t0)
+        self.log.add(iter=iteration, kind="val", seconds=time.perf_counter() - t0,
+                     **{key: scores.get(key) for key in VALIDATION_LOG_FIELDS})
         predicted = (f", {self.net.predicts} L1 {scores['prediction_l1']:.4f} (zeros "
                      f"{scores['prediction_l1_zero']:.4f})") if "prediction_l1" in scores else ""
+        perceptual = f", LPIPS {scores['lpips']:.4f}" if "lpips" in scores else ""
+        wiener = f"; Wiener estimate {scores['wiener_psnr_db']:.2f} dB" if "wiener_psnr_db" in scores else ""
+        wiener += f", LPIPS {scores['wiener_lpips']:.4f}" if "wiener_lpips" in scores else ""
         progress.message(
-            f"iter {iteration}: val PSNR {scores['psnr_db']:.2f} dB, SSIM {scores['ssim']:.4f} "
-            f"(input {scores['input_psnr_db']:.2f} dB, {scores['input_ssim']:.4f}){predicted}"
+            f"iter {iteration}: val PSNR {scores['psnr_db']:.2f} dB, SSIM {scores['ssim']:.4f}{perceptual} "
+            f"(input {scores['input_psnr_db']:.2f} dB, {scores['input_ssim']:.4f}){predicted}{wiener}"
         )
         return scores
 
     @torch.no_grad()
     def validate(self) -> dict[str, float]:
         """Mean PSNR (dB) / SSIM of the restored and of the unrestored validation images (fixed set);
-        for a blind network also the L1 error of its predicted map (`prediction_l1`) and that of
-        predicting zeros (`prediction_l1_zero`: the code's mean, or no moments)."""
+        with a perceptual loss also the restored images' LPIPS (`lpips`, the loss's own net); for a network
+        that refines the Wiener estimate, that estimate's own scores (`wiener_psnr_db`, `wiener_lpips`: the
+        line it should stay above); for a blind network the L1 error of its predicted map
+        (`prediction_l1`) and that of predicting zeros (`prediction_l1_zero`: the code's mean, or no
+        moments)."""
         assert self.val_set is not None
         net = self.evaluated
         net.eval()
         scores: dict[str, list[torch.Tensor]] = {"psnr_db": [], "ssim": [], "input_psnr_db": [], "input_ssim": []}
         if net.predicts:
             scores.update(prediction_l1=[], prediction_l1_zero=[])
+        refines_wiener = "wiener" in net.inputs
+        if refines_wiener:
+            scores.update(wiener_psnr_db=[])
+        if self.lpips is not None:
+            scores.update(lpips=[], **({"wiener_lpips": []} if refines_wiener else {}))
         # Validation draws nothing from the training's random stream (its DataLoader would).
         with torch.random.fork_rng(devices=[]):
             loader = DataLoader(self.val_set, batch_size=1, shuffle=False, num_workers=0, collate_fn=collate)
@@ -558,12 +576,20 @@ class Trainer:
                 scores["ssim"].append(ssim(restored, gt))
                 scores["input_psnr_db"].append(psnr(lq, gt))
                 scores["input_ssim"].append(ssim(lq, gt))
+                wiener = batch["wiener"].float().clamp(0, 1) if refines_wiener else None
+                if wiener is not None:
+                    scores["wiener_psnr_db"].append(psnr(wiener.cpu(), gt))
+                if self.lpips is not None and min(gt.shape[-2:]) >= MIN_SIDE_PX[self.lpips.net]:
+                    scores["lpips"].append(self.lpips(out["restored"].float().clamp(0, 1), batch["gt"]).view(1).cpu())
+                    if wiener is not None:
+                        scores["wiener_lpips"].append(self.lpips(wiener, batch["gt"]).view(1).cpu())
                 if "prediction" in out:
                     true = batch[net.predicts].float()
                     scores["prediction_l1"].append((out["prediction"].float() - true).abs().mean().view(1).cpu())
                     scores["prediction_l1_zero"].append(true.abs().mean().view(1).cpu())
         self.net.train()
-        return {key: float(torch.cat(values).double().mean()) for key, values in scores.items()}
+        # (LPIPS skips whole validation images smaller than its net takes; none at all: no LPIPS.)
+        return {key: float(torch.cat(values).double().mean()) for key, values in scores.items() if values}
 
     def _budget_spent(self, t0: float) -> bool:
         """Whether this session's time budget is spent (rank 0 decides for every rank)."""
