@@ -351,7 +351,9 @@ fn matching_basis(
             Some(sha) if contract.wants(ModelInput::PsfCode) && *sha != basis.meta.sha256 => {
                 // `unicac-train export` writes the basis beside the model as NAME.basis/.
                 let beside = contract.path.with_extension("basis");
-                let source = if beside.join(unicac_dataset::psf_basis::BASIS_JSON).is_file() {
+                let holds_it =
+                    unicac_dataset::psf_basis::PsfBasis::read(&beside).is_ok_and(|b| b.meta.sha256 == *sha);
+                let source = if holds_it {
                     beside.display().to_string()
                 } else {
                     "the model's training dataset".to_string()

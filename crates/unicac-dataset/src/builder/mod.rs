@@ -338,6 +338,15 @@ fn adopted_basis(dir: &Path) -> Result<crate::PsfBasis> {
     use crate::psf_basis::{read_dataset_basis, PsfBasis, BASIS_JSON};
     let read = if dir.join(BASIS_JSON).is_file() {
         PsfBasis::read(dir)
+    } else if !dir.join(crate::manifest::DATASET_JSON).is_file() {
+        return Err(DatasetError::setting(
+            "psf_basis_from",
+            format!(
+                "{}: neither a PSF basis folder ({BASIS_JSON} inside: a model's NAME.basis/) nor a dataset \
+                 built by `unicac dataset build` (dataset.json inside)",
+                dir.display()
+            ),
+        ));
     } else {
         read_dataset_basis(&other_dataset("psf_basis_from", dir)?.dir)
     };
