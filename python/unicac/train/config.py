@@ -238,12 +238,6 @@ def validate(config: Any) -> dict[str, Any]:
                 f"datasets.train.patch_px: {resolved['datasets']['train']['patch_px']} px is below the "
                 f"{MIN_SIDE_PX[perceptual['net']]} px that the {perceptual['net']} perceptual loss needs"
             )
-        crop = resolved["datasets"]["val"]["crop_px"]
-        if crop is not None and crop < MIN_SIDE_PX[perceptual["net"]]:
-            raise ConfigError(
-                f"datasets.val.crop_px: {crop} px is below the {MIN_SIDE_PX[perceptual['net']]} px that validation's "
-                f"LPIPS ({perceptual['net']}, the perceptual loss's net) needs"
-            )
     betas = resolved["train"]["optim"]["betas"]
     if len(betas) != 2 or not all(0 <= beta < 1 for beta in betas):
         raise ConfigError(f"train.optim.betas: expected two numbers in [0, 1), got {betas}")

@@ -217,6 +217,10 @@ class Trainer:
         self.net = build_network(config["network"])
         losses = train["losses"]
         self.lpips = LPIPS(losses["perceptual"]["net"]) if losses["perceptual"]["weight"] > 0 else None
+        crop = config["datasets"]["val"]["crop_px"]
+        if self.lpips is not None and crop is not None and crop < MIN_SIDE_PX[self.lpips.net] and self.rank == 0:
+            _warn(f"datasets.val.crop_px: {crop} px is below the {MIN_SIDE_PX[self.lpips.net]} px that LPIPS-"
+                  f"{self.lpips.net} takes: validation logs no LPIPS")
         self._check_losses(losses, resume)
         self.discriminator = PatchDiscriminator(losses["gan"]["width"]) if losses["gan"]["weight"] > 0 else None
         pretrain = config["path"]["pretrain_network_g"]
