@@ -298,7 +298,13 @@ def torch_dataset(generator: PairGenerator, length: Optional[int] = None) -> Any
 
 #: A PSF basis folder's files (crates/unicac-dataset/src/psf_basis.rs), arrays first: a basis is
 #: complete once basis.json exists, so a copy interrupted before it is no basis at all.
-PSF_BASIS_FILES = ("mean.npy", "components.npy", "basis.json")
+BASIS_JSON = "basis.json"
+PSF_BASIS_FILES = ("mean.npy", "components.npy", BASIS_JSON)
+
+
+def dataset_basis_dir(root: "os.PathLike[str] | str") -> Path:
+    """Where a dataset folder keeps its PSF basis (Rust's `BASIS_RELATIVE`)."""
+    return Path(root) / "psf" / "basis"
 
 
 def basis_sha256(folder: "os.PathLike[str] | str") -> Optional[str]:
@@ -307,7 +313,7 @@ def basis_sha256(folder: "os.PathLike[str] | str") -> Optional[str]:
     `unicac bench`.)"""
     import json
 
-    path = Path(folder) / "basis.json"
+    path = Path(folder) / BASIS_JSON
     try:
         return str(json.loads(path.read_text())["sha256"])
     except (OSError, ValueError, KeyError, TypeError):
@@ -385,12 +391,12 @@ class DatasetFolder:
 
     @property
     def psf_basis_dir(self) -> Path:
-        return self.root / "psf" / "basis"
+        return dataset_basis_dir(self.root)
 
     def psf_basis(self) -> dict[str, Any]:
         """The dataset's PSF basis (``psf/basis/basis.json``: components, explained shares, ``sha256``);
         :class:`DatasetFolderError` saying how to make it when the folder has none."""
-        path = self.psf_basis_dir / "basis.json"
+        path = self.psf_basis_dir / BASIS_JSON
         if not path.is_file():
             raise DatasetFolderError(
                 f"{self.root}: no PSF basis ({path} is missing; models with the `psf_code` input need it): run the "

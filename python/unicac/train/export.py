@@ -5,9 +5,9 @@ as the network uses them), output `restored` [N,3,H,W]; N, H and W dynamic; opse
 `unicac_contract` (1, or 2 for a model with a contract-2 input), `architecture`, `inputs`,
 `config_sha256`, `unicac_version`, and `psf_basis_sha256` / `wiener_nsr` for the models that need
 them; a `psf_code` model's PSF basis is written beside it (`NAME.basis/`, the folder `unicac dataset
-build --psf-basis-from` takes). A run that keeps EMA weights is exported from them. The exported file is checked in
-onnxruntime against PyTorch at two image sizes before it is moved into place (atomic); without
-onnxruntime the export fails, naming the flag that skips the check (`--no-check`).
+build --psf-basis-from` takes). A run that keeps EMA weights is exported from them. The exported file
+is checked in onnxruntime against PyTorch at two image sizes before it is moved into place (atomic);
+without onnxruntime the export fails, naming the flag that skips the check (`--no-check`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from unicac.dataset import basis_sha256, copy_psf_basis
+from unicac.dataset import basis_sha256, copy_psf_basis, dataset_basis_dir
 from unicac.outputs import write_bytes
 
 from .archs import Restorer, build_network
@@ -123,7 +123,7 @@ def _run_basis(run_dir: Path, config: dict[str, Any], sha: str) -> Path:
     """The PSF basis a psf_code run trained with: the copy the run keeps, else its dataset's, whichever
     records `sha`; ExportError when neither does (the model would be unusable on any new dataset)."""
     dataroot = config["datasets"]["train"].get("dataroot")
-    candidates = [RunFolder(run_dir).psf_basis] + ([Path(dataroot) / "psf" / "basis"] if dataroot else [])
+    candidates = [RunFolder(run_dir).psf_basis] + ([dataset_basis_dir(dataroot)] if dataroot else [])
     for folder in candidates:
         if basis_sha256(folder) == sha:
             return folder

@@ -575,7 +575,8 @@ class Trainer:
                 batch = self._to_device(batch)
                 with self._autocast():
                     out = net.training_outputs(batch["lq"], **self._maps(batch))
-                restored, gt, lq = out["restored"].float().clamp(0, 1).cpu(), batch["gt"].cpu(), batch["lq"].cpu()
+                restored_here = out["restored"].float().clamp(0, 1)  # on the device, for LPIPS
+                restored, gt, lq = restored_here.cpu(), batch["gt"].cpu(), batch["lq"].cpu()
                 scores["psnr_db"].append(psnr(restored, gt))
                 scores["ssim"].append(ssim(restored, gt))
                 scores["input_psnr_db"].append(psnr(lq, gt))
@@ -584,7 +585,7 @@ class Trainer:
                 if wiener is not None:
                     scores["wiener_psnr_db"].append(psnr(wiener.cpu(), gt))
                 if self.lpips is not None and min(gt.shape[-2:]) >= MIN_SIDE_PX[self.lpips.net]:
-                    scores["lpips"].append(self.lpips(out["restored"].float().clamp(0, 1), batch["gt"]).view(1).cpu())
+                    scores["lpips"].append(self.lpips(restored_here, batch["gt"]).view(1).cpu())
                     if wiener is not None:
                         scores["wiener_lpips"].append(self.lpips(wiener, batch["gt"]).view(1).cpu())
                 if "prediction" in out:
