@@ -7,6 +7,9 @@
 # Usage: scripts/reproduce.sh [--scale tiny|cpu|small|paper-test|paper] [--out DIR] [--ray WORKERS]
 #        [--images DIR --test-images DIR] [--models-from DIR]
 #        [--time-budget-s S]   (per model and session: training stops cleanly and exports what it reached)
+#        [--design-evaluations N]   (design with `--evaluations-per-spec N` instead of the scale's wall-clock
+#        budget: a library that is the same on any machine and under any load, docs/design.md; another
+#        library than the clock-budgeted default, so other test lenses)
 #        [--psf-basis-from DATASET]   (with --models-from: the dataset the models were trained on, whose PSF
 #        basis the new dataset adopts so that psf_code models read codes they know, and none of whose
 #        training or validation lenses it may hold; default: the dataset folder beside the models folder)
@@ -26,7 +29,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-scale=tiny out= ray_workers= images= test_images= budget= models_from= basis_from=
+scale=tiny out= ray_workers= images= test_images= budget= models_from= basis_from= design_evaluations=
 while [ $# -gt 0 ]; do
   case "$1" in
     --scale) scale=${2:?--scale needs a value}; shift 2 ;;
@@ -37,10 +40,14 @@ while [ $# -gt 0 ]; do
     --time-budget-s) budget=${2:?--time-budget-s needs a value}; shift 2 ;;
     --models-from) models_from=${2:?--models-from needs a value}; shift 2 ;;
     --psf-basis-from) basis_from=${2:?--psf-basis-from needs a value}; shift 2 ;;
+    --design-evaluations) design_evaluations=${2:?--design-evaluations needs a value}; shift 2 ;;
     *) echo "reproduce.sh: unknown argument '$1' (see the usage at the top of scripts/reproduce.sh)" >&2; exit 2 ;;
   esac
 done
 out=${out:-out/reproduce-$scale}
+if [ -n "$design_evaluations" ] && ! [[ "$design_evaluations" =~ ^[1-9][0-9]{0,12}$ ]]; then
+  echo "reproduce.sh: --design-evaluations takes merit evaluations per specification, 1 to 10^12 (unicac design --evaluations-per-spec), not '$design_evaluations'" >&2; exit 2
+fi
 if [ -n "$ray_workers" ] && ! { [[ "$ray_workers" =~ ^[0-9]{1,5}$ ]] && ((10#$ray_workers >= 1 && 10#$ray_workers <= 4096)); }; then
   echo "reproduce.sh: --ray takes a number of workers from 1 to 4096 (unicac-ray --workers), not '$ray_workers'" >&2; exit 2
 fi
@@ -141,8 +148,10 @@ stage() {   # stage NAME COMMAND...: runs it, appends "NAME<TAB>seconds" to timi
   printf '%s\t%d.%03d\n' "$name" $((ms / 1000)) $((ms % 1000)) >> "$timings"
 }
 
+design_budget=(--time-budget-s "$design_budget_s")
+if [ -n "$design_evaluations" ]; then design_budget=(--evaluations-per-spec "$design_evaluations"); fi
 design_args=(--grid "${grid[@]}" --count "$design_count" --aspheric --first-acceptable
-  --time-budget-s "$design_budget_s" --seed "${design_seed:-1}" --out "$out/library")
+  "${design_budget[@]}" --seed "${design_seed:-1}" --out "$out/library")
 dataset_args=(--lenses "$out/library" --images "$images" --test-images "$test_images" --frame "$frame"
   --levels "$levels" --test-lenses-per-level "$per_level" --val-lenses "$val_lenses" --sub-benchmarks
   --pairs-per-lens "$pairs_per_lens" --crop "$crop" --seed 1 --out "$out/dataset")

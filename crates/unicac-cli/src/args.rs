@@ -821,8 +821,14 @@ pub struct DesignArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Wall-clock budget for the whole run (s); work stops cleanly with the designs so far written.
+    /// Where it stops depends on the machine's speed and load.
     #[arg(long)]
     pub time_budget_s: Option<f64>,
+    /// Merit evaluations each specification may spend (an exact gradient counts at its cost in merit
+    /// values): stops at points fixed by the work, so the same flags give the same library on any
+    /// machine and thread count, and a killed run resumes to the same bytes (docs/design.md).
+    #[arg(long)]
+    pub evaluations_per_spec: Option<u64>,
     /// Accept only designs whose mean RMS spot radius is at most this (um).
     #[arg(long)]
     pub max_rms_um: Option<f64>,

@@ -101,6 +101,23 @@ fn design_rejects_bad_specifications_clearly() {
     );
     assert!(!run.status.success());
     assert!(String::from_utf8_lossy(&run.stderr).contains("WIDTHxHEIGHT"));
+    let run = unicac(
+        &[
+            &base[..],
+            &[
+                "--elements",
+                "2",
+                "--stop",
+                "front",
+                "--evaluations-per-spec",
+                "0",
+            ],
+        ]
+        .concat(),
+    );
+    assert!(!run.status.success());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("--evaluations-per-spec: 0 must lie in"));
+    assert!(!out.exists(), "a refused run made its output folder");
 }
 
 #[test]

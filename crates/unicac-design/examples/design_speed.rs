@@ -120,6 +120,7 @@ fn local(iterations: f64, out: &Path) -> Result<(), Box<dyn std::error::Error>> 
         let params = Parameterization::spherical(&spec);
         let coarse = Merit::new(&spec, Sampling::COARSE);
         let starts: Vec<Vec<f64>> = search(&coarse, &params, &GlobalSettings::new(3), &|_| {})
+            .archive
             .into_iter()
             .take(16)
             .map(|c| c.x)

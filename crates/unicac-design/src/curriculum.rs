@@ -8,7 +8,7 @@
 //! length, gaps the constraints, the glass genes the catalogue), so a design carries across rungs as
 //! its normalised vector.
 
-use crate::global::{search, Candidate, GlobalProgress, GlobalSettings};
+use crate::global::{search, Candidate, GlobalProgress, GlobalSettings, Search};
 use crate::local::{refine, LocalSettings};
 use crate::merit::{Merit, Sampling};
 use crate::params::Parameterization;
@@ -56,14 +56,14 @@ fn at_f_number(spec: &DesignSpec, f_number: f64) -> DesignSpec {
 
 /// The global search's archive for `spec`, found by the curriculum: searched at the ladder's first
 /// F/#, each design refined at every later rung (`local` iterations per rung, coarse merit), then
-/// evaluated with `spec`'s coarse merit, best first. `None` when the slower spec's variables differ
-/// from `spec`'s (no curriculum applies).
+/// evaluated with `spec`'s coarse merit, best first, with the evaluations spent (the walk's included).
+/// `None` when the slower spec's variables differ from `spec`'s (no curriculum applies).
 pub fn search_from_slower_aperture(
     spec: &DesignSpec,
     global: &GlobalSettings,
     local: &LocalSettings,
     progress: &(dyn Fn(GlobalProgress) + Sync),
-) -> Option<Vec<Candidate>> {
+) -> Option<Search> {
     // The ladder ends at `spec`'s own F/#: its last rung is `spec`.
     let specs: Vec<DesignSpec> = aperture_ladder(spec.f_number)
         .into_iter()
@@ -75,20 +75,26 @@ pub fn search_from_slower_aperture(
     if params.iter().any(|p| p.len() != target_params.len()) {
         return None;
     }
-    let archive = search(&merits[0], &params[0], global, progress);
-    let mut walked: Vec<Candidate> = archive
+    let slower = search(&merits[0], &params[0], global, progress);
+    let walks: Vec<(Option<Candidate>, u64)> = slower
+        .archive
         .into_par_iter()
-        .filter_map(|candidate| {
+        .map(|candidate| {
             let mut x = candidate.x;
+            let mut evaluations = 1;
             for (merit, params) in merits.iter().zip(&params).skip(1) {
-                x = refine(merit, params, &x, local, |_| {}).x;
+                let refined = refine(merit, params, &x, local, |_| {});
+                evaluations += refined.evaluations as u64;
+                x = refined.x;
             }
-            let merit = target_merit.value(target_params, &x).filter(|v| v.is_finite())?;
-            Some(Candidate { x, merit })
+            let merit = target_merit.value(target_params, &x).filter(|v| v.is_finite());
+            (merit.map(|merit| Candidate { x, merit }), evaluations)
         })
         .collect();
-    walked.sort_by(|a, b| a.merit.total_cmp(&b.merit));
-    Some(walked)
+    let evaluations = slower.evaluations + walks.iter().map(|(_, n)| n).sum::<u64>();
+    let mut archive: Vec<Candidate> = walks.into_iter().filter_map(|(c, _)| c).collect();
+    archive.sort_by(|a, b| a.merit.total_cmp(&b.merit));
+    Some(Search { archive, evaluations })
 }
 
 #[cfg(test)]

@@ -13,11 +13,11 @@
 //! Random numbers come from a counter-based generator keyed by (seed, generation, individual), so a
 //! run's result does not depend on thread scheduling: same seed, same designs.
 
+use crate::budget::Budget;
 use crate::local::{refine, Gradient, LocalSettings};
 use crate::merit::{design_glasses, Merit};
 use crate::params::{distance, Parameterization, Target};
 use rayon::prelude::*;
-use std::time::Instant;
 use unicac_trace::pupil::{counter_hash, unit_interval};
 
 /// A counter-based random stream.
@@ -57,7 +57,8 @@ pub struct GlobalSettings {
     pub gradient: Gradient,
     pub archive: usize,
     pub seed: u64,
-    pub deadline: Option<Instant>,
+    /// Checked before each generation; the evaluations counted are this search's own.
+    pub budget: Budget,
 }
 
 impl GlobalSettings {
@@ -72,7 +73,7 @@ impl GlobalSettings {
             gradient: Gradient::Exact,
             archive: 32,
             seed,
-            deadline: None,
+            budget: Budget::UNLIMITED,
         }
     }
 }
@@ -81,6 +82,15 @@ impl GlobalSettings {
 pub struct Candidate {
     pub x: Vec<f64>,
     pub merit: f64,
+}
+
+/// What a search found and spent.
+#[derive(Debug, Clone)]
+pub struct Search {
+    /// The best distinct designs seen, best first.
+    pub archive: Vec<Candidate>,
+    /// Merit evaluations spent (the unit of `crate::budget`).
+    pub evaluations: u64,
 }
 
 /// What the search reports after each generation.
@@ -219,15 +229,16 @@ fn archive_insert(archive: &mut Vec<Candidate>, c: Candidate, diversity: f64, si
     archive.truncate(size);
 }
 
-/// Runs the search; returns the archive, best first.
+/// Runs the search until its generations are done or its budget is spent (checked between
+/// generations, so an evaluation budget stops it at the same point on any machine).
 pub fn search(
     merit: &Merit,
     params: &Parameterization,
     settings: &GlobalSettings,
     progress: &(dyn Fn(GlobalProgress) + Sync),
-) -> Vec<Candidate> {
+) -> Search {
     let glasses = glass_genes(params);
-    let out_of_time = || settings.deadline.is_some_and(|d| Instant::now() >= d);
+    let mut evaluations = settings.population as u64;
     let mut population: Vec<Candidate> = (0..settings.population)
         .into_par_iter()
         .map(|i| {
@@ -237,11 +248,11 @@ pub fn search(
         .collect();
     let mut archive: Vec<Candidate> = Vec::new();
     let local = LocalSettings {
-        deadline: settings.deadline,
+        deadline: settings.budget.deadline,
         ..LocalSettings::new(settings.local_iterations, settings.gradient)
     };
     for generation in 0..settings.generations {
-        if out_of_time() {
+        if settings.budget.spent(evaluations) {
             break;
         }
         let stream = |i: usize| ((generation as u64 + 1) << 32) + i as u64;
@@ -253,17 +264,22 @@ pub fn search(
                 anneal(merit, params, c, settings.annealing_steps, &mut rng)
             })
             .collect();
+        evaluations += (population.len() * settings.annealing_steps) as u64;
         population.sort_by(|a, b| a.merit.total_cmp(&b.merit));
-        let parents: Vec<Candidate> = select_diverse(&population, settings.parents, settings.diversity)
-            .into_par_iter()
-            .map(|c| {
-                let refined = refine(merit, params, &c.x, &local, |_| {});
-                Candidate {
-                    x: refined.x,
-                    merit: refined.merit,
-                }
-            })
-            .collect();
+        let refined: Vec<(Candidate, usize)> =
+            select_diverse(&population, settings.parents, settings.diversity)
+                .into_par_iter()
+                .map(|c| {
+                    let refined = refine(merit, params, &c.x, &local, |_| {});
+                    let candidate = Candidate {
+                        x: refined.x,
+                        merit: refined.merit,
+                    };
+                    (candidate, refined.evaluations)
+                })
+                .collect();
+        evaluations += refined.iter().map(|(_, n)| *n as u64).sum::<u64>();
+        let parents: Vec<Candidate> = refined.into_iter().map(|(c, _)| c).collect();
         for p in &parents {
             archive_insert(
                 &mut archive,
@@ -286,6 +302,7 @@ pub fn search(
                     evaluate(merit, params, random_design(params, &glasses, &mut rng))
                 })
                 .collect();
+            evaluations += settings.population as u64;
             continue;
         }
         let children = settings.population.saturating_sub(parents.len());
@@ -323,8 +340,9 @@ pub fn search(
                 evaluate(merit, params, x)
             })
             .collect();
+        evaluations += next.len() as u64;
         next.extend(parents);
         population = next;
     }
-    archive
+    Search { archive, evaluations }
 }

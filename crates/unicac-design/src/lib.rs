@@ -20,7 +20,8 @@
 //!   manufacturability limits;
 //! - `verify`: independent physical checks of a finished lens with unicac-trace;
 //! - `library`: lens files, reports, layout plots, the manifest, resume;
-//! - `run`: one specification or a grid, within a time budget.
+//! - `budget`: what a run may spend per specification (time, or merit evaluations: reproducible);
+//! - `run`: one specification or a grid, within a budget.
 //!
 //! Everything is the product's own optics, hence hand-written; parallelism is rayon's.
 
@@ -28,6 +29,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod asphere;
+pub mod budget;
 pub mod curriculum;
 pub mod dual;
 pub mod error;

@@ -358,6 +358,9 @@ pub struct RoundRecord {
     pub kept: usize,
     pub best_rms_mean_um: Option<f64>,
     pub best_merit: Option<f64>,
+    /// Merit evaluations this run had spent on the spec at the round's end (`crate::budget`).
+    #[serde(default)]
+    pub evaluations: u64,
 }
 
 fn glasses(lens: &LensSpec) -> String {
@@ -394,6 +397,10 @@ pub struct Checkpoint {
     /// continues. A run that was killed leaves it unset and resumes.
     #[serde(default)]
     pub done_count: Option<usize>,
+    /// Merit evaluations the run had spent on the spec when this was saved: a killed run with an
+    /// evaluation budget resumes its count, so it stops where an uninterrupted run would.
+    #[serde(default)]
+    pub evaluations_used: u64,
 }
 
 impl Checkpoint {

@@ -79,6 +79,30 @@ fn dual_pass<const N: usize>(
     Some(())
 }
 
+/// Dual lanes of `linearise`'s passes for `columns` variables: (lanes per pass, passes).
+fn dual_lanes(columns: usize) -> (usize, usize) {
+    match columns {
+        0..=16 => (16, 1),
+        17..=24 => (24, 1),
+        25..=48 => (48, 1),
+        _ => (32, columns.div_ceil(32)),
+    }
+}
+
+/// What one `linearise` at `columns` variables costs, in merit values: a dual pass of N lanes about
+/// N/3 (docs/performance.md "One merit value and one Jacobian": 5.7, 8.8 and 19.6 values measured at
+/// 12, 24 and 36 variables, 6, 8 and 16 here), central differences 2n + 1. The unit of evaluation
+/// budgets (`crate::budget`).
+pub fn linearisation_cost(columns: usize, gradient: Gradient) -> usize {
+    match gradient {
+        Gradient::Exact => {
+            let (lanes, passes) = dual_lanes(columns);
+            passes * lanes.div_ceil(3)
+        }
+        Gradient::FiniteDifference => 2 * columns + 1,
+    }
+}
+
 /// Residuals and Jacobian at x; `None` if the design is singular there.
 pub fn linearise(
     merit: &Merit,
@@ -93,14 +117,16 @@ pub fn linearise(
         columns,
     };
     match gradient {
-        Gradient::Exact if columns <= 16 => dual_pass::<16>(merit, params, x, 0, &mut out)?,
-        Gradient::Exact if columns <= 24 => dual_pass::<24>(merit, params, x, 0, &mut out)?,
-        Gradient::Exact if columns <= 48 => dual_pass::<48>(merit, params, x, 0, &mut out)?,
-        Gradient::Exact => {
-            for first in (0..columns).step_by(32) {
-                dual_pass::<32>(merit, params, x, first, &mut out)?;
+        Gradient::Exact => match dual_lanes(columns).0 {
+            16 => dual_pass::<16>(merit, params, x, 0, &mut out)?,
+            24 => dual_pass::<24>(merit, params, x, 0, &mut out)?,
+            48 => dual_pass::<48>(merit, params, x, 0, &mut out)?,
+            _ => {
+                for first in (0..columns).step_by(32) {
+                    dual_pass::<32>(merit, params, x, first, &mut out)?;
+                }
             }
-        }
+        },
         Gradient::FiniteDifference => {
             out.residuals = merit.evaluate(&params.decode(x)?).residuals;
             let rows = out.residuals.len();
@@ -151,6 +177,7 @@ pub struct Refined {
     pub x: Vec<f64>,
     pub merit: f64,
     pub iterations: usize,
+    /// Merit evaluations spent, a Jacobian counted at its cost ([`linearisation_cost`]).
     pub evaluations: usize,
 }
 
@@ -177,10 +204,7 @@ pub fn refine(
         let Some(lin) = linearise(merit, params, &x, settings.gradient) else {
             break;
         };
-        evaluations += match settings.gradient {
-            Gradient::Exact => 1,
-            Gradient::FiniteDifference => 2 * n + 1,
-        };
+        evaluations += linearisation_cost(n, settings.gradient);
         let (a, g) = normal_equations(&lin);
         let mut accepted = false;
         for _ in 0..16 {

@@ -1,10 +1,12 @@
-//! One specification (or a grid of them) from search to library, within a time budget.
+//! One specification (or a grid of them) from search to library, within a budget (`crate::budget`).
 //!
 //! Per spec: the global stage (a share of the budget) fills an archive of distinct candidates, saved as a
 //! checkpoint; each candidate is then finished in merit order (full refinement with the fine merit,
 //! glass snapping and re-optimisation, then the aspheric stage if asked), verified, and written as soon
-//! as it is accepted. With time left and too few lenses, another search round runs with a new seed
-//! stream. At the budget, work stops between steps and everything accepted so far is on disk.
+//! as it is accepted. With budget left and too few lenses, another search round runs with a new seed
+//! stream. At the budget, work stops between steps and everything accepted so far is on disk. An
+//! evaluation budget stops only between global generations and between finished candidates (in merit
+//! order, as if finished one at a time), so its library does not depend on the machine or the threads.
 //!
 //! Rounds alternate their starting forms: even rounds search the spec itself, odd rounds of a spec
 //! faster than F/4 start from F/4 solutions and open the aperture (`curriculum`). With a budget, a
@@ -13,11 +15,12 @@
 //! [`IDLE_ROUNDS_TO_CONVERGE`] rounds without a better design.
 
 use crate::asphere::asphericize;
+use crate::budget::Budget;
 use crate::curriculum;
 use crate::error::{DesignError, Result};
 use crate::export::to_lens_spec;
 use crate::glass_snap::snap;
-use crate::global::{search, Candidate, GlobalProgress, GlobalSettings};
+use crate::global::{search, GlobalProgress, GlobalSettings, Search};
 use crate::library::{Checkpoint, Entry, Library, RoundRecord};
 use crate::local::{refine, Gradient, LocalSettings};
 use crate::merit::{Merit, Sampling, Terms};
@@ -58,6 +61,8 @@ pub struct RunSettings {
     pub seed: u64,
     /// Wall-clock budget for the whole run (all specs), seconds.
     pub time_budget_s: Option<f64>,
+    /// Merit evaluations each spec may spend (`crate::budget`: reproducible where time is not).
+    pub evaluations_per_spec: Option<u64>,
     pub gradient: Gradient,
     /// Accept only lenses with a mean RMS spot radius at most this (um).
     pub max_rms_um: Option<f64>,
@@ -77,6 +82,8 @@ pub const MAX_COUNT: usize = 1000;
 /// Longest time budget (s): one year. Beyond it a deadline is not representable on every platform
 /// (`Instant` plus a huge `Duration` overflows), and no run is meant to last longer.
 pub const MAX_TIME_BUDGET_S: f64 = 365.0 * 86_400.0;
+/// Most merit evaluations per spec: 10^12, months of a core (a 6-element merit value takes ~0.3 ms).
+pub const MAX_EVALUATIONS_PER_SPEC: u64 = 1_000_000_000_000;
 /// Largest `max_rms_um` (um): 10 mm, larger than any image it could bound.
 pub const MAX_RMS_LIMIT_UM: f64 = 10_000.0;
 
@@ -94,6 +101,14 @@ impl RunSettings {
                 return Err(DesignError::spec(
                     "time_budget_s",
                     format!("{t:?} must lie in (0, {MAX_TIME_BUDGET_S}] s (one year, MAX_TIME_BUDGET_S)"),
+                ));
+            }
+        }
+        if let Some(n) = self.evaluations_per_spec {
+            if !(1..=MAX_EVALUATIONS_PER_SPEC).contains(&n) {
+                return Err(DesignError::spec(
+                    "evaluations_per_spec",
+                    format!("{n} must lie in [1, {MAX_EVALUATIONS_PER_SPEC}] (MAX_EVALUATIONS_PER_SPEC)"),
                 ));
             }
         }
@@ -120,6 +135,7 @@ impl RunSettings {
             first_acceptable: false,
             seed,
             time_budget_s: None,
+            evaluations_per_spec: None,
             gradient: Gradient::Exact,
             max_rms_um: None,
             global_share: 0.6,
@@ -237,14 +253,33 @@ fn finished(
 /// A spherical design and, when made, its aspheric child.
 pub type FinishedPair = (Finished, Option<Finished>);
 
+/// A finished candidate: its designs (none when a stage failed) and the merit evaluations spent.
+#[derive(Debug, Clone)]
+pub struct FinishOutcome {
+    pub designs: Option<FinishedPair>,
+    pub evaluations: u64,
+}
+
 /// Finishes one candidate of the spherical stage: refinement with the fine merit, glass snapping and
 /// re-optimisation, and (if the spec asks) the aspheric stage. Returns the spherical design and, if
-/// made, its aspheric child.
+/// made, its aspheric child, with the evaluations spent.
 pub fn finish_candidate(
     spec: &DesignSpec,
     x: &[f64],
     settings: &RunSettings,
     deadline: Option<Instant>,
+) -> FinishOutcome {
+    let mut evaluations = 0;
+    let designs = finish_counted(spec, x, settings, deadline, &mut evaluations);
+    FinishOutcome { designs, evaluations }
+}
+
+fn finish_counted(
+    spec: &DesignSpec,
+    x: &[f64],
+    settings: &RunSettings,
+    deadline: Option<Instant>,
+    evaluations: &mut u64,
 ) -> Option<FinishedPair> {
     let mut merit = Merit::new(spec, Sampling::FINE);
     let params = Parameterization::spherical(spec);
@@ -253,8 +288,10 @@ pub fn finish_candidate(
         ..LocalSettings::new(settings.refine_iterations, settings.gradient)
     };
     let refined = refine(&merit, &params, x, &local, |_| {});
+    *evaluations += refined.evaluations as u64;
     let (snapped, x) = snap(&params, &refined.x)?;
-    let x = refine_within_limits(&mut merit, &snapped, &x, &local);
+    let x = refine_within_limits(&mut merit, &snapped, &x, &local, evaluations);
+    *evaluations += 1;
     let spherical = finished(&merit, &snapped, &x, false, &spec.slug())?;
     if !spec.aspheric {
         return Some((spherical, None));
@@ -265,22 +302,27 @@ pub fn finish_candidate(
         &spherical.terms.semi_diameters_mm,
         spec.constraints.asphere_departure_max_mm,
     )?;
-    let x = refine_within_limits(&mut merit, &aspheric_params, &x, &local);
+    let x = refine_within_limits(&mut merit, &aspheric_params, &x, &local, evaluations);
+    *evaluations += 1;
     let aspheric = finished(&merit, &aspheric_params, &x, true, &spec.slug())?;
     Some((spherical, Some(aspheric)))
 }
 
 /// Refines, and while limits are still violated (beyond their tolerances) raises the penalty weights
 /// tenfold and refines again, at most twice. The merit keeps the raised weights, so a parent and its
-/// aspheric child are compared on the same merit.
+/// aspheric child are compared on the same merit. Adds the merit evaluations spent to `evaluations`.
 fn refine_within_limits(
     merit: &mut Merit,
     params: &Parameterization,
     x: &[f64],
     local: &LocalSettings,
+    evaluations: &mut u64,
 ) -> Vec<f64> {
-    let mut x = refine(merit, params, x, local, |_| {}).x;
+    let refined = refine(merit, params, x, local, |_| {});
+    *evaluations += refined.evaluations as u64;
+    let mut x = refined.x;
     for _ in 0..2 {
+        *evaluations += 1;
         let feasible = params
             .decode(&x)
             .is_some_and(|p| merit.evaluate(&p).terms.checks.iter().all(|c| c.met));
@@ -288,7 +330,9 @@ fn refine_within_limits(
             break;
         }
         merit.penalty_scale *= 10.0;
-        x = refine(merit, params, &x, local, |_| {}).x;
+        let refined = refine(merit, params, &x, local, |_| {});
+        *evaluations += refined.evaluations as u64;
+        x = refined.x;
     }
     x
 }
@@ -304,6 +348,8 @@ pub enum StopReason {
     Converged,
     /// The time budget ran out.
     Budget,
+    /// The spec's evaluation budget (`RunSettings::evaluations_per_spec`) was spent.
+    EvaluationBudget,
     /// The search rounds (`RunSettings::rounds`, without a budget) were used up.
     RoundsDone,
     /// An earlier run of this spec with this seed into the same library had finished: nothing was redone.
@@ -324,11 +370,13 @@ pub struct SpecSummary {
     /// ([`good_rms_um`]).
     pub best_rms_mean_um: Option<f64>,
     pub good_rms_um: f64,
+    /// Merit evaluations this run spent on the spec (a resumed run's count includes the killed one's).
+    pub evaluations: u64,
 }
 
 /// Designs `spec` into `library`: keeps the `settings.count` best distinct acceptable designs until the
-/// search converges, the rounds are used up or `deadline` passes (with `first_acceptable`: stops at the
-/// first `count` acceptable ones).
+/// search converges, the rounds are used up, `deadline` passes or the spec's evaluations are spent
+/// (with `first_acceptable`: stops at the first `count` acceptable ones).
 pub fn run_spec(
     spec: &DesignSpec,
     settings: &RunSettings,
@@ -356,11 +404,20 @@ pub fn run_spec(
         .as_ref()
         .and_then(|c| c.done_count)
         .is_some_and(|done| settings.count <= done);
+    // A killed run resumes its count of evaluations; a run after a finished one counts anew.
+    let mut used = checkpoint
+        .as_ref()
+        .filter(|c| c.done_count.is_none())
+        .map_or(0, |c| c.evaluations_used);
     if let Some(c) = checkpoint.as_mut() {
         c.done_count = None;
     }
     let mut round = checkpoint.as_ref().map_or(0, |c| c.round);
-    let out_of_time = || deadline.is_some_and(|d| Instant::now() >= d);
+    let budget = Budget {
+        deadline,
+        evaluations: settings.evaluations_per_spec,
+    };
+    let out_of_time = || budget.out_of_time();
     let enough = |library: &Library| settings.first_acceptable && accepted_now(library) >= settings.count;
     let mut idle_rounds = 0;
     let mut converged = false;
@@ -372,7 +429,7 @@ pub fn run_spec(
     } else {
         first_round.saturating_add(settings.rounds)
     };
-    while !done_before && !enough(library) && round < round_limit && !out_of_time() && !converged {
+    while !done_before && !enough(library) && round < round_limit && !budget.spent(used) && !converged {
         let mut improved = false;
         // The global stage of this round, unless a checkpoint of it exists.
         let state = match checkpoint.take().filter(|c| c.round == round) {
@@ -380,13 +437,9 @@ pub fn run_spec(
             None => {
                 let coarse = Merit::new(spec, Sampling::COARSE);
                 let params = Parameterization::spherical(spec);
-                let global_deadline = deadline.map(|d| {
-                    let left = d.saturating_duration_since(Instant::now());
-                    Instant::now() + left.mul_f64(settings.global_share)
-                });
                 let global = GlobalSettings {
                     seed: settings.seed.wrapping_add(round as u64 * 0x9E37_79B9),
-                    deadline: global_deadline,
+                    budget: budget.share_of_rest(used, settings.global_share),
                     gradient: settings.gradient,
                     ..settings.global.clone()
                 };
@@ -396,15 +449,17 @@ pub fn run_spec(
                         progress,
                     })
                 };
-                let archive = round_archive(spec, settings, round, &coarse, &params, &global, &report);
+                let found = round_archive(spec, settings, round, &coarse, &params, &global, &report);
+                used += found.evaluations;
                 let state = Checkpoint {
                     slug: slug.clone(),
                     seed: settings.seed,
                     round,
-                    merits: archive.iter().map(|c| c.merit).collect(),
-                    candidates: archive.into_iter().map(|c| c.x).collect(),
+                    merits: found.archive.iter().map(|c| c.merit).collect(),
+                    candidates: found.archive.into_iter().map(|c| c.x).collect(),
                     finished: Vec::new(),
                     done_count: None,
+                    evaluations_used: used,
                 };
                 state.save(&checkpoint_path)?;
                 state
@@ -416,10 +471,10 @@ pub fn run_spec(
             .filter(|i| !state.finished.contains(i))
             .collect();
         for batch in pending.chunks(rayon::current_num_threads().max(1)) {
-            if enough(library) || out_of_time() {
+            if enough(library) || budget.spent(used) {
                 break;
             }
-            let results: Vec<(usize, Option<FinishedPair>)> = batch
+            let results: Vec<(usize, FinishOutcome)> = batch
                 .par_iter()
                 .map(|&i| {
                     (
@@ -428,7 +483,14 @@ pub fn run_spec(
                     )
                 })
                 .collect();
-            for (i, result) in results {
+            for (i, outcome) in results {
+                // As if finished one at a time: a candidate after the evaluations ran out never
+                // started (its work is dropped, and a resumed run does not redo it).
+                if budget.evaluations.is_some_and(|limit| used >= limit) {
+                    break;
+                }
+                used += outcome.evaluations;
+                let result = outcome.designs;
                 if out_of_time() && result.is_none() {
                     continue;
                 }
@@ -451,6 +513,7 @@ pub fn run_spec(
                 }
                 state.finished.push(i);
             }
+            state.evaluations_used = used;
             state.save(&checkpoint_path)?;
         }
         if state.finished.len() == state.candidates.len() {
@@ -465,6 +528,7 @@ pub fn run_spec(
                     kept,
                     best_rms_mean_um: best.map(|(rms, _)| rms),
                     best_merit: best.map(|(_, merit)| merit),
+                    evaluations: used,
                 },
             )?;
             round += 1;
@@ -475,7 +539,7 @@ pub fn run_spec(
             idle_rounds = if full && !improved { idle_rounds + 1 } else { 0 };
             // With a budget, a poor best design is not a converged search: restart until time is up.
             let good = best.is_some_and(|(rms, _)| rms <= good_rms_um(spec));
-            converged = idle_rounds >= IDLE_ROUNDS_TO_CONVERGE && (deadline.is_none() || good);
+            converged = idle_rounds >= IDLE_ROUNDS_TO_CONVERGE && (!budget.is_limited() || good);
         } else {
             checkpoint = Some(state);
         }
@@ -488,6 +552,8 @@ pub fn run_spec(
         StopReason::Converged
     } else if out_of_time() {
         StopReason::Budget
+    } else if budget.spent(used) {
+        StopReason::EvaluationBudget
     } else {
         StopReason::RoundsDone
     };
@@ -518,6 +584,7 @@ pub fn run_spec(
         rounds: round - first_round,
         best_rms_mean_um,
         good_rms_um: good_rms_um(spec),
+        evaluations: used,
     })
 }
 
@@ -537,11 +604,11 @@ fn round_archive(
     params: &Parameterization,
     global: &GlobalSettings,
     report: &(dyn Fn(GlobalProgress) + Sync),
-) -> Vec<Candidate> {
+) -> Search {
     let from_slower = uses_curriculum(spec, settings, round)
         .then(|| {
             let local = LocalSettings {
-                deadline: global.deadline,
+                deadline: global.budget.deadline,
                 ..LocalSettings::new(settings.refine_iterations / 2, settings.gradient)
             };
             curriculum::search_from_slower_aperture(spec, global, &local, report)

@@ -26,7 +26,9 @@ fn the_curriculum_hands_over_designs_of_the_target_aperture_best_first() {
     let spec = DesignSpec::new(2, 20.0, 2.0, StopPosition::Middle, 50.0).unwrap();
     assert!(spec.f_number < CURRICULUM_START_F_NUMBER);
     let local = LocalSettings::new(10, Gradient::Exact);
-    let archive = search_from_slower_aperture(&spec, &small_global(3), &local, &|_| {}).unwrap();
+    let found = search_from_slower_aperture(&spec, &small_global(3), &local, &|_| {}).unwrap();
+    let archive = found.archive;
+    assert!(found.evaluations > 0);
     assert!(!archive.is_empty());
     let merit = Merit::new(&spec, Sampling::COARSE);
     let params = Parameterization::spherical(&spec);
@@ -41,6 +43,8 @@ fn the_curriculum_hands_over_designs_of_the_target_aperture_best_first() {
     }
     // Deterministic for a seed.
     let again = search_from_slower_aperture(&spec, &small_global(3), &local, &|_| {}).unwrap();
+    assert_eq!(again.evaluations, found.evaluations);
+    let again = again.archive;
     assert_eq!(
         archive.iter().map(|c| c.merit).collect::<Vec<_>>(),
         again.iter().map(|c| c.merit).collect::<Vec<_>>()

@@ -51,8 +51,11 @@ fn refined_singlet_reaches_the_best_bending() {
         &params,
         &settings.global,
         &|_| {},
-    );
-    let (design, _) = finish_candidate(&spec, &candidates[0].x, &settings, None).unwrap();
+    )
+    .archive;
+    let (design, _) = finish_candidate(&spec, &candidates[0].x, &settings, None)
+        .designs
+        .unwrap();
     let designed = design.terms.merit;
     // The same glass and thicknesses; only the bending (front curvature; the back one is solved for the
     // EFL) and the focus vary.
@@ -106,7 +109,7 @@ fn global_search_returns_many_distinct_improving_designs() {
     let merit = Merit::new(&spec, Sampling::COARSE);
     let params = Parameterization::spherical(&spec);
     let settings = small(4, 5).global;
-    let archive = search(&merit, &params, &settings, &|_| {});
+    let archive = search(&merit, &params, &settings, &|_| {}).archive;
     assert!(archive.len() >= 4, "only {} designs", archive.len());
     for (i, a) in archive.iter().enumerate() {
         for b in &archive[i + 1..] {

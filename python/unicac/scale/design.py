@@ -12,6 +12,8 @@ Byte-for-byte: every file equals the single run's except the manifests' `elapsed
 wall-clock time (two single-machine runs differ there too). With `--time-budget-s T` each specification
 gets T / (number of specifications), its share on one machine; budgeted runs stop by the clock and are
 reproducible only up to where it stopped them (docs/design.md), on one machine as on Ray.
+`--evaluations-per-spec N` (passed on unchanged: it is per specification already) stops by the work
+done instead, so a budgeted Ray library equals the single machine's too.
 """
 
 from __future__ import annotations

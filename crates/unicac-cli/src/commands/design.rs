@@ -92,10 +92,11 @@ fn settings(args: &DesignArgs) -> Result<RunSettings> {
     settings.first_acceptable = args.first_acceptable;
     settings.curriculum = !args.no_curriculum;
     settings.time_budget_s = args.time_budget_s;
+    settings.evaluations_per_spec = args.evaluations_per_spec;
     settings.max_rms_um = args.max_rms_um;
     settings.gradient = args.gradient;
-    if args.time_budget_s.is_some() {
-        // With a budget, keep searching (new rounds) until the lenses are found or time is up.
+    if args.time_budget_s.is_some() || args.evaluations_per_spec.is_some() {
+        // With a budget, keep searching (new rounds) until the lenses are found or it is spent.
         settings.rounds = usize::MAX;
     }
     settings.validate().map_err(|e| flag_error(e, args))?;
@@ -189,18 +190,20 @@ pub fn run(args: &DesignArgs) -> Result<()> {
             )
         });
         eprintln!(
-            "{}: {} kept, stopped: {} after {} search round(s), {:.1} s{best}",
+            "{}: {} kept, stopped: {} after {} search round(s), {:.1} s, {} merit evaluations{best}",
             s.slug,
             s.accepted,
             match s.stop_reason {
                 StopReason::CountReached => "first acceptable designs found (--first-acceptable)",
                 StopReason::Converged => "converged (no better design in the last rounds)",
                 StopReason::Budget => "time budget used",
+                StopReason::EvaluationBudget => "evaluation budget used (--evaluations-per-spec)",
                 StopReason::RoundsDone => "search rounds done",
                 StopReason::AlreadyDone => "finished by an earlier run (same seed and library)",
             },
             s.rounds,
-            s.elapsed_s
+            s.elapsed_s,
+            s.evaluations
         );
     }
     eprintln!(
@@ -218,6 +221,7 @@ pub fn run(args: &DesignArgs) -> Result<()> {
                     "first_accepted_s": s.first_accepted_s, "elapsed_s": s.elapsed_s,
                     "stop_reason": s.stop_reason, "rounds": s.rounds,
                     "best_rms_mean_um": s.best_rms_mean_um, "good_rms_um": s.good_rms_um,
+                    "evaluations": s.evaluations,
                 })
             })
             .collect();

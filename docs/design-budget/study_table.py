@@ -1,0 +1,84 @@
+"""The convergence study's table and picture from what `study.sh OUT EVALUATIONS` has finished.
+
+Per specification and seed: the best kept spherical design (smallest mean RMS spot radius) with its RMS
+at fields 0 / 0.7 / 1, largest distortion and flags, and how the run stopped; per specification the
+mean and spread over the seeds done; `OUT/convergence.png`: best mean RMS against evaluations spent,
+one line per seed (from each library's `state/<spec>.rounds.jsonl`).
+
+    python3 docs/design-budget/study_table.py OUT EVALUATIONS > OUT/table.md
+"""
+
+import json
+import statistics
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def best_design(library: Path) -> dict:
+    rows = [json.loads(line) for line in (library / "manifest.jsonl").read_text().splitlines() if line.strip()]
+    spherical = [r for r in rows if not r["aspheric"]]
+    best = min(spherical, key=lambda r: r["rms_mean_um"])
+    report = json.loads((library / "lenses" / f"{best['id']}.report.json").read_text())
+    best["rms_fields_um"] = report["verification"]["rms_um"]
+    return best
+
+
+def rounds(library: Path, slug: str) -> list[dict]:
+    path = library / "state" / f"{slug}.rounds.jsonl"
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()] if path.exists() else []
+
+
+def main(out: str, evaluations: str) -> None:
+    out_dir, limit = Path(out), int(evaluations)
+    runs: dict[str, list[tuple[int, dict, dict, list[dict]]]] = {}
+    for summary_path in sorted(out_dir.glob("*-seed*.json")):
+        name = summary_path.stem
+        spec_name, seed = name.rsplit("-seed", 1)
+        summary = json.loads(summary_path.read_text())["specs"][0]
+        library = out_dir / name
+        runs.setdefault(spec_name, []).append(
+            (int(seed), summary, best_design(library), rounds(library, summary["spec"])))
+    print(f"Evaluation budget {limit:,} per specification (`--evaluations-per-spec`), count 4.\n")
+    print("| spec | seed | best mean RMS (um) | RMS at 0 / 0.7 / 1 (um) | max distortion (%) | flags | rounds | stop | evaluations |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for spec_name, items in runs.items():
+        for seed, summary, best, _ in sorted(items, key=lambda item: item[0]):
+            fields = " / ".join(f"{v:.1f}" for v in best["rms_fields_um"])
+            flags = ", ".join(best.get("flags") or []) or "-"
+            print(f"| {spec_name} | {seed} | {best['rms_mean_um']:.1f} | {fields} | {best['distortion_max_percent']:.2f} | "
+                  f"{flags} | {summary['rounds']} | {summary['stop_reason']} | {summary['evaluations']:,} |")
+    print("\n| spec | seeds done | best mean RMS over seeds: mean, sd, min-max (um) | good bar (um) |")
+    print("|---|---|---|---|")
+    for spec_name, items in runs.items():
+        values = [best["rms_mean_um"] for _, _, best, _ in items]
+        spread = statistics.stdev(values) if len(values) > 1 else 0.0
+        bar = items[0][1]["good_rms_um"]
+        print(f"| {spec_name} | {len(values)} | {statistics.mean(values):.1f}, {spread:.1f}, "
+              f"{min(values):.1f}-{max(values):.1f} | {bar:.1f} |")
+    if not runs:
+        return
+    fig, axes = plt.subplots(1, len(runs), figsize=(4 * len(runs), 3.6), dpi=110, squeeze=False)
+    for ax, (spec_name, items) in zip(axes[0], runs.items()):
+        for seed, _, _, trace in sorted(items, key=lambda item: item[0]):
+            points = [(r["evaluations"] / 1e6, r["best_rms_mean_um"]) for r in trace if r["best_rms_mean_um"]]
+            if points:
+                ax.step([p[0] for p in points], [p[1] for p in points], where="post", label=f"seed {seed}")
+        ax.axhline(items[0][1]["good_rms_um"], color="grey", linestyle="--", linewidth=1)
+        ax.set_title(spec_name, fontsize=9)
+        ax.set_xlabel("merit evaluations (millions)")
+        ax.set_yscale("log")
+        ax.legend(fontsize=7)
+    axes[0][0].set_ylabel("best mean RMS spot radius (um)\n(dashed: the good bar)")
+    fig.tight_layout()
+    fig.savefig(out_dir / "convergence.png")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3:
+        raise SystemExit("usage: study_table.py OUT EVALUATIONS")
+    main(*sys.argv[1:3])
