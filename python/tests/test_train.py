@@ -594,3 +594,17 @@ def test_export_command(tmp_path, dataset, capsys):
     assert meta["config_sha256"] == json.loads((run / "run.json").read_text())["config_sha256"]
     assert cli_main(["export", str(tmp_path / "nothing"), "--out", str(tmp_path / "x.onnx")]) == 1
     assert "no such run folder" in capsys.readouterr().err
+
+
+def test_validation_pairs_are_spread_over_every_lens():
+    from unicac.train.data.datasets import FolderValidation, spread_over_lenses
+
+    # A manifest lists each lens's pairs together: 4 lenses x 3 pairs.
+    rows = [{"lens_id": f"lens{i}", "pair_id": f"lens{i}__{j:04}"} for i in range(4) for j in range(3)]
+    chosen = spread_over_lenses(rows, 6)
+    assert [r["pair_id"] for r in chosen] == ["lens0__0000", "lens1__0000", "lens2__0000", "lens3__0000",
+                                              "lens0__0001", "lens1__0001"]
+    assert spread_over_lenses(rows, 100) == sorted(rows, key=lambda r: (r["pair_id"][-4:], r["lens_id"]))
+    assert spread_over_lenses(rows[:2], 5) == rows[:2] and spread_over_lenses([], 3) == []
+    validation = FolderValidation(None, rows, {"max_pairs": 4, "crop_px": 32, "wiener_nsr": 0.01})
+    assert {r["lens_id"] for r in validation.rows} == {"lens0", "lens1", "lens2", "lens3"}

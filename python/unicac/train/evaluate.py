@@ -3,7 +3,8 @@ unrestored input (the docs/models.md table):
 
     python -m unicac.train.evaluate RUN_DIR --dataset DIR [--split test] [--max-pairs N] [--json]
 
-Whole test images (no crop), in manifest order; levels from `lenses.jsonl` (1 = mildest). Metrics as in
+Whole test images (no crop), in manifest order (with `--max-pairs` below the split's size: spread over
+its lenses, as validation); levels from `lenses.jsonl` (1 = mildest). Metrics as in
 validation (`unicac.train.metrics`: RGB, no border crop)."""
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import torch
 
 from unicac.dataset import DatasetFolder, to_chw
 
+from .data.datasets import spread_over_lenses
 from .export import load_run
 from .metrics import psnr, ssim
 
@@ -28,7 +30,9 @@ def evaluate(run_dir: str, dataset: str, split: str = "test", max_pairs: int = M
     net, config, state = load_run(run_dir)
     folder = DatasetFolder(dataset)
     maps = net.inputs[1:]
-    rows = folder.check_split(split, need_psf=any(m in ("psf", "psf_code", "wiener") for m in maps))[:max_pairs]
+    rows = folder.check_split(split, need_psf=any(m in ("psf", "psf_code", "wiener") for m in maps))
+    if len(rows) > max_pairs:
+        rows = spread_over_lenses(rows, max_pairs)
     levels = {lens["lens_id"]: lens.get("level") for lens in folder.lenses()}
     scores: dict[Any, list[list[float]]] = defaultdict(list)
     for row in rows:

@@ -79,6 +79,9 @@ class RunLog:
             twin = right.twinx()
             twin.plot([r["iter"] for r in val], [r["ssim"] for r in val], "s--", color="C2", label="SSIM")
             twin.set_ylabel("validation SSIM")
+            # One legend for both axes of the panel (PSNR, the Wiener reference, SSIM).
+            handles = right.get_legend_handles_labels()[0] + twin.get_legend_handles_labels()[0]
+            right.legend(handles, [h.get_label() for h in handles], loc="best", fontsize=8)
         right.set_xlabel("iteration")
         right.grid(alpha=0.3)
         if perceptual:

@@ -3,8 +3,8 @@
 Training items are addressed by a global sample number `k` (iteration x batch + slot): the pair,
 patch position and augmentation of sample k come from `numpy.random.default_rng([seed, k])`, never
 from a shared random state, so data-loader workers, process counts and resumption do not change what
-a run sees. Validation items are fixed (the first `max_pairs` pairs, centre crops, no augmentation,
-noise drawn from fixed per-index seeds), so validation is deterministic.
+a run sees. Validation items are fixed (`max_pairs` pairs spread over the split's lenses, centre crops,
+no augmentation, noise drawn from fixed per-index seeds), so validation is deterministic.
 """
 
 from __future__ import annotations
@@ -48,6 +48,23 @@ def _epoch_index(seed: int, k: int, count: int) -> int:
     """Pair index of sample k: each epoch of `count` samples is a fresh seeded permutation."""
     epoch, position = divmod(k, count)
     return int(np.random.default_rng([seed, 0x5EED, epoch]).permutation(count)[position])
+
+
+def spread_over_lenses(rows: list[dict[str, Any]], count: int) -> list[dict[str, Any]]:
+    """`count` of `rows`, taken in turn from each lens (every lens's first pair in manifest order, then
+    every lens's second, ...): a manifest lists a lens's pairs together, so its first `count` rows would
+    be the first few lenses only (2 of a small run's 10 validation lenses, both mild)."""
+    by_lens: dict[str, list[dict[str, Any]]] = {}
+    for row in rows:
+        by_lens.setdefault(str(row.get("lens_id")), []).append(row)
+    chosen: list[dict[str, Any]] = []
+    for k in range(max((len(pairs) for pairs in by_lens.values()), default=0)):
+        for pairs in by_lens.values():
+            if len(chosen) == count:
+                return chosen
+            if k < len(pairs):
+                chosen.append(pairs[k])
+    return chosen
 
 
 def _tensors(sample: dict[str, Any]) -> dict[str, Any]:
@@ -104,11 +121,12 @@ class FolderPatches(Dataset):  # type: ignore[type-arg]
 
 
 class FolderValidation(Dataset):  # type: ignore[type-arg]
-    """The first `max_pairs` pairs of a split, centre-cropped to `crop_px` (no randomness)."""
+    """`max_pairs` pairs of a split spread over its lenses (`spread_over_lenses`), centre-cropped to
+    `crop_px` (no randomness)."""
 
     def __init__(self, folder: DatasetFolder, rows: list[dict[str, Any]], options: dict[str, Any],
                  maps: "set[str] | list[str] | tuple[str, ...]" = ()) -> None:
-        self.folder, self.rows = folder, rows[: options["max_pairs"]]
+        self.folder, self.rows = folder, spread_over_lenses(rows, options["max_pairs"])
         self.crop, self.flags = options["crop_px"], _load_flags(maps, options)
 
     def __len__(self) -> int:
