@@ -596,8 +596,24 @@ def test_export_command(tmp_path, dataset, capsys):
     assert "no such run folder" in capsys.readouterr().err
 
 
-def test_validation_pairs_are_spread_over_every_lens():
-    from unicac.train.data.datasets import FolderValidation, spread_over_lenses
+
+class _LevelledFolder:
+    """The part of a DatasetFolder that places lenses on the ODE levels."""
+
+    def __init__(self, thresholds, odes):
+        self.manifest = {"stratifications": [{"metric": "ode", "thresholds": thresholds}]}
+        self._odes = odes
+
+    ode_levels = DatasetFolder.ode_levels
+    _ode_thresholds = DatasetFolder._ode_thresholds
+    ode_level = DatasetFolder.ode_level
+
+    def lenses(self):
+        return [{"lens_id": lens_id, "ode": ode} for lens_id, ode in self._odes.items()]
+
+
+def test_validation_pairs_are_spread_over_every_lens_and_marked_by_severity():
+    from unicac.train.data.datasets import FolderValidation, severe_pairs, spread_over_lenses
 
     # A manifest lists each lens's pairs together: 4 lenses x 3 pairs.
     rows = [{"lens_id": f"lens{i}", "pair_id": f"lens{i}__{j:04}"} for i in range(4) for j in range(3)]
@@ -606,5 +622,25 @@ def test_validation_pairs_are_spread_over_every_lens():
                                               "lens0__0001", "lens1__0001"]
     assert spread_over_lenses(rows, 100) == sorted(rows, key=lambda r: (r["pair_id"][-4:], r["lens_id"]))
     assert spread_over_lenses(rows[:2], 5) == rows[:2] and spread_over_lenses([], 3) == []
-    validation = FolderValidation(None, rows, {"max_pairs": 4, "crop_px": 32, "wiener_nsr": 0.01})
+    # 5 ODE levels (thresholds descending, mild to severe); lens3 is beyond the most severe threshold.
+    folder = _LevelledFolder([0.9, 0.8, 0.7, 0.6, 0.5, 0.4], {"lens0": 0.95, "lens1": 0.65, "lens2": 0.55, "lens3": 0.1})
+    assert [folder.ode_level(v) for v in (0.95, 0.85, 0.8, 0.65, 0.45, 0.1)] == [1, 1, 1, 3, 5, 5]
+    validation = FolderValidation(folder, rows, {"max_pairs": 4, "crop_px": 32, "wiener_nsr": 0.01})
     assert {r["lens_id"] for r in validation.rows} == {"lens0", "lens1", "lens2", "lens3"}
+    # Levels 4 and 5 are the severe ones: lens2 (level 4) and lens3.
+    assert validation.severe == [False, False, True, True]
+    assert severe_pairs(_LevelledFolder([], {}), rows[:2]) == [False, False]
+    assert severe_pairs(_LevelledFolder([0.9, 0.5, 0.1], {"lens0": 0.95, "lens1": 0.2}), rows[::3][:2]) == [False, True]
+
+
+@needs_maps
+def test_validation_scores_the_severe_pairs_alone_as_well(tmp_path, dataset):
+    trainer = Trainer(tiny_config("wiener-nafnet", dataset), tmp_path / "run", quiet=True)
+    assert "severe_psnr_db" not in trainer.validate()  # the fake dataset has no ODE levels
+    trainer.val_set.severe = [True] + [False] * (len(trainer.val_set) - 1)
+    scores = trainer.validate()
+    trainer.val_set.rows = trainer.val_set.rows[:1]
+    first = trainer.validate()
+    for key in ("psnr_db", "input_psnr_db", "wiener_psnr_db"):
+        assert scores[f"severe_{key}"] == first[key], key
+    assert scores["psnr_db"] != first["psnr_db"]

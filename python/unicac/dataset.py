@@ -425,6 +425,26 @@ class DatasetFolder:
         checks = _rust(_native.dataset_pair_checks, self.root, split)
         return {row.pop("lens_id"): row for row in checks}
 
+    @property
+    def ode_levels(self) -> int:
+        """How many ODE test levels the dataset has (0: none)."""
+        return max(len(self._ode_thresholds()) - 1, 0)
+
+    def _ode_thresholds(self) -> list[float]:
+        stratification = next((s for s in self.manifest.get("stratifications", []) if s.get("metric") == "ode"), None)
+        return list((stratification or {}).get("thresholds") or [])
+
+    def ode_level(self, ode: float) -> Optional[int]:
+        """The test level (1 = mildest) whose ODE range holds ``ode``, by ``dataset.json``'s ODE
+        thresholds (docs/dataset.md: level k holds [thresholds[k], thresholds[k-1]]; values beyond the
+        extremes go to the end levels), so any lens, not only a test lens, can be placed on the test
+        levels' scale; None when the dataset has no ODE levels."""
+        thresholds = self._ode_thresholds()
+        if len(thresholds) < 2:
+            return None
+        levels = len(thresholds) - 1
+        return next((k for k in range(1, levels + 1) if ode >= thresholds[k]), levels)
+
     def lenses(self) -> list[dict[str, Any]]:
         """Rows of ``lenses.jsonl`` (lens_id, split, level, ode, ...)."""
         return list(self._lenses)

@@ -19,6 +19,9 @@ JSONL, CSV, CURVES = "log.jsonl", "log.csv", "curves.png"
 LOG_FILES = (JSONL, CSV, CURVES)
 #: A `val` row's scores (Trainer.validate; empty where the run does not compute them).
 VALIDATION_LOG_FIELDS = ["psnr_db", "ssim", "lpips", "prediction_l1", "wiener_psnr_db", "wiener_lpips"]
+#: Scores also logged over the validation pairs of severe-level lenses alone, as `severe_<score>`.
+SEVERE_SCORES = ["psnr_db", "input_psnr_db", "lpips", "wiener_psnr_db", "wiener_lpips"]
+VALIDATION_LOG_FIELDS += [f"severe_{key}" for key in SEVERE_SCORES]
 LOG_FIELDS = ["iter", "kind", "loss", "lr", "it_per_s", *VALIDATION_LOG_FIELDS, "seconds"]
 
 
@@ -53,7 +56,8 @@ class RunLog:
     def plot(self) -> Optional[Path]:
         """`curves.png`: training loss (left), validation PSNR / SSIM (middle; the Wiener estimate's PSNR
         dashed for a network that refines it) and, for runs with a perceptual loss, validation LPIPS
-        (right; the Wiener estimate's dashed) against iteration. Needs matplotlib (in the `train`
+        (right; the Wiener estimate's dashed) against iteration; the same over the severe-level pairs
+        alone in purple. Needs matplotlib (in the `train`
         extra); returns None without it."""
         try:
             import matplotlib
@@ -75,6 +79,7 @@ class RunLog:
         if val:
             right.plot([r["iter"] for r in val], [r["psnr_db"] for r in val], "o-", color="C1", label="PSNR")
             _reference(right, val, "wiener_psnr_db", "C1")
+            _severe(right, val, "psnr_db", "C4")
             right.set_ylabel("validation PSNR (dB)")
             twin = right.twinx()
             twin.plot([r["iter"] for r in val], [r["ssim"] for r in val], "s--", color="C2", label="SSIM")
@@ -88,6 +93,8 @@ class RunLog:
             axis = axes[2]
             axis.plot([r["iter"] for r in perceptual], [r["lpips"] for r in perceptual], "o-", color="C3", label="restored")
             _reference(axis, perceptual, "wiener_lpips", "C3")
+            _severe(axis, perceptual, "lpips", "C4")
+            axis.legend(loc="best", fontsize=8)
             axis.set_xlabel("iteration")
             axis.set_ylabel("validation LPIPS (lower is better)")
             axis.grid(alpha=0.3)
@@ -96,6 +103,16 @@ class RunLog:
         write_with(path, lambda handle: figure.savefig(handle, format="png", dpi=100))
         plt.close(figure)
         return path
+
+
+def _severe(axis: Any, rows: list[dict[str, Any]], key: str, color: str) -> None:
+    """The score over the severe-level validation pairs (triangles) and, when logged, the Wiener
+    estimate's there (dotted)."""
+    for name, style, label in ((f"severe_{key}", "^-", "severe levels"),
+                               (f"severe_wiener_{key}", ":", "severe levels, Wiener estimate")):
+        points = [(r["iter"], r[name]) for r in rows if r.get(name) is not None]
+        if points:
+            axis.plot(*zip(*points), style, color=color, label=label)
 
 
 def _reference(axis: Any, rows: list[dict[str, Any]], key: str, color: str) -> None:

@@ -67,6 +67,19 @@ def spread_over_lenses(rows: list[dict[str, Any]], count: int) -> list[dict[str,
     return chosen
 
 
+def severe_pairs(folder: DatasetFolder, rows: list[dict[str, Any]]) -> list[bool]:
+    """Per row, whether its lens's ODE falls in the dataset's two most severe test levels (the last
+    one alone with fewer than 3 levels), where restoration is hardest and a model refining the Wiener
+    estimate trades PSNR against perceptual quality; all False without ODE levels."""
+    levels = folder.ode_levels
+    if levels == 0:
+        return [False] * len(rows)
+    first_severe = max(levels - 1, 1) if levels >= 3 else levels
+    ode = {lens["lens_id"]: lens.get("ode") for lens in folder.lenses()}
+    return [ode.get(row["lens_id"]) is not None and (folder.ode_level(ode[row["lens_id"]]) or 0) >= first_severe
+            for row in rows]
+
+
 def _tensors(sample: dict[str, Any]) -> dict[str, Any]:
     out = {key: torch.from_numpy(np.ascontiguousarray(sample[key])) for key in KEYS if key in sample}
     out["index"] = int(sample.get("index", 0))
@@ -128,6 +141,7 @@ class FolderValidation(Dataset):  # type: ignore[type-arg]
                  maps: "set[str] | list[str] | tuple[str, ...]" = ()) -> None:
         self.folder, self.rows = folder, spread_over_lenses(rows, options["max_pairs"])
         self.crop, self.flags = options["crop_px"], _load_flags(maps, options)
+        self.severe = severe_pairs(folder, self.rows)
 
     def __len__(self) -> int:
         return len(self.rows)

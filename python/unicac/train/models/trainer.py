@@ -56,7 +56,7 @@ from ..archs import PatchDiscriminator, Restorer, build_network, count_parameter
 from ..archs.nafnet import PRIOR_SCALE
 from ..archs.receptive import receptive_field_px
 from ..data import IterationSampler, build_train_set, build_val_set, collate
-from ..logger import LOG_FILES, VALIDATION_LOG_FIELDS, Progress, RunLog
+from ..logger import LOG_FILES, SEVERE_SCORES, VALIDATION_LOG_FIELDS, Progress, RunLog
 from ..losses import LPIPS, MIN_SIDE_PX, gan_loss, pixel_loss
 from ..metrics import psnr, ssim
 
@@ -541,6 +541,9 @@ class Trainer:
         predicted = (f", {self.net.predicts} L1 {scores['prediction_l1']:.4f} (zeros "
                      f"{scores['prediction_l1_zero']:.4f})") if "prediction_l1" in scores else ""
         perceptual = f", LPIPS {scores['lpips']:.4f}" if "lpips" in scores else ""
+        if "severe_psnr_db" in scores:
+            perceptual += f"; severe levels {scores['severe_psnr_db']:.2f} dB"
+            perceptual += f" (Wiener {scores['severe_wiener_psnr_db']:.2f})" if "severe_wiener_psnr_db" in scores else ""
         wiener = f"; Wiener estimate {scores['wiener_psnr_db']:.2f} dB" if "wiener_psnr_db" in scores else ""
         wiener += f", LPIPS {scores['wiener_lpips']:.4f}" if "wiener_lpips" in scores else ""
         progress.message(
@@ -556,7 +559,8 @@ class Trainer:
         that refines the Wiener estimate, that estimate's own scores (`wiener_psnr_db`, `wiener_lpips`: the
         line it should stay above); for a blind network the L1 error of its predicted map
         (`prediction_l1`) and that of predicting zeros (`prediction_l1_zero`: the code's mean, or no
-        moments)."""
+        moments). The same scores over the validation pairs of lenses in the severe test levels
+        (`severe_pairs`) as `severe_<score>`."""
         assert self.val_set is not None
         net = self.evaluated
         net.eval()
@@ -568,10 +572,14 @@ class Trainer:
             scores.update(wiener_psnr_db=[])
         if self.lpips is not None:
             scores.update(lpips=[], **({"wiener_lpips": []} if refines_wiener else {}))
+        severe_flags = getattr(self.val_set, "severe", None) or []
+        severe: dict[str, list[torch.Tensor]] = {key: [] for key in SEVERE_SCORES if key in scores}
         # Validation draws nothing from the training's random stream (its DataLoader would).
         with torch.random.fork_rng(devices=[]):
             loader = DataLoader(self.val_set, batch_size=1, shuffle=False, num_workers=0, collate_fn=collate)
             for batch in loader:
+                before = {key: len(values) for key, values in scores.items()}
+                index = int(batch["index"][0])
                 batch = self._to_device(batch)
                 with self._autocast():
                     out = net.training_outputs(batch["lq"], **self._maps(batch))
@@ -592,8 +600,12 @@ class Trainer:
                     true = batch[net.predicts].float()
                     scores["prediction_l1"].append((out["prediction"].float() - true).abs().mean().view(1).cpu())
                     scores["prediction_l1_zero"].append(true.abs().mean().view(1).cpu())
+                if index < len(severe_flags) and severe_flags[index]:
+                    for key in severe:
+                        severe[key].extend(scores[key][before[key]:])
         self.net.train()
         # (LPIPS skips whole validation images smaller than its net takes; none at all: no LPIPS.)
+        scores.update({f"severe_{key}": values for key, values in severe.items()})
         return {key: float(torch.cat(values).double().mean()) for key, values in scores.items() if values}
 
     def _budget_spent(self, t0: float) -> bool:
