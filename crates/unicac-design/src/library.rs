@@ -329,14 +329,24 @@ impl Library {
     }
 
     /// Appends `round` to the spec's convergence trace (the file rewritten atomically: it is small,
-    /// one line per round, and a killed run never leaves half a line).
+    /// one line per round, and a killed run never leaves half a line). A line of the same seed and
+    /// round (a run killed after logging it, resumed) is replaced, not repeated.
     pub fn log_round(&self, slug: &str, round: &RoundRecord) -> Result<()> {
         let path = self.rounds_log_path(slug);
-        let mut text = match std::fs::read_to_string(&path) {
+        let old = match std::fs::read_to_string(&path) {
             Ok(text) => text,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
             Err(e) => return Err(io_error(&path)(e)),
         };
+        let same_round = |line: &str| {
+            serde_json::from_str::<RoundRecord>(line)
+                .is_ok_and(|r| r.seed == round.seed && r.round == round.round)
+        };
+        let mut text: String = old
+            .lines()
+            .filter(|line| !same_round(line))
+            .map(|line| format!("{line}\n"))
+            .collect();
         text.push_str(&serde_json::to_string(round).expect("a round record serialises"));
         text.push('\n');
         write_atomically(&path, text.as_bytes())?;
@@ -401,6 +411,12 @@ pub struct Checkpoint {
     /// evaluation budget resumes its count, so it stops where an uninterrupted run would.
     #[serde(default)]
     pub evaluations_used: u64,
+    /// Search rounds in a row without a better design before this round, and whether this round has
+    /// written a better design so far: a killed run converges where an uninterrupted one would.
+    #[serde(default)]
+    pub idle_rounds: usize,
+    #[serde(default)]
+    pub improved: bool,
 }
 
 impl Checkpoint {

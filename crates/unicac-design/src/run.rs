@@ -404,11 +404,13 @@ pub fn run_spec(
         .as_ref()
         .and_then(|c| c.done_count)
         .is_some_and(|done| settings.count <= done);
-    // A killed run resumes its count of evaluations; a run after a finished one counts anew.
-    let mut used = checkpoint
-        .as_ref()
-        .filter(|c| c.done_count.is_none())
-        .map_or(0, |c| c.evaluations_used);
+    // A killed run resumes where it was (evaluations spent, rounds without a better design, whether
+    // the unfinished round had improved), so it ends as the uninterrupted run would; a run after a
+    // finished one starts these anew.
+    let resumed = checkpoint.as_ref().filter(|c| c.done_count.is_none());
+    let mut used = resumed.map_or(0, |c| c.evaluations_used);
+    let mut idle_rounds = resumed.map_or(0, |c| c.idle_rounds);
+    let mut improved_before_kill = resumed.is_some_and(|c| c.improved);
     if let Some(c) = checkpoint.as_mut() {
         c.done_count = None;
     }
@@ -419,7 +421,6 @@ pub fn run_spec(
     };
     let out_of_time = || budget.out_of_time();
     let enough = |library: &Library| settings.first_acceptable && accepted_now(library) >= settings.count;
-    let mut idle_rounds = 0;
     let mut converged = false;
     let first_round = round;
     // Keeping the best, each run gets its own rounds (a resumed run with a larger count searches anew);
@@ -430,7 +431,7 @@ pub fn run_spec(
         first_round.saturating_add(settings.rounds)
     };
     while !done_before && !enough(library) && round < round_limit && !budget.spent(used) && !converged {
-        let mut improved = false;
+        let mut improved = std::mem::take(&mut improved_before_kill);
         // The global stage of this round, unless a checkpoint of it exists.
         let state = match checkpoint.take().filter(|c| c.round == round) {
             Some(state) => state,
@@ -460,6 +461,8 @@ pub fn run_spec(
                     finished: Vec::new(),
                     done_count: None,
                     evaluations_used: used,
+                    idle_rounds,
+                    improved: false,
                 };
                 state.save(&checkpoint_path)?;
                 state
@@ -514,6 +517,7 @@ pub fn run_spec(
                 state.finished.push(i);
             }
             state.evaluations_used = used;
+            state.improved = improved;
             state.save(&checkpoint_path)?;
         }
         if state.finished.len() == state.candidates.len() {

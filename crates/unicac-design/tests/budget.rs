@@ -3,7 +3,7 @@
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use unicac_design::global::GlobalSettings;
 use unicac_design::library::{Library, RoundRecord};
 use unicac_design::run::{run_specs, Event, RunSettings, SpecSummary, StopReason};
@@ -108,30 +108,84 @@ fn an_evaluation_budget_gives_the_same_library_on_one_thread_as_on_two() {
     let _ = std::fs::remove_dir_all(&two);
 }
 
-/// Killed in the second round's global search (after a lens was written), then resumed: the library
-/// is the uninterrupted run's, because the count of evaluations is saved with the search state.
+/// Designs `spec` on two threads into `dir`; with `kill_at`, killed (a panic out of the run, which
+/// leaves the folder as a SIGKILL would) at that global generation, counted from 1 over all rounds.
+fn run_spec_into(
+    spec: &DesignSpec,
+    settings: &RunSettings,
+    dir: &Path,
+    kill_at: Option<usize>,
+) -> Option<SpecSummary> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let generations = AtomicUsize::new(0);
+    let events = |event: Event| {
+        if let Event::Generation { .. } = event {
+            if Some(generations.fetch_add(1, Ordering::SeqCst) + 1) == kill_at {
+                panic!("killed");
+            }
+        }
+    };
+    let mut library = Library::open(dir).unwrap();
+    let outcome = catch_unwind(AssertUnwindSafe(|| {
+        pool.install(|| run_specs(std::slice::from_ref(spec), settings, &mut library, &events))
+    }));
+    outcome
+        .ok()
+        .map(|summaries| summaries.unwrap().into_iter().next().unwrap())
+}
+
+fn trace(dir: &Path, slug: &str) -> Vec<(usize, u64, Option<f64>)> {
+    let library = Library::open(dir).unwrap();
+    std::fs::read_to_string(library.rounds_log_path(slug))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<RoundRecord>(l).unwrap())
+        .map(|r| (r.round, r.evaluations, r.best_merit))
+        .collect()
+}
+
+/// Killed as the round after the last better design starts its global search (so that only rounds
+/// without a better design follow, which a resumed run must count as the uninterrupted one did), then
+/// resumed: the library, the evaluations spent and
+/// the convergence trace are the uninterrupted run's, because the count of evaluations and the
+/// convergence state are saved with the search state. Both ways a run ends: a poor spec at the
+/// budget, a good one (a slow singlet) by converging first.
 #[test]
 fn a_run_killed_mid_search_resumes_to_the_uninterrupted_library() {
-    let (whole, killed) = (scratch("whole"), scratch("killed"));
-    let uninterrupted = run_with_threads(2, &whole);
-    let accepted = AtomicBool::new(false);
-    let kill_after_a_lens = |event: Event| match event {
-        Event::Accepted { .. } => accepted.store(true, Ordering::SeqCst),
-        Event::Generation { .. } if accepted.load(Ordering::SeqCst) => panic!("killed"),
-        _ => {}
-    };
-    let mut library = Library::open(&killed).unwrap();
-    let died = catch_unwind(AssertUnwindSafe(|| {
-        run_specs(&[spec()], &settings(), &mut library, &kill_after_a_lens)
-    }));
-    assert!(died.is_err(), "the run was not interrupted");
-    drop(library);
-    let resumed = run_with_threads(2, &killed);
-    assert_eq!(resumed.evaluations, uninterrupted.evaluations);
-    assert_eq!(resumed.stop_reason, StopReason::EvaluationBudget);
-    assert_eq!(library_bytes(&killed), library_bytes(&whole));
-    let _ = std::fs::remove_dir_all(&whole);
-    let _ = std::fs::remove_dir_all(&killed);
+    let good = DesignSpec::new(1, 5.0, 8.0, StopPosition::Front, 50.0).unwrap();
+    let mut converging = settings();
+    converging.count = 1;
+    converging.evaluations_per_spec = Some(10 * LIMIT);
+    for (name, spec, settings, stop) in [
+        ("poor", spec(), settings(), StopReason::EvaluationBudget),
+        ("good", good, converging, StopReason::Converged),
+    ] {
+        let (whole, killed) = (
+            scratch(&format!("whole-{name}")),
+            scratch(&format!("killed-{name}")),
+        );
+        let uninterrupted = run_spec_into(&spec, &settings, &whole, None).unwrap();
+        assert_eq!(uninterrupted.stop_reason, stop, "{name}: {uninterrupted:?}");
+        let rounds = trace(&whole, &spec.slug());
+        let last_better = (1..rounds.len())
+            .filter(|&r| rounds[r].2 < rounds[r - 1].2)
+            .next_back()
+            .unwrap_or(0);
+        // (Where every round found a better design, the last round.)
+        let kill_round = (last_better + 1).min(rounds.len() - 1).max(1);
+        let kill_at = kill_round * settings.global.generations + 1;
+        assert!(
+            run_spec_into(&spec, &settings, &killed, Some(kill_at)).is_none(),
+            "{name}: not killed"
+        );
+        let resumed = run_spec_into(&spec, &settings, &killed, None).unwrap();
+        assert_eq!(resumed.stop_reason, stop, "{name}");
+        assert_eq!(resumed.evaluations, uninterrupted.evaluations, "{name}");
+        assert_eq!(library_bytes(&killed), library_bytes(&whole), "{name}");
+        assert_eq!(trace(&killed, &spec.slug()), rounds, "{name}");
+        let _ = std::fs::remove_dir_all(&whole);
+        let _ = std::fs::remove_dir_all(&killed);
+    }
 }
 
 #[test]
