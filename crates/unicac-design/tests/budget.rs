@@ -168,8 +168,8 @@ fn a_run_killed_mid_search_resumes_to_the_uninterrupted_library() {
         assert_eq!(uninterrupted.stop_reason, stop, "{name}: {uninterrupted:?}");
         let rounds = trace(&whole, &spec.slug());
         let last_better = (1..rounds.len())
-            .filter(|&r| rounds[r].2 < rounds[r - 1].2)
-            .next_back()
+            .rev()
+            .find(|&r| rounds[r].2 < rounds[r - 1].2)
             .unwrap_or(0);
         // (Where every round found a better design, the last round.)
         let kill_round = (last_better + 1).min(rounds.len() - 1).max(1);
