@@ -13,7 +13,7 @@ lanes=${3:-2}
 seeds=${4:-1,2,3,4,5}
 unicac=${UNICAC_BIN:-target/release/unicac}
 [ -x "$unicac" ] || { echo "study.sh: no unicac binary at $unicac (cargo build --release -p unicac-cli, or set UNICAC_BIN)" >&2; exit 2; }
-case $evaluations in ''|*[!0-9]*) echo "study.sh: EVALUATIONS must be a whole number, not '$evaluations'" >&2; exit 2 ;; esac
+case $evaluations in ''|*[!0-9]*|0*) echo "study.sh: EVALUATIONS must be a whole number >= 1 without leading zeros, not '$evaluations'" >&2; exit 2 ;; esac
 case $lanes in ''|*[!0-9]*|0) echo "study.sh: LANES must be a whole number >= 1, not '$lanes'" >&2; exit 2 ;; esac
 mkdir -p "$out"
 # elements half-field F/# stop: the Cooke spec, then the three harder ones.

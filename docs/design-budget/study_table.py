@@ -1,9 +1,10 @@
 """The convergence study's table and picture from what `study.sh OUT EVALUATIONS` has finished.
 
 Per specification and seed: the best kept spherical design (smallest mean RMS spot radius) with its RMS
-at fields 0 / 0.7 / 1, largest distortion and flags, and how the run stopped; per specification the
-mean and spread over the seeds done; `OUT/convergence.png`: best mean RMS against evaluations spent,
-one line per seed (from each library's `state/<spec>.rounds.jsonl`).
+at fields 0 / 0.7 / 1, merit, largest distortion and flags, and how the run stopped; per specification
+the mean and spread over the seeds done; `OUT/convergence.png`: best mean RMS (top) and that design's
+merit (bottom) against evaluations spent, one line per seed (from each library's
+`state/<spec>.rounds.jsonl`).
 
     python3 docs/design-budget/study_table.py OUT EVALUATIONS > OUT/table.md
 """
@@ -44,14 +45,15 @@ def main(out: str, evaluations: str) -> None:
         runs.setdefault(spec_name, []).append(
             (int(seed), summary, best_design(library), rounds(library, summary["spec"])))
     print(f"Evaluation budget {limit:,} per specification (`--evaluations-per-spec`), count 4.\n")
-    print("| spec | seed | best mean RMS (um) | RMS at 0 / 0.7 / 1 (um) | max distortion (%) | flags | rounds | stop | evaluations |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| spec | seed | best mean RMS (um) | RMS at 0 / 0.7 / 1 (um) | merit | max distortion (%) | flags | rounds | stop | evaluations | wall (s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for spec_name, items in runs.items():
         for seed, summary, best, _ in sorted(items, key=lambda item: item[0]):
             fields = " / ".join(f"{v:.1f}" for v in best["rms_fields_um"])
             flags = ", ".join(best.get("flags") or []) or "-"
-            print(f"| {spec_name} | {seed} | {best['rms_mean_um']:.1f} | {fields} | {best['distortion_max_percent']:.2f} | "
-                  f"{flags} | {summary['rounds']} | {summary['stop_reason']} | {summary['evaluations']:,} |")
+            print(f"| {spec_name} | {seed} | {best['rms_mean_um']:.1f} | {fields} | {best['merit']:.4g} | "
+                  f"{best['distortion_max_percent']:.2f} | {flags} | {summary['rounds']} | {summary['stop_reason']} | "
+                  f"{summary['evaluations']:,} | {summary['elapsed_s']:.0f} |")
     print("\n| spec | seeds done | best mean RMS over seeds: mean, sd, min-max (um) | good bar (um) |")
     print("|---|---|---|---|")
     for spec_name, items in runs.items():
@@ -62,18 +64,22 @@ def main(out: str, evaluations: str) -> None:
               f"{min(values):.1f}-{max(values):.1f} | {bar:.1f} |")
     if not runs:
         return
-    fig, axes = plt.subplots(1, len(runs), figsize=(4 * len(runs), 3.6), dpi=110, squeeze=False)
-    for ax, (spec_name, items) in zip(axes[0], runs.items()):
-        for seed, _, _, trace in sorted(items, key=lambda item: item[0]):
-            points = [(r["evaluations"] / 1e6, r["best_rms_mean_um"]) for r in trace if r["best_rms_mean_um"]]
-            if points:
-                ax.step([p[0] for p in points], [p[1] for p in points], where="post", label=f"seed {seed}")
-        ax.axhline(items[0][1]["good_rms_um"], color="grey", linestyle="--", linewidth=1)
-        ax.set_title(spec_name, fontsize=9)
-        ax.set_xlabel("merit evaluations (millions)")
-        ax.set_yscale("log")
-        ax.legend(fontsize=7)
+    fig, axes = plt.subplots(2, len(runs), figsize=(4 * len(runs), 6.6), dpi=110, squeeze=False)
+    for column, (spec_name, items) in enumerate(runs.items()):
+        for row, key in enumerate(("best_rms_mean_um", "best_merit")):
+            ax = axes[row][column]
+            for seed, _, _, trace in sorted(items, key=lambda item: item[0]):
+                points = [(r["evaluations"] / 1e6, r[key]) for r in trace if r[key]]
+                if points:
+                    ax.step([p[0] for p in points], [p[1] for p in points], where="post", label=f"seed {seed}")
+            if row == 0:
+                ax.axhline(items[0][1]["good_rms_um"], color="grey", linestyle="--", linewidth=1)
+                ax.set_title(spec_name, fontsize=9)
+                ax.legend(fontsize=7)
+            ax.set_xlabel("merit evaluations (millions)")
+            ax.set_yscale("log")
     axes[0][0].set_ylabel("best mean RMS spot radius (um)\n(dashed: the good bar)")
+    axes[1][0].set_ylabel("merit of the best design")
     fig.tight_layout()
     fig.savefig(out_dir / "convergence.png")
 
