@@ -28,7 +28,12 @@ impl Budget {
 
     /// Whether the budget is spent after `used` evaluations.
     pub fn spent(&self, used: u64) -> bool {
-        self.out_of_time() || self.evaluations.is_some_and(|limit| used >= limit)
+        self.out_of_time() || self.evaluations_spent(used)
+    }
+
+    /// Whether `used` evaluations reach the evaluation limit (the clock aside).
+    pub fn evaluations_spent(&self, used: u64) -> bool {
+        self.evaluations.is_some_and(|limit| used >= limit)
     }
 
     pub fn out_of_time(&self) -> bool {

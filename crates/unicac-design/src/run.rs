@@ -489,7 +489,7 @@ pub fn run_spec(
             for (i, outcome) in results {
                 // As if finished one at a time: a candidate after the evaluations ran out never
                 // started (its work is dropped, and a resumed run does not redo it).
-                if budget.evaluations.is_some_and(|limit| used >= limit) {
+                if budget.evaluations_spent(used) {
                     break;
                 }
                 used += outcome.evaluations;
