@@ -57,8 +57,7 @@ class RunLog:
         """`curves.png`: training loss (left), validation PSNR / SSIM (middle; the Wiener estimate's PSNR
         dashed for a network that refines it) and, for runs with a perceptual loss, validation LPIPS
         (right; the Wiener estimate's dashed) against iteration; the same over the severe-level pairs
-        alone in purple. Needs matplotlib (in the `train`
-        extra); returns None without it."""
+        alone in purple. Needs matplotlib (in the `train` extra); returns None without it."""
         try:
             import matplotlib
 
@@ -105,22 +104,25 @@ class RunLog:
         return path
 
 
+def _series(axis: Any, rows: list[dict[str, Any]], key: str, style: str, color: str, label: str) -> bool:
+    """Plots `key` against iteration over the rows that logged it; whether there were any."""
+    points = [(r["iter"], r[key]) for r in rows if r.get(key) is not None]
+    if points:
+        axis.plot(*zip(*points), style, color=color, label=label)
+    return bool(points)
+
+
 def _severe(axis: Any, rows: list[dict[str, Any]], key: str, color: str) -> None:
     """The score over the severe-level validation pairs (triangles) and, when logged, the Wiener
     estimate's there (dotted)."""
-    for name, style, label in ((f"severe_{key}", "^-", "severe levels"),
-                               (f"severe_wiener_{key}", ":", "severe levels, Wiener estimate")):
-        points = [(r["iter"], r[name]) for r in rows if r.get(name) is not None]
-        if points:
-            axis.plot(*zip(*points), style, color=color, label=label)
+    _series(axis, rows, f"severe_{key}", "^-", color, "severe levels")
+    _series(axis, rows, f"severe_wiener_{key}", ":", color, "severe levels, Wiener estimate")
 
 
 def _reference(axis: Any, rows: list[dict[str, Any]], key: str, color: str) -> None:
     """The Wiener estimate's score as a dashed line (the network starts from it and should stay on the
     better side of it)."""
-    points = [(r["iter"], r[key]) for r in rows if r.get(key) is not None]
-    if points:
-        axis.plot(*zip(*points), ":", color=color, label="Wiener estimate")
+    if _series(axis, rows, key, ":", color, "Wiener estimate"):
         axis.legend(loc="best", fontsize=8)
 
 
