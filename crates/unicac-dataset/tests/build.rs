@@ -518,3 +518,31 @@ fn a_test_set_for_models_trained_elsewhere_refuses_their_lenses() {
     assert!(build_with(2, &s, &dir, Shard::ALL).unwrap().complete);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A folder begun by a release whose sensor noise had another generator (its record has no
+/// `noise_draws`) is not resumed into a mix of two noise realisations; without noise nothing differs.
+#[test]
+fn a_folder_begun_with_another_noise_generator_is_not_resumed() {
+    let older_record = |s: &BuildSettings| {
+        serde_json::json!({"settings": serde_json::to_value(s).unwrap(), "scenes": null}).to_string()
+    };
+    let out = scratch("older-noise");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join(builder::claim::BUILD_JSON), older_record(&settings())).unwrap();
+    let error = builder::build(&settings(), &out, Shard::ALL, &Silent)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("different settings") && error.contains("noise_draws"),
+        "{error}"
+    );
+    let mut noiseless = settings();
+    noiseless.noise = false;
+    std::fs::write(out.join(builder::claim::BUILD_JSON), older_record(&noiseless)).unwrap();
+    assert!(
+        builder::build(&noiseless, &out, Shard::ALL, &Silent)
+            .unwrap()
+            .complete
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}

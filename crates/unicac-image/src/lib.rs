@@ -10,8 +10,9 @@
 //!   gamma, quantisation) and a seeded [`isp::Pipeline`] composing it.
 //!
 //! All images are linear light unless a function says otherwise. Randomness is always an explicit `u64`
-//! seed fed to ChaCha8 (a generator specified bit for bit), so the same seed gives the same image on every
-//! machine and release.
+//! seed fed to generators specified bit for bit (ChaCha8 for charts and white-balance draws, the
+//! counter-based SplitMix64 draws of `unicac_io` for sensor noise), so the same seed gives the same image
+//! on every machine and thread count.
 //!
 //! ```
 //! use unicac_image::{charts, io, isp::Pipeline};

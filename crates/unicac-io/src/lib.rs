@@ -17,6 +17,7 @@
 //!
 //! - [`digest`]: the one SHA-256 (file hashes, cache keys from canonical JSON, derived seeds);
 //! - [`counter_random`]: the one counter-based random source (SplitMix64; CPU and GPU alike);
+//! - [`counter_draws`]: uniform, normal and Poisson draws from one sample's counter stream (sensor noise);
 //! - [`progress`]: the one progress protocol of long library work;
 //! - [`choice`]: `named_choice!`, enums parsed from and printed as one table of names.
 //!
@@ -25,6 +26,7 @@
 
 mod atomic;
 pub mod choice;
+pub mod counter_draws;
 pub mod counter_random;
 pub mod digest;
 mod plan;

@@ -481,6 +481,17 @@ struct Inputs {
 
 /// Every check comes before any work: settings, where the output lies, the folder's record, the
 /// inputs (lenses, scenes, frame, the library's size, duplicate lenses).
+/// The settings as `dataset.json` and the build's claim record them. With noise on, they name the
+/// noise's generator (`isp::NOISE_DRAWS`): pairs of another release's generator are another noise
+/// realisation, so a folder begun by it is not resumed into a mix.
+fn recorded_settings(settings: &BuildSettings) -> serde_json::Value {
+    let mut record = serde_json::to_value(settings).expect("settings serialise");
+    if settings.noise {
+        record["noise_draws"] = unicac_image::isp::NOISE_DRAWS.into();
+    }
+    record
+}
+
 fn check_inputs(settings: &BuildSettings, out: &Path) -> Result<Inputs> {
     settings.check()?;
     placement::check_output_placement(settings, out)?;
@@ -489,7 +500,7 @@ fn check_inputs(settings: &BuildSettings, out: &Path) -> Result<Inputs> {
         .as_deref()
         .map(adopted_basis)
         .transpose()?;
-    let settings_json = serde_json::to_value(settings).expect("settings serialise");
+    let settings_json = recorded_settings(settings);
     claim::check_output(
         out,
         &claim::BuildRecord {

@@ -16,7 +16,9 @@
 //! [`Pipeline`] composes them with `no_noise` / `no_isp` switches; every random step takes a seed. The
 //! colour-correction matrix of DeepLens' ISP is not modelled (identity): UniCAC's degradations are optical.
 //! The algorithms are hand-written because they *are* the product (the simulator must match the paper's
-//! chain exactly); random numbers come from `rand`/`rand_distr`.
+//! chain exactly); the white-balance perturbation draws from `rand`/`rand_distr` (three values per
+//! sample), the sensor noise from `unicac_io::counter_draws` (a stream per sample, so the read-out runs
+//! in parallel and a GPU can repeat it).
 
 mod bayer;
 mod noise;
@@ -24,7 +26,9 @@ mod pipeline;
 mod white_balance;
 
 pub use bayer::{demosaic, mosaic_rggb, rggb_channel, Demosaic};
-pub use noise::{read_out, subtract_black_level, SensorNoise, DEFAULT_BIT_DEPTH, MIN_DEFAULT_SENSOR_BITS};
+pub use noise::{
+    read_out, subtract_black_level, SensorNoise, DEFAULT_BIT_DEPTH, MIN_DEFAULT_SENSOR_BITS, NOISE_DRAWS,
+};
 pub use pipeline::{IspDraw, Pipeline, RenderedPair};
 pub use white_balance::{
     apply_white_balance, apply_white_balance_mosaic, invert_white_balance, perturb_white_balance,

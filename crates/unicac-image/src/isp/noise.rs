@@ -11,21 +11,29 @@
 //!
 //! so E[DN] = B + S and Var[DN] = K S + σ_r² (+ 1/12 from rounding) away from clipping: DeepLens' variance
 //! "shot² · gain + read² · gain²" (`deeplens/sensor/rgb_sensor.py`) with K_base = shot².
-//! Random numbers come from `rand_distr` (Poisson, standard normal) driven by ChaCha8, one draw sequence per
-//! seed in raster order, so a seed reproduces the same noise everywhere.
+//! Random numbers come from the counter-based draws of `unicac_io::counter_draws` (Poisson by inversion
+//! or Hörmann's PTRS, Box-Muller normals): each sample has its own stream keyed by the seed and the
+//! sample's index, so a seed reproduces the same noise everywhere, on any number of threads, and a GPU
+//! kernel can draw the same numbers. (Releases before 2026-12-06 drew from one ChaCha8 stream in raster
+//! order: the same model, another realisation.)
 
 use crate::error::{check_layout, ImageError, Result};
 use crate::quantise::max_code;
 use crate::Planar;
-use rand::rngs::ChaCha8Rng;
-use rand::{RngExt, SeedableRng};
-use rand_distr::{Poisson, StandardNormal};
+use rayon::prelude::*;
+use unicac_io::counter_draws::CounterStream;
+use unicac_io::counter_random::derive_seed;
 
 /// Read-out bit depth of the default sensor: DeepLens' 10 bits (`unicac simulate --sensor-bits`).
 pub const DEFAULT_BIT_DEPTH: u8 = 10;
 /// Fewest bits the default sensor reads out with: its black level (64 DN) must lie below the white
 /// level 2^bits - 1, which takes 7 bits (127 DN).
 pub const MIN_DEFAULT_SENSOR_BITS: u8 = 7;
+
+/// The name of the read-out's random draws, recorded by datasets: per-sample counter streams
+/// (SplitMix64), Poisson by inversion / PTRS, Box-Muller normals. Another generator is another noise
+/// realisation of the same model.
+pub const NOISE_DRAWS: &str = "counter-splitmix64-ptrs";
 
 /// Sensor read-out parameters. `Default` gives DeepLens' default sensor (prior-art.md section 1.4).
 /// Serialised by field name (a dataset records it with every pair).
@@ -130,39 +138,44 @@ impl SensorNoise {
 /// Raw read-out in DN (integer-valued f32 in [0, W]) of `exposure` (relative to white, any channel count):
 /// black level + signal, with Poisson shot noise and Gaussian read noise drawn from `noise_seed`, or
 /// noiseless when `noise_seed` is `None`; then rounded and clipped to the bit depth.
+///
+/// Sample i (its index in `exposure.data`) draws from its own counter stream
+/// `derive_seed(noise_seed, i)`: first its photo-electrons, then its read noise. The samples are
+/// therefore read out in parallel, and the same on any number of threads.
 pub fn read_out(exposure: &Planar, sensor: &SensorNoise, noise_seed: Option<u64>) -> Result<Planar> {
     sensor.validate()?;
     check_layout(exposure, "exposure", &[])?;
+    if exposure.data.iter().any(|v| v.is_nan()) {
+        return Err(ImageError::invalid("exposure", "NaN sample"));
+    }
     let white = f64::from(sensor.white_level_dn()?);
     let black = f64::from(sensor.black_level_dn);
     let k = f64::from(sensor.dn_per_electron());
     let read = f64::from(sensor.read_noise_dn());
-    let mut rng = noise_seed.map(ChaCha8Rng::seed_from_u64);
     let mut out = exposure.clone();
-    for v in &mut out.data {
-        if v.is_nan() {
-            return Err(ImageError::invalid("exposure", "NaN sample"));
-        }
-        let above_black = f64::from(v.max(0.0)) * (white - black);
-        let signal = match rng.as_mut() {
-            None => above_black,
-            Some(rng) => {
-                let electrons = above_black / k;
-                let shot = if electrons > 0.0 {
-                    // Poisson::new only fails for non-positive or non-finite means, excluded here.
-                    Poisson::new(electrons)
-                        .map(|p| rng.sample(p))
-                        .unwrap_or(electrons)
-                } else {
-                    0.0
+    out.data
+        .par_chunks_mut(READ_OUT_CHUNK)
+        .enumerate()
+        .for_each(|(chunk, samples)| {
+            for (offset, v) in samples.iter_mut().enumerate() {
+                let above_black = f64::from(v.max(0.0)) * (white - black);
+                let signal = match noise_seed {
+                    None => above_black,
+                    Some(seed) => {
+                        let index = (chunk * READ_OUT_CHUNK + offset) as u64;
+                        let mut stream = CounterStream::new(derive_seed(seed, index));
+                        k * stream.poisson(above_black / k) + read * stream.standard_normal()
+                    }
                 };
-                k * shot + read * rng.sample::<f64, _>(StandardNormal)
+                *v = (black + signal).round().clamp(0.0, white) as f32;
             }
-        };
-        *v = (black + signal).round().clamp(0.0, white) as f32;
-    }
+        });
     Ok(out)
 }
+
+/// Samples per parallel task of [`read_out`] (a size that keeps the scheduling cost negligible; the
+/// result does not depend on it).
+const READ_OUT_CHUNK: usize = 1 << 14;
 
 /// Relative exposure from DN: black level subtracted and divided by (W - B). Not clipped: read noise below
 /// black stays negative so that averages remain unbiased.
@@ -244,6 +257,43 @@ mod tests {
         assert_eq!(a, read_out(&flat, &sensor, Some(9)).unwrap());
         let b = read_out(&flat, &sensor, Some(10)).unwrap();
         assert!(a.data.iter().zip(&b.data).filter(|(x, y)| x != y).count() > a.data.len() / 2);
+    }
+
+    #[test]
+    fn each_sample_draws_from_its_own_stream_on_any_number_of_threads() {
+        let sensor = SensorNoise {
+            iso: 400.0,
+            ..SensorNoise::default()
+        };
+        // More samples than one parallel task holds, with a dark and a saturated sample.
+        let mut exposure = Planar::from_fn(181, 100, 2, |x, y, c| (x * 7 + y * 3 + c) as f32 / 2000.0);
+        exposure.data[0] = 0.0;
+        exposure.data[1] = f32::INFINITY;
+        let on = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| read_out(&exposure, &sensor, Some(21)).unwrap())
+        };
+        let one = on(1);
+        assert_eq!(one, on(3));
+        assert_eq!(one.data[1], 1023.0, "a saturated sample reads the white level");
+        // The contract a GPU twin repeats: sample i's stream is derive_seed(seed, i).
+        let (k, read) = (
+            f64::from(sensor.dn_per_electron()),
+            f64::from(sensor.read_noise_dn()),
+        );
+        for i in [0, 2, 17_000, exposure.data.len() - 1] {
+            let mut stream = CounterStream::new(derive_seed(21, i as u64));
+            let above_black = f64::from(exposure.data[i]) * (1023.0 - 64.0);
+            let signal = k * stream.poisson(above_black / k) + read * stream.standard_normal();
+            assert_eq!(
+                one.data[i],
+                (64.0 + signal).round().clamp(0.0, 1023.0) as f32,
+                "sample {i}"
+            );
+        }
     }
 
     #[test]
