@@ -102,7 +102,7 @@ impl CounterStream {
             // The exact test (~15% of draws), whose logarithms the squeeze above spares.
             let inverse_alpha = 1.1239 + 1.1328 / (b - 3.4);
             let log_accept = (v * inverse_alpha / (a / (us * us) + b)).ln();
-            if log_accept <= -mean + k * mean.ln() - ln_factorial(k) {
+            if log_accept <= ln_poisson_probability(k, mean) {
                 return k;
             }
         }
@@ -167,12 +167,32 @@ pub fn ln_factorial(k: f64) -> f64 {
         return (2..=k as u32).map(|i| f64::from(i).ln()).sum();
     }
     let x = k + 1.0;
+    (x - 0.5) * x.ln() - x + 0.5 * std::f64::consts::TAU.ln() + stirling_series(x)
+}
+
+/// ln P(K = k) = k ln(mean) - mean - ln k! of a Poisson law, for a whole number k >= 0, written so that
+/// its large terms do not cancel where k is near a large mean (the PTRS exact test's case): with
+/// x = k + 1 and Stirling's series for ln k!, the difference k ln(mean) - (x - 1/2) ln x is written as
+/// k ln(1 + (mean - x) / x) minus half of ln x, so no term grows like mean ln(mean). A GPU kernel in
+/// f32 needs this form; the CPU uses the same.
+pub fn ln_poisson_probability(k: f64, mean: f64) -> f64 {
+    if k < 10.0 {
+        return k * mean.ln() - mean - ln_factorial(k);
+    }
+    let x = k + 1.0;
+    k * ((mean - x) / x).ln_1p() - 0.5 * x.ln() + (x - mean)
+        - 0.5 * std::f64::consts::TAU.ln()
+        - stirling_series(x)
+}
+
+/// 1/(12x) - 1/(360x^3) + 1/(1260x^5) - 1/(1680x^7): Stirling's series of ln Γ(x) past its leading
+/// terms.
+fn stirling_series(x: f64) -> f64 {
     let inverse = 1.0 / x;
     let inverse_squared = inverse * inverse;
-    let series = inverse
+    inverse
         * (1.0 / 12.0
-            - inverse_squared * (1.0 / 360.0 - inverse_squared * (1.0 / 1260.0 - inverse_squared / 1680.0)));
-    (x - 0.5) * x.ln() - x + 0.5 * (std::f64::consts::TAU).ln() + series
+            - inverse_squared * (1.0 / 360.0 - inverse_squared * (1.0 / 1260.0 - inverse_squared / 1680.0)))
 }
 
 #[cfg(test)]
@@ -199,6 +219,25 @@ mod tests {
                 "ln {k}! = {} vs {exact}",
                 ln_factorial(k as f64)
             );
+        }
+    }
+
+    #[test]
+    fn the_poisson_log_probability_matches_summed_logarithms_near_and_far_from_the_mean() {
+        let table = summed_ln_factorials(20_000);
+        for mean in [10.0f64, 37.5, 1000.0, 6000.0] {
+            let spread = 12.0 * mean.sqrt();
+            let low = (mean - spread).max(0.0) as usize;
+            for k in low..=((mean + spread) as usize) {
+                let reference = k as f64 * mean.ln() - mean - table[k];
+                // The reference's own rounding: its terms reach k ln(mean).
+                let tolerance = 1e-12 * (k as f64 * mean.ln()).max(1.0);
+                let value = ln_poisson_probability(k as f64, mean);
+                assert!(
+                    (value - reference).abs() <= tolerance,
+                    "mean {mean}, k {k}: {value} vs {reference}"
+                );
+            }
         }
     }
 
