@@ -122,6 +122,28 @@ impl SensorNoise {
                 "expected a finite value >= 0",
             ));
         }
+        // Each value finite, their products can still overflow (a sample would read out as NaN).
+        let gain = self.analogue_gain();
+        if !(gain.is_finite() && gain > 0.0) {
+            return Err(ImageError::invalid(
+                "iso",
+                format!(
+                    "{} / iso_base {} gives an analogue gain of {gain}, expected a finite value > 0",
+                    self.iso, self.iso_base
+                ),
+            ));
+        }
+        for (field, value) in [
+            ("dn_per_electron_at_base_iso", self.dn_per_electron()),
+            ("read_noise_dn_at_base_iso", self.read_noise_dn()),
+        ] {
+            if !value.is_finite() {
+                return Err(ImageError::invalid(
+                    field,
+                    format!("times the analogue gain {gain} overflows to {value}"),
+                ));
+            }
+        }
         if !(self.black_level_dn >= 0.0 && self.black_level_dn < white) {
             return Err(ImageError::invalid(
                 "black_level_dn",
@@ -318,6 +340,27 @@ mod tests {
             read_out(&flat, &bad_bits, None),
             Err(ImageError::InvalidParameter {
                 field: "bit_depth",
+                ..
+            })
+        ));
+        let overflowing_gain = SensorNoise {
+            iso: 3e38,
+            iso_base: 1e-38,
+            ..SensorNoise::default()
+        };
+        assert!(matches!(
+            read_out(&flat, &overflowing_gain, Some(1)),
+            Err(ImageError::InvalidParameter { field: "iso", .. })
+        ));
+        let overflowing_read_noise = SensorNoise {
+            iso: 1e4,
+            read_noise_dn_at_base_iso: 1e37,
+            ..SensorNoise::default()
+        };
+        assert!(matches!(
+            read_out(&flat, &overflowing_read_noise, Some(1)),
+            Err(ImageError::InvalidParameter {
+                field: "read_noise_dn_at_base_iso",
                 ..
             })
         ));
