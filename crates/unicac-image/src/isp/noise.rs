@@ -12,9 +12,9 @@
 //! so E[DN] = B + S and Var[DN] = K S + σ_r² (+ 1/12 from rounding) away from clipping: DeepLens' variance
 //! "shot² · gain + read² · gain²" (`deeplens/sensor/rgb_sensor.py`) with K_base = shot².
 //! Random numbers come from the counter-based draws of `unicac_io::counter_draws` (Poisson by inversion
-//! or Hörmann's PTRS, Box-Muller normals): each sample has its own stream keyed by the seed and the
-//! sample's index, so a seed reproduces the same noise everywhere, on any number of threads, and a GPU
-//! kernel can draw the same numbers. (Releases before 2026-12-06 drew from one ChaCha8 stream in raster
+//! or Hörmann's PTRS, normals by Acklam's inverse distribution function): each sample has its own
+//! stream keyed by the seed and the sample's index, so a seed reproduces the same noise everywhere, on
+//! any number of threads, and a GPU kernel can draw the same numbers. (Releases before 2026-12-06 drew from one ChaCha8 stream in raster
 //! order: the same model, another realisation.)
 
 use crate::error::{check_layout, ImageError, Result};
@@ -31,7 +31,7 @@ pub const DEFAULT_BIT_DEPTH: u8 = 10;
 pub const MIN_DEFAULT_SENSOR_BITS: u8 = 7;
 
 /// The name of the read-out's random draws, recorded by datasets: per-sample counter streams
-/// (SplitMix64), Poisson by inversion / PTRS, Box-Muller normals. Another generator is another noise
+/// (SplitMix64), Poisson by inversion / PTRS, normals by inverse distribution function. Another generator is another noise
 /// realisation of the same model.
 pub const NOISE_DRAWS: &str = "counter-splitmix64-ptrs";
 
