@@ -533,7 +533,7 @@ fn a_folder_begun_with_another_noise_generator_is_not_resumed() {
         .unwrap_err()
         .to_string();
     assert!(
-        error.contains("different settings") && error.contains("noise_draws"),
+        error.contains("different settings") && error.contains("drawn by another release"),
         "{error}"
     );
     let mut noiseless = settings();

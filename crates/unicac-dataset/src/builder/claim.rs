@@ -60,10 +60,16 @@ impl BuildRecord {
                     .collect(),
                 _ => vec!["settings".into()],
             };
+            // The one difference a user did not choose: the release drew the noise another way.
+            let why = if differing.iter().any(|k| k == "noise_draws") {
+                " (noise_draws: its pairs' sensor noise was drawn by another release's generator, and resuming would mix two noise realisations)"
+            } else {
+                ""
+            };
             return Err(DatasetError::format(
                 out,
                 format!(
-                    "another build with different settings holds this folder (it differs in {}); choose another folder, or remove this one",
+                    "another build with different settings holds this folder (it differs in {}){why}; choose another folder, or remove this one",
                     differing.join(", ")
                 ),
             ));
