@@ -33,12 +33,18 @@ impl CounterStream {
         CounterStream { seed, next: 0 }
     }
 
+    /// The stream's next 64 random bits.
+    #[inline]
+    fn next_bits(&mut self) -> u64 {
+        let bits = counter_hash(self.seed, self.next);
+        self.next += 1;
+        bits
+    }
+
     /// A uniform value in [0, 1).
     #[inline]
     pub fn uniform(&mut self) -> f64 {
-        let bits = counter_hash(self.seed, self.next);
-        self.next += 1;
-        unit_interval(bits)
+        unit_interval(self.next_bits())
     }
 
     /// A standard normal value: the inverse of the normal distribution function at one uniform
@@ -46,9 +52,7 @@ impl CounterStream {
     /// noise needs, and without Box-Muller's logarithm and cosine in the central 95%).
     #[inline]
     pub fn standard_normal(&mut self) -> f64 {
-        let bits = counter_hash(self.seed, self.next);
-        self.next += 1;
-        inverse_normal_cdf(open_unit_interval(bits))
+        inverse_normal_cdf(open_unit_interval(self.next_bits()))
     }
 
     /// A Poisson variate of mean `mean`: 0 for a mean that is not > 0 (NaN included), the mean itself

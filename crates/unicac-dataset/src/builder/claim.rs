@@ -61,7 +61,7 @@ impl BuildRecord {
                 _ => vec!["settings".into()],
             };
             // The one difference a user did not choose: the release drew the noise another way.
-            let why = if differing.iter().any(|k| k == "noise_draws") {
+            let why = if differing.iter().any(|k| k == super::NOISE_DRAWS_KEY) {
                 " (noise_draws: its pairs' sensor noise was drawn by another release's generator, and resuming would mix two noise realisations)"
             } else {
                 ""

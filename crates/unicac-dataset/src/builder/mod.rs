@@ -487,10 +487,14 @@ struct Inputs {
 fn recorded_settings(settings: &BuildSettings) -> serde_json::Value {
     let mut record = serde_json::to_value(settings).expect("settings serialise");
     if settings.noise {
-        record["noise_draws"] = unicac_image::isp::NOISE_DRAWS.into();
+        record[NOISE_DRAWS_KEY] = unicac_image::isp::NOISE_DRAWS.into();
     }
     record
 }
+
+/// The recorded setting that names the noise's generator (the one setting the release, not the user,
+/// decides; `claim` explains it when it differs).
+const NOISE_DRAWS_KEY: &str = "noise_draws";
 
 fn check_inputs(settings: &BuildSettings, out: &Path) -> Result<Inputs> {
     settings.check()?;

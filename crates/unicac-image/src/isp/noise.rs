@@ -14,8 +14,8 @@
 //! Random numbers come from the counter-based draws of `unicac_io::counter_draws` (Poisson by inversion
 //! or Hörmann's PTRS, normals by Acklam's inverse distribution function): each sample has its own
 //! stream keyed by the seed and the sample's index, so a seed reproduces the same noise everywhere, on
-//! any number of threads, and a GPU kernel can draw the same numbers. (Releases before 2026-12-06 drew from one ChaCha8 stream in raster
-//! order: the same model, another realisation.)
+//! any number of threads, and a GPU kernel can draw the same numbers. (Releases before 2026-12-06
+//! drew from one ChaCha8 stream in raster order: the same model, another realisation.)
 
 use crate::error::{check_layout, ImageError, Result};
 use crate::quantise::max_code;
@@ -31,8 +31,8 @@ pub const DEFAULT_BIT_DEPTH: u8 = 10;
 pub const MIN_DEFAULT_SENSOR_BITS: u8 = 7;
 
 /// The name of the read-out's random draws, recorded by datasets: per-sample counter streams
-/// (SplitMix64), Poisson by inversion / PTRS, normals by inverse distribution function. Another generator is another noise
-/// realisation of the same model.
+/// (SplitMix64), Poisson by inversion / PTRS, normals by inverse distribution function. Another
+/// generator is another noise realisation of the same model.
 pub const NOISE_DRAWS: &str = "counter-splitmix64-ptrs";
 
 /// Sensor read-out parameters. `Default` gives DeepLens' default sensor (prior-art.md section 1.4).
