@@ -111,49 +111,7 @@ fn is_finite(v: Real) -> bool {
     return abs(v) <= REAL_MAX;
 }
 
-// ---- 64-bit integers as (low, high) u32 pairs: WGSL has no portable u64. ----
-
-fn mul_wide(a: u32, b: u32) -> vec2<u32> {
-    let a0 = a & 0xffffu;
-    let a1 = a >> 16u;
-    let b0 = b & 0xffffu;
-    let b1 = b >> 16u;
-    let p00 = a0 * b0;
-    let p01 = a0 * b1;
-    let p10 = a1 * b0;
-    let p11 = a1 * b1;
-    let mid = (p00 >> 16u) + (p01 & 0xffffu) + (p10 & 0xffffu);
-    return vec2<u32>((p00 & 0xffffu) | (mid << 16u), p11 + (p01 >> 16u) + (p10 >> 16u) + (mid >> 16u));
-}
-
-fn mul64(a: vec2<u32>, b: vec2<u32>) -> vec2<u32> {
-    let w = mul_wide(a.x, b.x);
-    return vec2<u32>(w.x, w.y + a.y * b.x + a.x * b.y);
-}
-
-fn add64(a: vec2<u32>, b: vec2<u32>) -> vec2<u32> {
-    let lo = a.x + b.x;
-    return vec2<u32>(lo, a.y + b.y + select(0u, 1u, lo < a.x));
-}
-
-// Right shift by 0 < s < 32.
-fn shr64(a: vec2<u32>, s: u32) -> vec2<u32> {
-    return vec2<u32>((a.x >> s) | (a.y << (32u - s)), a.y >> s);
-}
-
-fn xor_shr64(a: vec2<u32>, s: u32) -> vec2<u32> {
-    return a ^ shr64(a, s);
-}
-
-// SplitMix64 finaliser of (seed, counter), bit for bit unicac_trace::pupil::counter_hash.
-fn counter_hash(seed: vec2<u32>, counter: vec2<u32>) -> vec2<u32> {
-    let golden = vec2<u32>(0x7f4a7c15u, 0x9e3779b9u);
-    var z = seed ^ mul64(counter, golden);
-    z = add64(z, golden);
-    z = mul64(xor_shr64(z, 30u), vec2<u32>(0x1ce4e5b9u, 0xbf58476du));
-    z = mul64(xor_shr64(z, 27u), vec2<u32>(0x133111ebu, 0x94d049bbu));
-    return xor_shr64(z, 31u);
-}
+// 64-bit integer helpers and counter_hash: counter.wgsl (joined before this file).
 
 // A 64-bit fraction (of 2^64) as a Real in [0, 1]: its top 53 bits, as unicac_trace's unit_interval.
 fn unit_fraction(bits: vec2<u32>) -> Real {

@@ -8,6 +8,7 @@
 use crate::device::{GpuContext, GpuError, GpuResult};
 use bytemuck::{Pod, Zeroable};
 use std::sync::{Arc, Mutex};
+use unicac_image::isp::SensorNoise;
 use unicac_image::Planar;
 use unicac_sim::convolve::Blend;
 use unicac_sim::radial_table::{RadialTable, RADIAL_TABLE_STEP_PX};
@@ -73,6 +74,8 @@ pub struct GpuImagePass {
     context: Arc<GpuContext>,
     blur: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
     geometry: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    /// The sensor read-out (`crate::sensor`).
+    sensor: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
     /// Failures since the last `take_notes` (the `ImageDevice` face).
     notes: Mutex<Vec<String>>,
 }
@@ -133,16 +136,22 @@ impl GpuImagePass {
         let device = &context.device;
         let blur = pipeline(device, BLUR, "blur", 4);
         let geometry = pipeline(device, GEOMETRY, "geometry", 3);
+        let sensor = pipeline(device, &crate::sensor::module_source(), "read_out", 1);
         GpuImagePass {
             context,
             blur,
             geometry,
+            sensor,
             notes: Mutex::new(Vec::new()),
         }
     }
 
     pub fn context(&self) -> &Arc<GpuContext> {
         &self.context
+    }
+
+    pub(crate) fn sensor_kernel(&self) -> &(wgpu::BindGroupLayout, wgpu::ComputePipeline) {
+        &self.sensor
     }
 
     /// The pass's output (`window`'s size, 3 channels), as `LensSimulator` computes it on the CPU.
@@ -310,7 +319,7 @@ impl GpuImagePass {
         Ok(blurred)
     }
 
-    fn input(&self, bytes: &[u8]) -> wgpu::Buffer {
+    pub(crate) fn input(&self, bytes: &[u8]) -> wgpu::Buffer {
         self.context
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -320,7 +329,7 @@ impl GpuImagePass {
             })
     }
 
-    fn uniform<T: Pod>(&self, params: &T) -> wgpu::Buffer {
+    pub(crate) fn uniform<T: Pod>(&self, params: &T) -> wgpu::Buffer {
         self.context
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -331,7 +340,7 @@ impl GpuImagePass {
     }
 
     /// A read-write plane of `pixels` f32 samples.
-    fn storage(&self, pixels: usize) -> wgpu::Buffer {
+    pub(crate) fn storage(&self, pixels: usize) -> wgpu::Buffer {
         self.context.device.create_buffer(&wgpu::BufferDescriptor {
             label: None,
             size: (pixels.max(1) * 4) as u64,
@@ -341,7 +350,7 @@ impl GpuImagePass {
     }
 
     /// One dispatch of `kernel` over `size` (columns, rows) pixels with `buffers` bound in order.
-    fn run(
+    pub(crate) fn run(
         &self,
         kernel: &(wgpu::BindGroupLayout, wgpu::ComputePipeline),
         buffers: &[&wgpu::Buffer],
@@ -376,7 +385,7 @@ impl GpuImagePass {
     }
 
     /// The first `pixels` samples of `buffer`, waiting for the work before.
-    fn read(&self, buffer: &wgpu::Buffer, pixels: usize) -> GpuResult<Vec<f32>> {
+    pub(crate) fn read(&self, buffer: &wgpu::Buffer, pixels: usize) -> GpuResult<Vec<f32>> {
         let bytes = (pixels * 4) as u64;
         let staging = self.context.device.create_buffer(&wgpu::BufferDescriptor {
             label: None,
@@ -398,6 +407,17 @@ impl ImageDevice for GpuImagePass {
             Err(error) => {
                 let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
                 notes.push(format!("GPU image pass failed ({error}); the CPU path ran"));
+                None
+            }
+        }
+    }
+
+    fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> Option<Planar> {
+        match GpuImagePass::read_out(self, exposure, sensor, noise_seed) {
+            Ok(out) => Some(out),
+            Err(error) => {
+                let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
+                notes.push(format!("GPU read-out declined ({error}); the CPU path ran"));
                 None
             }
         }

@@ -14,6 +14,7 @@
 //! - `hits`, `spot`: the GPU behind `unicac_psf::HitTracer` and spot diagrams;
 //! - `image`: the simulator's image pass (spatially varying blur, warp, shading) behind
 //!   `unicac_sim::ImageDevice`;
+//! - `sensor`, `sensor_twin`: the sensor read-out with noise (counter draws in f32) and its twin;
 //! - `select`: `--device cpu|gpu|auto`, opened lazily, always ending on the CPU when the GPU cannot run;
 //! - `twin`: the kernels in plain Rust.
 
@@ -27,6 +28,8 @@ pub mod layout;
 pub mod psf;
 pub mod real;
 pub mod select;
+pub mod sensor;
+pub mod sensor_twin;
 pub mod shader;
 pub mod source;
 pub mod spot;

@@ -13,6 +13,7 @@ use crate::real::Precision;
 use crate::trace::GpuTracer;
 use crate::RaySource;
 use std::sync::{Arc, Mutex, OnceLock};
+use unicac_image::isp::SensorNoise;
 use unicac_image::Planar;
 use unicac_psf::{HitTracer, PsfResult, RayBackend};
 use unicac_sim::{ImageBackend, ImageDevice, ImagePass};
@@ -202,14 +203,14 @@ impl DeviceSelection {
     }
 }
 
-impl ImageDevice for DeviceSelection {
-    fn apply(&self, pass: &ImagePass) -> Option<Planar> {
-        let image = self.image_pass_for(pass.window.width * pass.window.height)?;
-        match image.apply(pass) {
+impl DeviceSelection {
+    /// A device result, or None for the CPU path with a note: a job beyond the device's limits is
+    /// declined, not failed (said once per kind of reason); a failure is said once.
+    fn on_device(&self, work: &str, result: crate::GpuResult<Planar>) -> Option<Planar> {
+        match result {
             Ok(out) => Some(out),
-            // A job beyond the device's limits is declined, not failed: said once per kind of reason.
             Err(crate::GpuError::Unsupported(why)) => {
-                let note = format!("the GPU image pass does not take {why}; running it on the CPU");
+                let note = format!("the GPU {work} does not take {why}; running it on the CPU");
                 let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
                 if !notes.0.contains(&note) {
                     notes.0.push(note);
@@ -217,10 +218,22 @@ impl ImageDevice for DeviceSelection {
                 None
             }
             Err(error) => {
-                self.fall_back("image pass", error);
+                self.fall_back(work, error);
                 None
             }
         }
+    }
+}
+
+impl ImageDevice for DeviceSelection {
+    fn apply(&self, pass: &ImagePass) -> Option<Planar> {
+        let image = self.image_pass_for(pass.window.width * pass.window.height)?;
+        self.on_device("image pass", image.apply(pass))
+    }
+
+    fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> Option<Planar> {
+        let image = self.image_pass_for(exposure.width * exposure.height)?;
+        self.on_device("read-out", image.read_out(exposure, sensor, noise_seed))
     }
 
     fn describe(&self) -> String {

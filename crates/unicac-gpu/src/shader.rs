@@ -1,10 +1,11 @@
 //! The WGSL source of one precision: a generated prelude (`alias Real = f32;` or f64, and the
-//! precision's constants from `Real`) followed by shaders/common.wgsl, trace.wgsl and psf.wgsl, all
+//! precision's constants from `Real`) followed by shaders/counter.wgsl, common.wgsl, trace.wgsl and psf.wgsl, all
 //! embedded at compile time. One text, two precisions: the kernels write literals as abstract numbers
 //! (`Real(0.5)`), which WGSL converts to whichever type `Real` names.
 
 use crate::real::{Precision, Real};
 
+pub const COUNTER: &str = include_str!("../../../shaders/counter.wgsl");
 pub const COMMON: &str = include_str!("../../../shaders/common.wgsl");
 pub const TRACE: &str = include_str!("../../../shaders/trace.wgsl");
 pub const PSF: &str = include_str!("../../../shaders/psf.wgsl");
@@ -39,7 +40,7 @@ pub fn source(precision: Precision) -> String {
         Precision::F32 => prelude::<f32>(),
         Precision::F64 => prelude::<f64>(),
     };
-    [prelude.as_str(), COMMON, TRACE, PSF].join("\n")
+    [prelude.as_str(), COUNTER, COMMON, TRACE, PSF].join("\n")
 }
 
 #[cfg(test)]

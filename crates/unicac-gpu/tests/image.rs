@@ -230,3 +230,68 @@ fn auto_leaves_small_or_software_jobs_on_the_cpu() {
     assert_eq!(sim.settings.image.describe(), "cpu");
     assert!(sim.settings.image.take_notes().is_empty());
 }
+
+/// The GPU pass as a device that counts its read-outs.
+struct CountingDevice(GpuImagePass, std::sync::atomic::AtomicUsize);
+
+impl unicac_sim::ImageDevice for CountingDevice {
+    fn apply(&self, pass: &unicac_sim::ImagePass) -> Option<Planar> {
+        unicac_sim::ImageDevice::apply(&self.0, pass)
+    }
+    fn read_out(
+        &self,
+        exposure: &Planar,
+        sensor: &unicac_image::isp::SensorNoise,
+        seed: u64,
+    ) -> Option<Planar> {
+        self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        unicac_sim::ImageDevice::read_out(&self.0, exposure, sensor, seed)
+    }
+    fn describe(&self) -> String {
+        self.0.describe()
+    }
+    fn take_notes(&self) -> Vec<String> {
+        unicac_sim::ImageDevice::take_notes(&self.0)
+    }
+}
+
+/// `LensSimulator::process` on a GPU backend reads the sensor out on the device (the rest of the ISP
+/// on the CPU), once per noisy image, and comes out close to the CPU's.
+#[test]
+fn the_simulators_read_out_runs_on_its_image_device() {
+    let Some(context) = gpu_or_skip() else {
+        return;
+    };
+    let mut sim = simulator("cooke_triplet", 640, 480, true, Method::Auto);
+    let pipeline = unicac_image::isp::Pipeline::default();
+    let draw = pipeline.draw(5).unwrap();
+    let raw = scene(640, 480);
+    let cpu = sim.process(&pipeline, &raw, &draw).unwrap();
+    let device = Arc::new(CountingDevice(
+        GpuImagePass::new(context.clone()),
+        Default::default(),
+    ));
+    sim.settings.image = ImageBackend::new(device.clone());
+    let gpu = sim.process(&pipeline, &raw, &draw).unwrap();
+    assert!(sim.settings.image.take_notes().is_empty());
+    assert_eq!(
+        device.1.load(std::sync::atomic::Ordering::Relaxed),
+        1,
+        "one read-out on the device"
+    );
+    let (worst, psnr) = compare(&cpu, &gpu);
+    let differ = cpu.data.iter().zip(&gpu.data).filter(|(a, b)| a != b).count();
+    eprintln!(
+        "ISP with the read-out on the device vs the CPU: {differ} of {} samples differ, worst {worst:.2e}, \
+         PSNR {psnr:.1} dB",
+        cpu.data.len()
+    );
+    assert!(psnr > 60.0, "PSNR {psnr}");
+    // Noiseless, nothing is drawn: the device is not asked.
+    let quiet = unicac_image::isp::Pipeline {
+        no_noise: true,
+        ..pipeline
+    };
+    sim.process(&quiet, &raw, &quiet.draw(5).unwrap()).unwrap();
+    assert_eq!(device.1.load(std::sync::atomic::Ordering::Relaxed), 1);
+}

@@ -482,12 +482,16 @@ struct Inputs {
 /// Every check comes before any work: settings, where the output lies, the folder's record, the
 /// inputs (lenses, scenes, frame, the library's size, duplicate lenses).
 /// The settings as `dataset.json` and the build's claim record them. With noise on, they name the
-/// noise's generator (`isp::NOISE_DRAWS`): pairs of another release's generator are another noise
-/// realisation, so a folder begun by it is not resumed into a mix.
+/// noise's generator (`isp::NOISE_DRAWS`, read out in f32 by a GPU build): pairs of another
+/// release's generator are another noise realisation, so a folder begun by it is not resumed into a mix.
 fn recorded_settings(settings: &BuildSettings) -> serde_json::Value {
     let mut record = serde_json::to_value(settings).expect("settings serialise");
     if settings.noise {
-        record[NOISE_DRAWS_KEY] = unicac_image::isp::NOISE_DRAWS.into();
+        // The device draws the same streams in f32 (a sample in ~1e4 lands an electron apart).
+        record[NOISE_DRAWS_KEY] = match settings.device {
+            RenderDevice::Cpu => unicac_image::isp::NOISE_DRAWS.into(),
+            RenderDevice::Gpu => format!("{}, f32 on the device", unicac_image::isp::NOISE_DRAWS).into(),
+        };
     }
     record
 }

@@ -115,9 +115,13 @@ pub fn render_pair(sim: &LensSimulator, frame: &Planar, row: &PairRow) -> Result
         .map_err(image_error(&row.pair_id))?;
     let blurred = sim.blur(&raw).map_err(sim_error)?;
     let through_lens = sim.geometry(&blurred).map_err(sim_error)?;
-    let lq = pipeline
-        .process(&through_lens, &draw)
-        .map_err(image_error(&row.pair_id))?;
+    // The noisy read-out follows the simulator's device (a GPU build reads out there).
+    let lq = sim
+        .process(&pipeline, &through_lens, &draw)
+        .map_err(|e| match e {
+            unicac_sim::SimError::Image(e) => image_error(&row.pair_id)(e),
+            other => sim_error(other),
+        })?;
     let clean = IspDraw {
         noise_seed: None,
         gains: draw.gains,

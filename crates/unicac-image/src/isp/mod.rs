@@ -29,7 +29,7 @@ pub use bayer::{demosaic, mosaic_rggb, rggb_channel, Demosaic};
 pub use noise::{
     read_out, subtract_black_level, SensorNoise, DEFAULT_BIT_DEPTH, MIN_DEFAULT_SENSOR_BITS, NOISE_DRAWS,
 };
-pub use pipeline::{IspDraw, Pipeline, RenderedPair};
+pub use pipeline::{IspDraw, Pipeline, ReadOut, RenderedPair};
 pub use white_balance::{
     apply_white_balance, apply_white_balance_mosaic, invert_white_balance, perturb_white_balance,
     WhiteBalanceGains, MIN_GAIN,

@@ -101,7 +101,8 @@ impl SensorNoise {
         ))
     }
 
-    fn validate(&self) -> Result<()> {
+    /// Refuses, naming the field, a sensor the read-out cannot use.
+    pub fn validate(&self) -> Result<()> {
         let white = self.white_level_dn()?;
         let positive = |field: &'static str, v: f32| {
             if v.is_finite() && v > 0.0 {

@@ -25,6 +25,9 @@ use crate::quantise::quantise;
 use crate::Planar;
 use unicac_io::counter_random::derive_seed;
 
+/// An implementation of [`read_out`]: the CPU's, or one that runs it elsewhere.
+pub type ReadOut<'a> = dyn Fn(&Planar, &SensorNoise, Option<u64>) -> Result<Planar> + Sync + 'a;
+
 /// Sensor/ISP configuration. `Default` is DeepLens' sensor with its augmentation spread.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pipeline {
@@ -104,6 +107,11 @@ impl Pipeline {
     /// Sensor and ISP on camera-raw RGB (after the optics), returning the degraded image in the output
     /// encoding. See the module docs for the order of the steps.
     pub fn process(&self, raw_rgb: &Planar, draw: &IspDraw) -> Result<Planar> {
+        self.process_with(raw_rgb, draw, &read_out)
+    }
+
+    /// `process` with another implementation of [`read_out`] (a device's; same contract).
+    pub fn process_with(&self, raw_rgb: &Planar, draw: &IspDraw, read_out: &ReadOut<'_>) -> Result<Planar> {
         check_layout(raw_rgb, "raw_rgb", &[3])?;
         let rgb = if self.no_isp && draw.noise_seed.is_none() {
             // Optics only: with no ISP and no noise there is nothing for the sensor to add but its
