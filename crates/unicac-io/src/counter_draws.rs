@@ -185,8 +185,8 @@ pub fn ln_factorial(k: f64) -> f64 {
 /// ln P(K = k) = k ln(mean) - mean - ln k! of a Poisson law, for a whole number k >= 0, written so that
 /// its large terms do not cancel where k is near a large mean (the PTRS exact test's case): with
 /// x = k + 1 and Stirling's series for ln k!, the difference k ln(mean) - (x - 1/2) ln x is written as
-/// k ln(1 + (mean - x) / x) minus half of ln x, so no term grows like mean ln(mean). A GPU kernel in
-/// f32 needs this form; the CPU uses the same.
+/// k ln(1 + (mean - x) / x) minus half of ln x, so no term grows like mean ln(mean). (The f32 kernel
+/// of shaders/sensor.wgsl goes one step further, k (ln(1 + d) - d) - d, where f64 does not need to.)
 pub fn ln_poisson_probability(k: f64, mean: f64) -> f64 {
     if k < 10.0 {
         return k * mean.ln() - mean - ln_factorial(k);
