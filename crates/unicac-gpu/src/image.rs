@@ -8,7 +8,7 @@
 use crate::device::{GpuContext, GpuError, GpuResult};
 use bytemuck::{Pod, Zeroable};
 use std::sync::{Arc, Mutex};
-use unicac_image::isp::SensorNoise;
+use unicac_image::isp::{Demosaic, IspDevice, SensorNoise, WhiteBalanceGains};
 use unicac_image::Planar;
 use unicac_sim::convolve::Blend;
 use unicac_sim::radial_table::{RadialTable, RADIAL_TABLE_STEP_PX};
@@ -74,8 +74,9 @@ pub struct GpuImagePass {
     context: Arc<GpuContext>,
     blur: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
     geometry: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
-    /// The sensor read-out (`crate::sensor`).
+    /// The sensor read-out (`crate::sensor`) and the development of the mosaic (`crate::develop`).
     sensor: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    develop: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
     /// Failures since the last `take_notes` (the `ImageDevice` face).
     notes: Mutex<Vec<String>>,
 }
@@ -137,11 +138,13 @@ impl GpuImagePass {
         let blur = pipeline(device, BLUR, "blur", 4);
         let geometry = pipeline(device, GEOMETRY, "geometry", 3);
         let sensor = pipeline(device, &crate::sensor::module_source(), "read_out", 1);
+        let develop = pipeline(device, crate::develop::DEVELOP, "develop", 3);
         GpuImagePass {
             context,
             blur,
             geometry,
             sensor,
+            develop,
             notes: Mutex::new(Vec::new()),
         }
     }
@@ -152,6 +155,22 @@ impl GpuImagePass {
 
     pub(crate) fn sensor_kernel(&self) -> &(wgpu::BindGroupLayout, wgpu::ComputePipeline) {
         &self.sensor
+    }
+
+    pub(crate) fn develop_kernel(&self) -> &(wgpu::BindGroupLayout, wgpu::ComputePipeline) {
+        &self.develop
+    }
+
+    /// A device result, or None with the failure kept as a note (the `ImageDevice` faces).
+    fn noted(&self, work: &str, result: GpuResult<Planar>) -> Option<Planar> {
+        match result {
+            Ok(out) => Some(out),
+            Err(error) => {
+                let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
+                notes.push(format!("GPU {work} failed ({error}); the CPU path ran"));
+                None
+            }
+        }
     }
 
     /// The pass's output (`window`'s size, 3 channels), as `LensSimulator` computes it on the CPU.
@@ -402,25 +421,7 @@ impl GpuImagePass {
 /// (tests, examples, benchmarks). A failure is kept as a note and leaves the pass to the CPU path.
 impl ImageDevice for GpuImagePass {
     fn apply(&self, pass: &ImagePass) -> Option<Planar> {
-        match GpuImagePass::apply(self, pass) {
-            Ok(out) => Some(out),
-            Err(error) => {
-                let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
-                notes.push(format!("GPU image pass failed ({error}); the CPU path ran"));
-                None
-            }
-        }
-    }
-
-    fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> Option<Planar> {
-        match GpuImagePass::read_out(self, exposure, sensor, noise_seed) {
-            Ok(out) => Some(out),
-            Err(error) => {
-                let mut notes = self.notes.lock().unwrap_or_else(|e| e.into_inner());
-                notes.push(format!("GPU read-out declined ({error}); the CPU path ran"));
-                None
-            }
-        }
+        self.noted("image pass", GpuImagePass::apply(self, pass))
     }
 
     fn describe(&self) -> String {
@@ -429,6 +430,28 @@ impl ImageDevice for GpuImagePass {
 
     fn take_notes(&self) -> Vec<String> {
         std::mem::take(&mut self.notes.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+}
+
+impl IspDevice for GpuImagePass {
+    fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> Option<Planar> {
+        self.noted(
+            "read-out",
+            GpuImagePass::read_out(self, exposure, sensor, noise_seed),
+        )
+    }
+
+    fn develop(
+        &self,
+        dn: &Planar,
+        sensor: &SensorNoise,
+        gains: WhiteBalanceGains,
+        method: Demosaic,
+    ) -> Option<Planar> {
+        self.noted(
+            "development",
+            GpuImagePass::develop(self, dn, sensor, gains, method),
+        )
     }
 }
 

@@ -15,12 +15,14 @@
 //! - `image`: the simulator's image pass (spatially varying blur, warp, shading) behind
 //!   `unicac_sim::ImageDevice`;
 //! - `sensor`, `sensor_twin`: the sensor read-out with noise (counter draws in f32) and its twin;
+//! - `develop`: black level, white balance and demosaicing of the mosaic (the CPU path is its twin);
 //! - `select`: `--device cpu|gpu|auto`, opened lazily, always ending on the CPU when the GPU cannot run;
 //! - `twin`: the kernels in plain Rust.
 
 // `!(x >= 0.0)` and friends are deliberate: they reject NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod develop;
 pub mod device;
 pub mod hits;
 pub mod image;

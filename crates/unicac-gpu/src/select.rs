@@ -13,7 +13,7 @@ use crate::real::Precision;
 use crate::trace::GpuTracer;
 use crate::RaySource;
 use std::sync::{Arc, Mutex, OnceLock};
-use unicac_image::isp::SensorNoise;
+use unicac_image::isp::{Demosaic, IspDevice, SensorNoise, WhiteBalanceGains};
 use unicac_image::Planar;
 use unicac_psf::{HitTracer, PsfResult, RayBackend};
 use unicac_sim::{ImageBackend, ImageDevice, ImagePass};
@@ -225,15 +225,28 @@ impl DeviceSelection {
     }
 }
 
+impl IspDevice for DeviceSelection {
+    fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> Option<Planar> {
+        let image = self.image_pass_for(exposure.width * exposure.height)?;
+        self.on_device("read-out", image.read_out(exposure, sensor, noise_seed))
+    }
+
+    fn develop(
+        &self,
+        dn: &Planar,
+        sensor: &SensorNoise,
+        gains: WhiteBalanceGains,
+        method: Demosaic,
+    ) -> Option<Planar> {
+        let image = self.image_pass_for(dn.width * dn.height)?;
+        self.on_device("development", image.develop(dn, sensor, gains, method))
+    }
+}
+
 impl ImageDevice for DeviceSelection {
     fn apply(&self, pass: &ImagePass) -> Option<Planar> {
         let image = self.image_pass_for(pass.window.width * pass.window.height)?;
         self.on_device("image pass", image.apply(pass))
-    }
-
-    fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> Option<Planar> {
-        let image = self.image_pass_for(exposure.width * exposure.height)?;
-        self.on_device("read-out", image.read_out(exposure, sensor, noise_seed))
     }
 
     fn describe(&self) -> String {

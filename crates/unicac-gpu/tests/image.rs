@@ -10,13 +10,15 @@
 
 mod support;
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use support::{gpu_or_skip, lens};
 use unicac_gpu::{DeviceChoice, DeviceSelection, GpuContext, GpuImagePass, Precision};
+use unicac_image::isp::{Demosaic, IspDevice, Pipeline, SensorNoise, WhiteBalanceGains};
 use unicac_image::Planar;
 use unicac_sim::convolve::{Blend, Method};
 use unicac_sim::psf_map::RadialSampling;
-use unicac_sim::{ImageBackend, LensSimulator, PixelWindow, SimulationSettings};
+use unicac_sim::{ImageBackend, ImageDevice, LensSimulator, PixelWindow, SimulationSettings};
 
 const BLUR_TOLERANCE: f32 = 1e-6;
 const PASS_TOLERANCE: f32 = 2e-6;
@@ -231,39 +233,48 @@ fn auto_leaves_small_or_software_jobs_on_the_cpu() {
     assert!(sim.settings.image.take_notes().is_empty());
 }
 
-/// The GPU pass as a device that counts its read-outs.
-struct CountingDevice(GpuImagePass, std::sync::atomic::AtomicUsize);
+/// The GPU pass as a device that counts the ISP steps it is asked for: [read-outs, developments].
+struct CountingDevice(GpuImagePass, [AtomicUsize; 2]);
 
-impl unicac_sim::ImageDevice for CountingDevice {
+impl ImageDevice for CountingDevice {
     fn apply(&self, pass: &unicac_sim::ImagePass) -> Option<Planar> {
-        unicac_sim::ImageDevice::apply(&self.0, pass)
-    }
-    fn read_out(
-        &self,
-        exposure: &Planar,
-        sensor: &unicac_image::isp::SensorNoise,
-        seed: u64,
-    ) -> Option<Planar> {
-        self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        unicac_sim::ImageDevice::read_out(&self.0, exposure, sensor, seed)
+        ImageDevice::apply(&self.0, pass)
     }
     fn describe(&self) -> String {
         self.0.describe()
     }
     fn take_notes(&self) -> Vec<String> {
-        unicac_sim::ImageDevice::take_notes(&self.0)
+        ImageDevice::take_notes(&self.0)
     }
 }
 
-/// `LensSimulator::process` on a GPU backend reads the sensor out on the device (the rest of the ISP
-/// on the CPU), once per noisy image, and comes out close to the CPU's.
+impl IspDevice for CountingDevice {
+    fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, seed: u64) -> Option<Planar> {
+        self.1[0].fetch_add(1, Ordering::Relaxed);
+        IspDevice::read_out(&self.0, exposure, sensor, seed)
+    }
+    fn develop(
+        &self,
+        dn: &Planar,
+        sensor: &SensorNoise,
+        gains: WhiteBalanceGains,
+        method: Demosaic,
+    ) -> Option<Planar> {
+        self.1[1].fetch_add(1, Ordering::Relaxed);
+        IspDevice::develop(&self.0, dn, sensor, gains, method)
+    }
+}
+
+/// `LensSimulator::process` on a GPU backend reads the sensor out and develops the mosaic on the
+/// device (the output encoding on the CPU), and comes out close to the CPU's: the development is
+/// bit for bit the CPU's on lavapipe, the read-out's f32 draws move a few samples.
 #[test]
-fn the_simulators_read_out_runs_on_its_image_device() {
+fn the_simulators_isp_steps_run_on_its_image_device() {
     let Some(context) = gpu_or_skip() else {
         return;
     };
     let mut sim = simulator("cooke_triplet", 640, 480, true, Method::Auto);
-    let pipeline = unicac_image::isp::Pipeline::default();
+    let pipeline = Pipeline::default();
     let draw = pipeline.draw(5).unwrap();
     let raw = scene(640, 480);
     let cpu = sim.process(&pipeline, &raw, &draw).unwrap();
@@ -274,24 +285,32 @@ fn the_simulators_read_out_runs_on_its_image_device() {
     sim.settings.image = ImageBackend::new(device.clone());
     let gpu = sim.process(&pipeline, &raw, &draw).unwrap();
     assert!(sim.settings.image.take_notes().is_empty());
+    let counts = |d: &CountingDevice| d.1.each_ref().map(|c| c.load(Ordering::Relaxed));
     assert_eq!(
-        device.1.load(std::sync::atomic::Ordering::Relaxed),
-        1,
-        "one read-out on the device"
+        counts(&device),
+        [1, 1],
+        "one read-out and one development on the device"
     );
     let (worst, psnr) = compare(&cpu, &gpu);
     let differ = cpu.data.iter().zip(&gpu.data).filter(|(a, b)| a != b).count();
     eprintln!(
-        "ISP with the read-out on the device vs the CPU: {differ} of {} samples differ, worst {worst:.2e}, \
-         PSNR {psnr:.1} dB",
+        "ISP with read-out and development on the device vs the CPU: {differ} of {} samples differ, \
+         worst {worst:.2e}, PSNR {psnr:.1} dB",
         cpu.data.len()
     );
     assert!(psnr > 60.0, "PSNR {psnr}");
-    // Noiseless, nothing is drawn: the device is not asked.
-    let quiet = unicac_image::isp::Pipeline {
+    // Noiseless, nothing is drawn: the read-out stays on the CPU, the development goes to the device,
+    // and the result is the CPU's (lavapipe rounds as the CPU does).
+    let quiet = Pipeline {
         no_noise: true,
         ..pipeline
     };
-    sim.process(&quiet, &raw, &quiet.draw(5).unwrap()).unwrap();
-    assert_eq!(device.1.load(std::sync::atomic::Ordering::Relaxed), 1);
+    let quiet_draw = quiet.draw(5).unwrap();
+    let quiet_gpu = sim.process(&quiet, &raw, &quiet_draw).unwrap();
+    assert_eq!(counts(&device), [1, 2]);
+    sim.settings.image = ImageBackend::cpu();
+    let quiet_cpu = sim.process(&quiet, &raw, &quiet_draw).unwrap();
+    let (worst, _) = compare(&quiet_cpu, &quiet_gpu);
+    eprintln!("noiseless ISP, development on the device vs the CPU: worst {worst:.2e}");
+    assert!(worst <= 1e-6, "worst {worst}");
 }

@@ -152,3 +152,47 @@ fn the_f32_draws_are_the_cpus_draws_on_the_same_streams() {
     eprintln!("normal draws: largest |f32 - f64| {worst:.2e}, {worst_share:.2} of the allowance");
     assert!(worst_share <= 1.0, "normal draws: {worst_share} of the allowance");
 }
+
+/// The development (black level, white balance, demosaicing) on the device against the CPU chain it
+/// replaces: the same correctly rounded f32 operations in the same order, so equal bit for bit on
+/// lavapipe (a driver that fuses multiply-adds may differ by rounding).
+#[test]
+fn the_development_equals_the_cpu_chain() {
+    use unicac_image::isp::{
+        apply_white_balance_mosaic, demosaic, subtract_black_level, Demosaic, WhiteBalanceGains,
+    };
+    let Some(context) = gpu_or_skip() else {
+        return;
+    };
+    let lavapipe = context.adapter.name.contains("llvmpipe");
+    let pass = GpuImagePass::new(context);
+    let sensor = SensorNoise::default();
+    let gains = WhiteBalanceGains {
+        red: 2.1,
+        green: 1.0,
+        blue: 1.7,
+    };
+    for (width, height) in [(640, 480), (97, 61), (1, 1), (2, 5), (5, 2)] {
+        let dn = read_out(&exposure(width, height, 1), &sensor, Some(4)).unwrap();
+        for method in [Demosaic::Bilinear, Demosaic::MalvarHeCutler] {
+            let gpu = pass.develop(&dn, &sensor, gains, method).unwrap();
+            let balanced =
+                apply_white_balance_mosaic(&subtract_black_level(&dn, &sensor).unwrap(), gains).unwrap();
+            let cpu = demosaic(&balanced, method).unwrap();
+            let (differ, worst) = differences(&gpu.data, &cpu.data);
+            eprintln!("develop {width} x {height} {method:?}: {differ} samples differ, at most {worst:e}");
+            if lavapipe {
+                assert_eq!(differ, 0, "{width} x {height} {method:?}");
+            }
+            assert!(worst <= 1e-5, "{width} x {height} {method:?}: {worst}");
+        }
+    }
+    // What the CPU path refuses, the device declines (the CPU path then names the field).
+    let bad = WhiteBalanceGains { red: -1.0, ..gains };
+    assert!(pass
+        .develop(&Planar::new(4, 4, 1), &sensor, bad, Demosaic::Bilinear)
+        .is_err());
+    assert!(pass
+        .develop(&Planar::new(4, 4, 3), &sensor, gains, Demosaic::Bilinear)
+        .is_err());
+}

@@ -1,4 +1,4 @@
-//! The image pass and the sensor read-out on another device (a GPU). The simulator hands its blur and geometry over as plain
+//! The image pass and the sensor/ISP steps on another device (a GPU). The simulator hands its blur and geometry over as plain
 //! data (`ImagePass`): the input region, the kernel grids with the tile layout the CPU path follows,
 //! and the radial tables of the warp and the shading. The device returns the output or declines (too
 //! small a job for it, no adapter, a failure), and then the CPU path runs: a simulation never fails
@@ -9,7 +9,7 @@ use crate::convolve::{Blend, KernelGrid, TileLayout};
 use crate::geometry::PixelWindow;
 use crate::radial_table::RadialTable;
 use std::sync::Arc;
-use unicac_image::isp::SensorNoise;
+use unicac_image::isp::{Demosaic, IspDevice, SensorNoise, WhiteBalanceGains};
 use unicac_image::Planar;
 
 /// One region's optics, as the CPU path computes them in `LensSimulator::apply_region`: each channel
@@ -31,16 +31,11 @@ pub struct ImagePass<'a> {
     pub shading: Option<&'a RadialTable>,
 }
 
-/// A device that can run an `ImagePass`.
-pub trait ImageDevice: Send + Sync {
+/// A device that can run an `ImagePass`, and the sensor/ISP steps it takes (`IspDevice`).
+pub trait ImageDevice: IspDevice + Send + Sync {
     /// The pass's output (`window`'s size, 3 channels), or None to leave it to the CPU path (the reason,
     /// when the user should hear it, is kept for `take_notes`).
     fn apply(&self, pass: &ImagePass) -> Option<Planar>;
-    /// `unicac_image::isp::read_out(exposure, sensor, Some(noise_seed))` on the device (the same
-    /// counter streams, its own precision), or None to leave it to the CPU.
-    fn read_out(&self, _exposure: &Planar, _sensor: &SensorNoise, _noise_seed: u64) -> Option<Planar> {
-        None
-    }
     /// Where the pass ran last ("cpu", "gpu (llvmpipe ...)"): for reports.
     fn describe(&self) -> String;
     /// Notes gathered since the last call (a fallback to the CPU), for the face to print.
@@ -70,17 +65,29 @@ impl ImageBackend {
         self.0.as_ref()?.apply(pass)
     }
 
-    /// The device's noisy read-out, or None for the CPU path.
-    pub fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> Option<Planar> {
-        self.0.as_ref()?.read_out(exposure, sensor, noise_seed)
-    }
-
     pub fn describe(&self) -> String {
         self.0.as_ref().map_or_else(|| "cpu".into(), |d| d.describe())
     }
 
     pub fn take_notes(&self) -> Vec<String> {
         self.0.as_ref().map(|d| d.take_notes()).unwrap_or_default()
+    }
+}
+
+/// The backend's device takes the ISP steps it offers; the CPU path takes none.
+impl IspDevice for ImageBackend {
+    fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> Option<Planar> {
+        self.0.as_ref()?.read_out(exposure, sensor, noise_seed)
+    }
+
+    fn develop(
+        &self,
+        dn: &Planar,
+        sensor: &SensorNoise,
+        gains: WhiteBalanceGains,
+        method: Demosaic,
+    ) -> Option<Planar> {
+        self.0.as_ref()?.develop(dn, sensor, gains, method)
     }
 }
 

@@ -20,7 +20,7 @@ use crate::psf_map::{RadialPsfs, RadialSampling, DEFAULT_RADIAL_SAMPLING};
 use crate::radial_table::RadialTable;
 use rayon::prelude::*;
 use serde::Serialize;
-use unicac_image::isp::{IspDraw, Pipeline, SensorNoise};
+use unicac_image::isp::{IspDraw, Pipeline};
 use unicac_image::Planar;
 use unicac_io::digest::canonical_json;
 use unicac_optics::Lens;
@@ -469,20 +469,10 @@ impl LensSimulator {
         self.process(pipeline, &self.apply(&raw)?, &draw)
     }
 
-    /// `pipeline.process` (the sensor and the ISP) with the noisy read-out on this simulator's image
-    /// device when it takes it (the CPU's otherwise).
+    /// `pipeline.process` (the sensor and the ISP) with the steps this simulator's image device takes
+    /// (the noisy read-out, the development of the mosaic) run there.
     pub fn process(&self, pipeline: &Pipeline, raw: &Planar, draw: &IspDraw) -> SimResult<Planar> {
-        let device = &self.settings.image;
-        if device.is_cpu() {
-            return Ok(pipeline.process(raw, draw)?);
-        }
-        let read_out = |exposure: &Planar, sensor: &SensorNoise, seed: Option<u64>| match seed
-            .and_then(|seed| device.read_out(exposure, sensor, seed))
-        {
-            Some(raw_dn) => Ok(raw_dn),
-            None => unicac_image::isp::read_out(exposure, sensor, seed),
-        };
-        Ok(pipeline.process_with(raw, draw, &read_out)?)
+        Ok(pipeline.process_on(raw, draw, &self.settings.image)?)
     }
 
     /// The ideal (undistorted) frame position that output pixel `real` (frame pixels) shows, where the

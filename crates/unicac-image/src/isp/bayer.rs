@@ -163,7 +163,7 @@ impl Demosaic {
 }
 
 /// Mirror index into 0..n without repeating the edge sample (period 2(n - 1); parity preserved).
-fn reflect(index: isize, n: usize) -> usize {
+pub fn reflect(index: isize, n: usize) -> usize {
     if n == 1 {
         return 0;
     }
@@ -174,7 +174,7 @@ fn reflect(index: isize, n: usize) -> usize {
 
 /// Non-zero taps of a kernel as (row offset 0..5, column offset 0..5, weight), in row-major order: the
 /// order the sum has always been taken in, so results stay bit-identical.
-type Taps = Vec<(usize, usize, f32)>;
+pub type Taps = Vec<(usize, usize, f32)>;
 
 /// The [`Taps`] of `kernel`.
 fn nonzero_taps(kernel: &Kernel) -> Taps {
@@ -189,6 +189,15 @@ fn nonzero_taps(kernel: &Kernel) -> Taps {
     taps
 }
 
+/// The filter bank of `method` as the [`Taps`] each RGGB site (0 red, 1 green in a red row, 2 green in
+/// a blue row, 3 blue: 2 (y % 2) + x % 2) sums for each output channel; None: the site's own sample.
+/// Tap (j, i) reads row y + j - 2 and column x + i - 2, mirrored at the borders like [`reflect`].
+pub fn demosaic_taps(method: Demosaic) -> [[Option<Taps>; 3]; 4] {
+    std::array::from_fn(|site| {
+        std::array::from_fn(|channel| method.kernel(SITES[site][channel]).map(nonzero_taps))
+    })
+}
+
 /// RGB image from a 1-channel RGGB mosaic. Output values are not clipped (Malvar's filters can overshoot
 /// slightly at edges); any width and height work.
 pub fn demosaic(mosaic: &Planar, method: Demosaic) -> Result<Planar> {
@@ -197,9 +206,7 @@ pub fn demosaic(mosaic: &Planar, method: Demosaic) -> Result<Planar> {
     let raw = mosaic.plane(0);
     // Per site and output channel the taps to sum (None: the site's own sample); reflected column
     // indices once per image, column x + i for tap offset i (x - 2 .. x + 2).
-    let plan: [[Option<Taps>; 3]; 4] = std::array::from_fn(|site| {
-        std::array::from_fn(|channel| method.kernel(SITES[site][channel]).map(nonzero_taps))
-    });
+    let plan = demosaic_taps(method);
     let columns: Vec<usize> = (0..width + 4).map(|x| reflect(x as isize - 2, width)).collect();
     let mut rgb = Planar::new(width, height, 3);
     if width == 0 {

@@ -13,7 +13,9 @@
 //! | quantisation to 8/16 bits | [`crate::quantise::quantise`] |
 //! | ISP domain randomisation | [`perturb_white_balance`] |
 //!
-//! [`Pipeline`] composes them with `no_noise` / `no_isp` switches; every random step takes a seed. The
+//! [`Pipeline`] composes them with `no_noise` / `no_isp` switches; every random step takes a seed. An
+//! [`IspDevice`] (a GPU) may take over the read-out and the development (black level, white balance,
+//! demosaicing) with the same contract. The
 //! colour-correction matrix of DeepLens' ISP is not modelled (identity): UniCAC's degradations are optical.
 //! The algorithms are hand-written because they *are* the product (the simulator must match the paper's
 //! chain exactly); the white-balance perturbation draws from `rand`/`rand_distr` (three values per
@@ -21,15 +23,17 @@
 //! in parallel and a GPU can repeat it).
 
 mod bayer;
+mod device;
 mod noise;
 mod pipeline;
 mod white_balance;
 
-pub use bayer::{demosaic, mosaic_rggb, rggb_channel, Demosaic};
+pub use bayer::{demosaic, demosaic_taps, mosaic_rggb, reflect, rggb_channel, Demosaic, Taps};
+pub use device::{HostIsp, IspDevice};
 pub use noise::{
     read_out, subtract_black_level, SensorNoise, DEFAULT_BIT_DEPTH, MIN_DEFAULT_SENSOR_BITS, NOISE_DRAWS,
 };
-pub use pipeline::{IspDraw, Pipeline, ReadOut, RenderedPair};
+pub use pipeline::{IspDraw, Pipeline, RenderedPair};
 pub use white_balance::{
     apply_white_balance, apply_white_balance_mosaic, invert_white_balance, perturb_white_balance,
     WhiteBalanceGains, MIN_GAIN,

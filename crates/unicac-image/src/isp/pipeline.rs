@@ -13,6 +13,7 @@
 //! agree in colour while the per-channel raw levels, hence the noise, vary from sample to sample.
 
 use super::bayer::{demosaic, mosaic_rggb, Demosaic};
+use super::device::{HostIsp, IspDevice};
 use super::noise::{read_out, subtract_black_level, SensorNoise};
 use super::white_balance::{
     apply_white_balance, apply_white_balance_mosaic, invert_white_balance, perturb_white_balance,
@@ -24,9 +25,6 @@ use crate::io::Encoding;
 use crate::quantise::quantise;
 use crate::Planar;
 use unicac_io::counter_random::derive_seed;
-
-/// An implementation of [`read_out`]: the CPU's, or one that runs it elsewhere.
-pub type ReadOut<'a> = dyn Fn(&Planar, &SensorNoise, Option<u64>) -> Result<Planar> + Sync + 'a;
 
 /// Sensor/ISP configuration. `Default` is DeepLens' sensor with its augmentation spread.
 #[derive(Debug, Clone, PartialEq)]
@@ -107,12 +105,21 @@ impl Pipeline {
     /// Sensor and ISP on camera-raw RGB (after the optics), returning the degraded image in the output
     /// encoding. See the module docs for the order of the steps.
     pub fn process(&self, raw_rgb: &Planar, draw: &IspDraw) -> Result<Planar> {
-        self.process_with(raw_rgb, draw, &read_out)
+        self.process_on(raw_rgb, draw, &HostIsp)
     }
 
-    /// `process` with another implementation of [`read_out`] (a device's; same contract).
-    pub fn process_with(&self, raw_rgb: &Planar, draw: &IspDraw, read_out: &ReadOut<'_>) -> Result<Planar> {
+    /// `process` with the steps `device` takes (the noisy read-out, the development of the mosaic) run
+    /// there, the rest on the CPU.
+    pub fn process_on(&self, raw_rgb: &Planar, draw: &IspDraw, device: &dyn IspDevice) -> Result<Planar> {
         check_layout(raw_rgb, "raw_rgb", &[3])?;
+        let sensor = &self.sensor;
+        let read = |exposure: &Planar| match draw.noise_seed {
+            Some(seed) => match device.read_out(exposure, sensor, seed) {
+                Some(dn) => Ok(dn),
+                None => read_out(exposure, sensor, Some(seed)),
+            },
+            None => read_out(exposure, sensor, None),
+        };
         let rgb = if self.no_isp && draw.noise_seed.is_none() {
             // Optics only: with no ISP and no noise there is nothing for the sensor to add but its
             // digitisation, and a user who switched both off asks for the optics at full precision.
@@ -120,12 +127,17 @@ impl Pipeline {
             exposure.data.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
             apply_white_balance(&exposure, draw.gains)?
         } else if self.no_isp {
-            let dn = read_out(raw_rgb, &self.sensor, draw.noise_seed)?;
-            apply_white_balance(&subtract_black_level(&dn, &self.sensor)?, draw.gains)?
+            apply_white_balance(&subtract_black_level(&read(raw_rgb)?, sensor)?, draw.gains)?
         } else {
-            let dn = read_out(&mosaic_rggb(raw_rgb)?, &self.sensor, draw.noise_seed)?;
-            let balanced = apply_white_balance_mosaic(&subtract_black_level(&dn, &self.sensor)?, draw.gains)?;
-            demosaic(&balanced, self.demosaic)?
+            let dn = read(&mosaic_rggb(raw_rgb)?)?;
+            match device.develop(&dn, sensor, draw.gains, self.demosaic) {
+                Some(rgb) => rgb,
+                None => {
+                    let balanced =
+                        apply_white_balance_mosaic(&subtract_black_level(&dn, sensor)?, draw.gains)?;
+                    demosaic(&balanced, self.demosaic)?
+                }
+            }
         };
         self.finish(rgb)
     }

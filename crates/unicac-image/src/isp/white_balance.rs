@@ -41,7 +41,8 @@ impl WhiteBalanceGains {
         [self.red, self.green, self.blue]
     }
 
-    fn validate(self) -> Result<Self> {
+    /// The gains if each is finite and > 0, else an error naming them.
+    pub fn validate(self) -> Result<Self> {
         if self.to_array().iter().all(|g| g.is_finite() && *g > 0.0) {
             Ok(self)
         } else {
