@@ -80,9 +80,9 @@ fn develop(
     if (id.x >= p.width || id.y >= p.height) {
         return;
     }
-    let entry = (2u * (id.y % 2u) + id.x % 2u) * 3u + p.channel;
-    let first = tap_words[2u * entry];
-    let count = tap_words[2u * entry + 1u];
+    let slot = (2u * (id.y % 2u) + id.x % 2u) * 3u + p.channel;
+    let first = tap_words[2u * slot];
+    let count = tap_words[2u * slot + 1u];
     var value = 0.0;
     if (count == 0u) {
         value = tile[(local.y + 2u) * TILE_SIDE + local.x + 2u];

@@ -3,8 +3,8 @@
 //! kernel repeats the CPU's correctly rounded f32 operations in the CPU's order, so the CPU path is its
 //! twin (bit for bit on lavapipe; `--test sensor`).
 
-use crate::device::{GpuError, GpuResult};
-use crate::image::GpuImagePass;
+use crate::device::{GpuContext, GpuError, GpuResult};
+use crate::kernels::{self, Kernel};
 use bytemuck::{Pod, Zeroable};
 use unicac_image::isp::{demosaic_taps, Demosaic, SensorNoise, WhiteBalanceGains};
 use unicac_image::Planar;
@@ -52,60 +52,64 @@ fn tap_tables(method: Demosaic) -> (Vec<u32>, Vec<f32>) {
     (words, weights)
 }
 
-impl GpuImagePass {
-    /// `demosaic(apply_white_balance_mosaic(subtract_black_level(dn, sensor), gains), method)` on the
-    /// device. Declines (the CPU path then reports it) an invalid sensor or gains, a mosaic that is not
-    /// one channel or is empty, and planes beyond the device's limits.
-    pub fn develop(
-        &self,
-        dn: &Planar,
-        sensor: &SensorNoise,
-        gains: WhiteBalanceGains,
-        method: Demosaic,
-    ) -> GpuResult<Planar> {
-        let unsupported = |why: &str| Err(GpuError::Unsupported(why.into()));
-        let (Ok(white), Ok(_), Ok(gains)) = (sensor.white_level_dn(), sensor.validate(), gains.validate())
-        else {
-            return unsupported("an invalid sensor or white balance");
-        };
-        let (width, height) = (dn.width, dn.height);
-        if dn.channels != 1 || width == 0 || height == 0 {
-            return unsupported("a mosaic that is not one non-empty channel");
-        }
-        let limits = &self.context().limits;
-        if 4 * width * height > limits.max_storage_buffer_binding_size as usize
-            || width.max(height).div_ceil(8) > limits.max_compute_workgroups_per_dimension as usize
-        {
-            return Err(GpuError::Unsupported(format!("a {width} x {height} mosaic")));
-        }
-        let (words, weights) = tap_tables(method);
-        let inputs = [
-            self.input(bytemuck::cast_slice(&dn.data)),
-            self.input(bytemuck::cast_slice(&words)),
-            self.input(bytemuck::cast_slice(&weights)),
-        ];
-        let mut rgb = Planar::new(width, height, 3);
-        for channel in 0..3 {
-            let params = DevelopParams {
-                width: width as u32,
-                height: height as u32,
-                channel: channel as u32,
-                black_dn: sensor.black_level_dn,
-                range_dn: white - sensor.black_level_dn,
-                gain_red: gains.red,
-                gain_green: gains.green,
-                gain_blue: gains.blue,
-                ..Default::default()
-            };
-            let uniform = self.uniform(&params);
-            let output = self.storage(width * height);
-            let buffers = [&uniform, &inputs[0], &inputs[1], &inputs[2], &output];
-            self.run(self.develop_kernel(), &buffers, [width, height]);
-            rgb.plane_mut(channel)
-                .copy_from_slice(&self.read(&output, width * height)?);
-        }
-        Ok(rgb)
+/// The development kernel of a device.
+pub(crate) fn kernel(device: &wgpu::Device) -> Kernel {
+    kernels::pipeline(device, DEVELOP, "develop", 3)
+}
+
+/// The development by `kernel` (`GpuImagePass::develop`). Declines (the CPU path then reports it) an
+/// invalid sensor or gains, a mosaic that is not one channel or is empty, and planes beyond the
+/// device's limits.
+pub(crate) fn develop_on(
+    context: &GpuContext,
+    kernel: &Kernel,
+    dn: &Planar,
+    sensor: &SensorNoise,
+    gains: WhiteBalanceGains,
+    method: Demosaic,
+) -> GpuResult<Planar> {
+    let unsupported = |why: &str| Err(GpuError::Unsupported(why.into()));
+    let (Ok(white), Ok(_), Ok(gains)) = (sensor.white_level_dn(), sensor.validate(), gains.validate()) else {
+        return unsupported("an invalid sensor or white balance");
+    };
+    let (width, height) = (dn.width, dn.height);
+    if dn.channels != 1 || width == 0 || height == 0 {
+        return unsupported("a mosaic that is not one non-empty channel");
     }
+    let limits = &context.limits;
+    if 4 * width * height > limits.max_storage_buffer_binding_size as usize
+        || width.max(height).div_ceil(kernels::TILE as usize)
+            > limits.max_compute_workgroups_per_dimension as usize
+    {
+        return Err(GpuError::Unsupported(format!("a {width} x {height} mosaic")));
+    }
+    let (words, weights) = tap_tables(method);
+    let inputs = [
+        kernels::input_buffer(context, bytemuck::cast_slice(&dn.data)),
+        kernels::input_buffer(context, bytemuck::cast_slice(&words)),
+        kernels::input_buffer(context, bytemuck::cast_slice(&weights)),
+    ];
+    let mut rgb = Planar::new(width, height, 3);
+    for channel in 0..3 {
+        let params = DevelopParams {
+            width: width as u32,
+            height: height as u32,
+            channel: channel as u32,
+            black_dn: sensor.black_level_dn,
+            range_dn: white - sensor.black_level_dn,
+            gain_red: gains.red,
+            gain_green: gains.green,
+            gain_blue: gains.blue,
+            ..Default::default()
+        };
+        let uniform = kernels::uniform_buffer(context, &params);
+        let output = kernels::storage_buffer(context, width * height);
+        let buffers = [&uniform, &inputs[0], &inputs[1], &inputs[2], &output];
+        kernels::run_kernel(context, kernel, &buffers, [width, height]);
+        rgb.plane_mut(channel)
+            .copy_from_slice(&kernels::read_back(context, &output, width * height)?);
+    }
+    Ok(rgb)
 }
 
 #[cfg(test)]

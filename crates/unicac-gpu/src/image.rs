@@ -6,6 +6,7 @@
 //! (the warp; the CPU's are f64). Limits and parity figures: docs/gpu.md.
 
 use crate::device::{GpuContext, GpuError, GpuResult};
+use crate::kernels::{self, pipeline, Kernel, TILE};
 use bytemuck::{Pod, Zeroable};
 use std::sync::{Arc, Mutex};
 use unicac_image::isp::{Demosaic, IspDevice, SensorNoise, WhiteBalanceGains};
@@ -13,17 +14,12 @@ use unicac_image::Planar;
 use unicac_sim::convolve::Blend;
 use unicac_sim::radial_table::{RadialTable, RADIAL_TABLE_STEP_PX};
 use unicac_sim::{ImageDevice, ImagePass};
-use wgpu::util::DeviceExt;
 
 const BLUR: &str = include_str!("../../../shaders/blur.wgsl");
 const GEOMETRY: &str = include_str!("../../../shaders/geometry.wgsl");
-/// Invocations per workgroup side (`@workgroup_size(8, 8)` in both kernels).
-const TILE: u32 = 8;
 /// Multiply-adds one blur dispatch may hold (a band of rows): keeps each submission short enough for
 /// display drivers' watchdogs (~2 s) on a slow GPU, and the wait between bands bounded.
 const DISPATCH_MULTIPLY_ADDS: usize = 1 << 30;
-/// Largest staging buffer of a read-back (a 12 MP plane comes back in 3 pieces).
-const READ_BACK_BYTES: u64 = 16 << 20;
 
 /// `blur.wgsl`'s `BlurParams`.
 #[repr(C)]
@@ -69,67 +65,16 @@ struct GeometryParams {
     _pad: u32,
 }
 
-/// The two image kernels compiled once on a context.
+/// The image kernels compiled once on a context.
 pub struct GpuImagePass {
     context: Arc<GpuContext>,
-    blur: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
-    geometry: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    blur: Kernel,
+    geometry: Kernel,
     /// The sensor read-out (`crate::sensor`) and the development of the mosaic (`crate::develop`).
-    sensor: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
-    develop: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    sensor: Kernel,
+    develop: Kernel,
     /// Failures since the last `take_notes` (the `ImageDevice` face).
     notes: Mutex<Vec<String>>,
-}
-
-fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-/// A pipeline of `source`'s `entry_point` whose bindings are a uniform (0), `inputs` read-only storage
-/// buffers and one read-write storage buffer after them.
-fn pipeline(
-    device: &wgpu::Device,
-    source: &str,
-    entry_point: &str,
-    inputs: u32,
-) -> (wgpu::BindGroupLayout, wgpu::ComputePipeline) {
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(entry_point),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
-    entries.extend((1..=inputs).map(|b| entry(b, wgpu::BufferBindingType::Storage { read_only: true })));
-    entries.push(entry(
-        inputs + 1,
-        wgpu::BufferBindingType::Storage { read_only: false },
-    ));
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(entry_point),
-        entries: &entries,
-    });
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(entry_point),
-        bind_group_layouts: &[Some(&layout)],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry_point),
-        layout: Some(&pipeline_layout),
-        module: &module,
-        entry_point: Some(entry_point),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    (layout, pipeline)
 }
 
 impl GpuImagePass {
@@ -137,8 +82,8 @@ impl GpuImagePass {
         let device = &context.device;
         let blur = pipeline(device, BLUR, "blur", 4);
         let geometry = pipeline(device, GEOMETRY, "geometry", 3);
-        let sensor = pipeline(device, &crate::sensor::module_source(), "read_out", 1);
-        let develop = pipeline(device, crate::develop::DEVELOP, "develop", 3);
+        let sensor = crate::sensor::kernel(device);
+        let develop = crate::develop::kernel(device);
         GpuImagePass {
             context,
             blur,
@@ -153,12 +98,22 @@ impl GpuImagePass {
         &self.context
     }
 
-    pub(crate) fn sensor_kernel(&self) -> &(wgpu::BindGroupLayout, wgpu::ComputePipeline) {
-        &self.sensor
+    /// `read_out(exposure, sensor, Some(noise_seed))` on the device (`crate::sensor`): the raw DN of
+    /// every sample (any channel count), sample i drawing from stream `derive_seed(noise_seed, i)`.
+    pub fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> GpuResult<Planar> {
+        crate::sensor::read_out_on(&self.context, &self.sensor, exposure, sensor, noise_seed)
     }
 
-    pub(crate) fn develop_kernel(&self) -> &(wgpu::BindGroupLayout, wgpu::ComputePipeline) {
-        &self.develop
+    /// `demosaic(apply_white_balance_mosaic(subtract_black_level(dn, sensor), gains), method)` on the
+    /// device (`crate::develop`).
+    pub fn develop(
+        &self,
+        dn: &Planar,
+        sensor: &SensorNoise,
+        gains: WhiteBalanceGains,
+        method: Demosaic,
+    ) -> GpuResult<Planar> {
+        crate::develop::develop_on(&self.context, &self.develop, dn, sensor, gains, method)
     }
 
     /// A device result, or None with the failure kept as a note (the `ImageDevice` faces).
@@ -183,39 +138,48 @@ impl GpuImagePass {
         // as it is: the geometry kernel would copy it sample for sample.
         let identity = pass.warp_scale.is_none() && pass.shading.is_none() && source == window;
         let tables = self.tables(pass);
-        let geometry = self.uniform(&GeometryParams {
-            width: window.width as u32,
-            height: window.height as u32,
-            window_x0: window.x0 as u32,
-            window_y0: window.y0 as u32,
-            source_width: source.width as u32,
-            source_height: source.height as u32,
-            source_x0: source.x0 as u32,
-            source_y0: source.y0 as u32,
-            centre_x: pass.centre_px[0] as f32,
-            centre_y: pass.centre_px[1] as f32,
-            warp: u32::from(pass.warp_scale.is_some()),
-            shade: u32::from(pass.shading.is_some()),
-            warp_samples: pass.warp_scale.map_or(0, |t| t.samples().len() as u32),
-            shade_samples: pass.shading.map_or(0, |t| t.samples().len() as u32),
-            inverse_step: (1.0 / RADIAL_TABLE_STEP_PX) as f32,
-            _pad: 0,
-        });
+        let geometry = kernels::uniform_buffer(
+            &self.context,
+            &GeometryParams {
+                width: window.width as u32,
+                height: window.height as u32,
+                window_x0: window.x0 as u32,
+                window_y0: window.y0 as u32,
+                source_width: source.width as u32,
+                source_height: source.height as u32,
+                source_x0: source.x0 as u32,
+                source_y0: source.y0 as u32,
+                centre_x: pass.centre_px[0] as f32,
+                centre_y: pass.centre_px[1] as f32,
+                warp: u32::from(pass.warp_scale.is_some()),
+                shade: u32::from(pass.shading.is_some()),
+                warp_samples: pass.warp_scale.map_or(0, |t| t.samples().len() as u32),
+                shade_samples: pass.shading.map_or(0, |t| t.samples().len() as u32),
+                inverse_step: (1.0 / RADIAL_TABLE_STEP_PX) as f32,
+                _pad: 0,
+            },
+        );
         for c in 0..3 {
             let blurred = if pass.blur {
                 self.blur_plane(pass.image.plane(c), pass, c)?
             } else {
-                self.input(bytemuck::cast_slice(pass.image.plane(c)))
+                kernels::input_buffer(&self.context, bytemuck::cast_slice(pass.image.plane(c)))
             };
             let result = if identity {
                 blurred
             } else {
-                let warped = self.storage(pixels);
+                let warped = kernels::storage_buffer(&self.context, pixels);
                 let buffers = [&geometry, &blurred, &tables[0], &tables[1], &warped];
-                self.run(&self.geometry, &buffers, [window.width, window.height]);
+                kernels::run_kernel(
+                    &self.context,
+                    &self.geometry,
+                    &buffers,
+                    [window.width, window.height],
+                );
                 warped
             };
-            out.plane_mut(c).copy_from_slice(&self.read(&result, pixels)?);
+            out.plane_mut(c)
+                .copy_from_slice(&kernels::read_back(&self.context, &result, pixels)?);
         }
         Ok(out)
     }
@@ -279,7 +243,7 @@ impl GpuImagePass {
             })
         };
         [f32_samples(pass.warp_scale, 1.0), f32_samples(pass.shading, 0.0)]
-            .map(|values| self.input(bytemuck::cast_slice(&values)))
+            .map(|values| kernels::input_buffer(&self.context, bytemuck::cast_slice(&values)))
     }
 
     /// One channel's blur into a device buffer, in bands of rows.
@@ -303,12 +267,12 @@ impl GpuImagePass {
         let flat_values_at = positions.len();
         positions.extend(flat.iter().flat_map(|f| f.unwrap_or_default()));
         let inputs = [
-            self.input(bytemuck::cast_slice(plane)),
-            self.input(bytemuck::cast_slice(&kernels)),
-            self.input(bytemuck::cast_slice(&words)),
-            self.input(bytemuck::cast_slice(&positions)),
+            kernels::input_buffer(&self.context, bytemuck::cast_slice(plane)),
+            kernels::input_buffer(&self.context, bytemuck::cast_slice(&kernels)),
+            kernels::input_buffer(&self.context, bytemuck::cast_slice(&words)),
+            kernels::input_buffer(&self.context, bytemuck::cast_slice(&positions)),
         ];
-        let blurred = self.storage(width * height);
+        let blurred = kernels::storage_buffer(&self.context, width * height);
         let largest = 2 * layout.tile_half_px.iter().copied().max().unwrap_or(0) as usize + 1;
         let per_row = (4 * largest * largest * width).max(1);
         let band = (DISPATCH_MULTIPLY_ADDS / per_row).clamp(1, height);
@@ -331,89 +295,11 @@ impl GpuImagePass {
                 _pad1: 0,
                 _pad2: 0,
             };
-            let uniform = self.uniform(&params);
+            let uniform = kernels::uniform_buffer(&self.context, &params);
             let buffers = [&uniform, &inputs[0], &inputs[1], &inputs[2], &inputs[3], &blurred];
-            self.run(&self.blur, &buffers, [width, params.rows as usize]);
+            kernels::run_kernel(&self.context, &self.blur, &buffers, [width, params.rows as usize]);
         }
         Ok(blurred)
-    }
-
-    pub(crate) fn input(&self, bytes: &[u8]) -> wgpu::Buffer {
-        self.context
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: None,
-                contents: bytes,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
-    }
-
-    pub(crate) fn uniform<T: Pod>(&self, params: &T) -> wgpu::Buffer {
-        self.context
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: None,
-                contents: bytemuck::bytes_of(params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
-    }
-
-    /// A read-write plane of `pixels` f32 samples.
-    pub(crate) fn storage(&self, pixels: usize) -> wgpu::Buffer {
-        self.context.device.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size: (pixels.max(1) * 4) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        })
-    }
-
-    /// One dispatch of `kernel` over `size` (columns, rows) pixels with `buffers` bound in order.
-    pub(crate) fn run(
-        &self,
-        kernel: &(wgpu::BindGroupLayout, wgpu::ComputePipeline),
-        buffers: &[&wgpu::Buffer],
-        size: [usize; 2],
-    ) {
-        let device = &self.context.device;
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, buffer)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: buffer.as_entire_binding(),
-            })
-            .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &kernel.0,
-            entries: &entries,
-        });
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&kernel.1);
-            pass.set_bind_group(0, &bind_group, &[]);
-            pass.dispatch_workgroups(
-                size[0].div_ceil(TILE as usize) as u32,
-                size[1].div_ceil(TILE as usize) as u32,
-                1,
-            );
-        }
-        self.context.queue.submit([encoder.finish()]);
-    }
-
-    /// The first `pixels` samples of `buffer`, waiting for the work before.
-    pub(crate) fn read(&self, buffer: &wgpu::Buffer, pixels: usize) -> GpuResult<Vec<f32>> {
-        let bytes = (pixels * 4) as u64;
-        let staging = self.context.device.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size: bytes.clamp(4, READ_BACK_BYTES),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let read = self.context.read_through(buffer, bytes, &staging)?;
-        Ok(bytemuck::pod_collect_to_vec(&read))
     }
 }
 

@@ -26,6 +26,7 @@ pub mod develop;
 pub mod device;
 pub mod hits;
 pub mod image;
+mod kernels;
 pub mod layout;
 pub mod psf;
 pub mod real;

@@ -4,8 +4,8 @@
 //! rounding boundary can come out one electron or one DN apart; the parity figures are in docs/gpu.md,
 //! the twin (`sensor_twin`) is the kernel's arithmetic on the host.
 
-use crate::device::{GpuError, GpuResult};
-use crate::image::GpuImagePass;
+use crate::device::{GpuContext, GpuError, GpuResult};
+use crate::kernels::{self, Kernel};
 use crate::sensor_twin::SensorConstants;
 use bytemuck::{Pod, Zeroable};
 use unicac_image::isp::SensorNoise;
@@ -92,44 +92,55 @@ pub fn sensor_constants(
     })
 }
 
-impl GpuImagePass {
-    /// `read_out(exposure, sensor, Some(noise_seed))` on the device: the raw DN of every sample (any
-    /// channel count), sample i drawing from stream `derive_seed(noise_seed, i)`.
-    pub fn read_out(&self, exposure: &Planar, sensor: &SensorNoise, noise_seed: u64) -> GpuResult<Planar> {
-        let constants = sensor_constants(exposure, sensor, noise_seed)?;
-        let width = exposure.width.max(1);
-        let rows = exposure.data.len() / width;
-        if width.div_ceil(8) > self.context().limits.max_compute_workgroups_per_dimension as usize {
-            return Err(GpuError::Unsupported(format!("a {width} px wide image")));
-        }
-        let band_rows = (BAND_SAMPLES / width).max(1);
-        let mut out = exposure.clone();
-        for first_row in (0..rows).step_by(band_rows) {
-            let band = band_rows.min(rows - first_row);
-            let samples = &exposure.data[first_row * width..(first_row + band) * width];
-            let params = SensorParams {
-                seed_lo: noise_seed as u32,
-                seed_hi: (noise_seed >> 32) as u32,
-                width: width as u32,
-                rows: band as u32,
-                first: (first_row * width) as u32,
-                range_dn: constants.range_dn,
-                black_dn: constants.black_dn,
-                white_dn: constants.white_dn,
-                dn_per_electron: constants.dn_per_electron,
-                electrons_per_dn: constants.electrons_per_dn,
-                read_noise_dn: constants.read_noise_dn,
-                _pad0: 0,
-            };
-            let uniform = self.uniform(&params);
-            let input = self.input(bytemuck::cast_slice(samples));
-            let output = self.storage(samples.len());
-            self.run(self.sensor_kernel(), &[&uniform, &input, &output], [width, band]);
-            out.data[first_row * width..(first_row + band) * width]
-                .copy_from_slice(&self.read(&output, samples.len())?);
-        }
-        Ok(out)
+/// The read-out kernel of a device.
+pub(crate) fn kernel(device: &wgpu::Device) -> Kernel {
+    kernels::pipeline(device, &module_source(), "read_out", 1)
+}
+
+/// `read_out(exposure, sensor, Some(noise_seed))` by `kernel` (`GpuImagePass::read_out`).
+pub(crate) fn read_out_on(
+    context: &GpuContext,
+    kernel: &Kernel,
+    exposure: &Planar,
+    sensor: &SensorNoise,
+    noise_seed: u64,
+) -> GpuResult<Planar> {
+    let constants = sensor_constants(exposure, sensor, noise_seed)?;
+    let width = exposure.width.max(1);
+    let rows = exposure.data.len() / width;
+    if width.div_ceil(kernels::TILE as usize) > context.limits.max_compute_workgroups_per_dimension as usize {
+        return Err(GpuError::Unsupported(format!("a {width} px wide image")));
     }
+    let band_rows = (BAND_SAMPLES / width).max(1);
+    let mut out = exposure.clone();
+    for first_row in (0..rows).step_by(band_rows) {
+        let band = band_rows.min(rows - first_row);
+        let samples = &exposure.data[first_row * width..(first_row + band) * width];
+        let params = SensorParams {
+            seed_lo: noise_seed as u32,
+            seed_hi: (noise_seed >> 32) as u32,
+            width: width as u32,
+            rows: band as u32,
+            first: (first_row * width) as u32,
+            range_dn: constants.range_dn,
+            black_dn: constants.black_dn,
+            white_dn: constants.white_dn,
+            dn_per_electron: constants.dn_per_electron,
+            electrons_per_dn: constants.electrons_per_dn,
+            read_noise_dn: constants.read_noise_dn,
+            _pad0: 0,
+        };
+        let uniform = kernels::uniform_buffer(context, &params);
+        let input = kernels::input_buffer(context, bytemuck::cast_slice(samples));
+        let output = kernels::storage_buffer(context, samples.len());
+        kernels::run_kernel(context, kernel, &[&uniform, &input, &output], [width, band]);
+        out.data[first_row * width..(first_row + band) * width].copy_from_slice(&kernels::read_back(
+            context,
+            &output,
+            samples.len(),
+        )?);
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -106,24 +106,13 @@ pub fn exp_f32(x: f32) -> f32 {
     p * f32::from_bits(((n as i32 + 127) as u32) << 23)
 }
 
-/// `round_half_away`.
+/// `round_half_away` (WGSL's `sign` is f32::signum here: x is not 0 on that branch).
 pub fn round_half_away(x: f32) -> f32 {
     let t = x.trunc();
     if (x - t).abs() >= c(0.5) {
-        t + sign(x)
+        t + x.signum()
     } else {
         t
-    }
-}
-
-/// WGSL's `sign`: -1, 0 or 1.
-fn sign(x: f32) -> f32 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
-    } else {
-        0.0
     }
 }
 
