@@ -22,9 +22,9 @@ struct SensorParams {
     black_dn: f32,
     white_dn: f32,
     dn_per_electron: f32,
-    electrons_per_dn: f32,
     read_noise_dn: f32,
     _pad0: u32,
+    _pad1: u32,
 }
 
 @group(0) @binding(0) var<uniform> sensor: SensorParams;
@@ -247,7 +247,9 @@ fn read_out(@builtin(global_invocation_id) id: vec3<u32>) {
     let above_black = max(exposure[i], 0.0) * sensor.range_dn;
     let seed = derive_seed(vec2<u32>(sensor.seed_lo, sensor.seed_hi), vec2<u32>(sensor.first + i, 0u));
     var stream = Stream(seed, 0u);
-    let electrons = poisson(&stream, above_black * sensor.electrons_per_dn);
+    // A quotient, as the CPU's: a product here could be fused by the driver into its next use
+    // (floor(mean) - mean became fma(above_black, 1/K, -floor) on lavapipe, moving k by one).
+    let electrons = poisson(&stream, above_black / sensor.dn_per_electron);
     let signal = sensor.dn_per_electron * electrons + sensor.read_noise_dn * standard_normal(&stream);
     raw_dn[i] = clamp(round_half_away(sensor.black_dn + signal), 0.0, sensor.white_dn);
 }

@@ -39,9 +39,9 @@ struct SensorParams {
     black_dn: f32,
     white_dn: f32,
     dn_per_electron: f32,
-    electrons_per_dn: f32,
     read_noise_dn: f32,
     _pad0: u32,
+    _pad1: u32,
 }
 
 /// The read-out's constants as the kernel takes them, formed in f64 like the CPU's, or why the device
@@ -87,7 +87,6 @@ pub fn sensor_constants(
         black_dn: black as f32,
         white_dn: white as f32,
         dn_per_electron: dn_per_electron as f32,
-        electrons_per_dn: (1.0 / dn_per_electron) as f32,
         read_noise_dn: sensor.read_noise_dn(),
     })
 }
@@ -126,9 +125,9 @@ pub(crate) fn read_out_on(
             black_dn: constants.black_dn,
             white_dn: constants.white_dn,
             dn_per_electron: constants.dn_per_electron,
-            electrons_per_dn: constants.electrons_per_dn,
             read_noise_dn: constants.read_noise_dn,
             _pad0: 0,
+            _pad1: 0,
         };
         let uniform = kernels::uniform_buffer(context, &params);
         let input = kernels::input_buffer(context, bytemuck::cast_slice(samples));
@@ -159,7 +158,7 @@ mod tests {
         .validate(&module)
         .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&text)));
         assert_eq!(size_of::<SensorParams>(), 48);
-        assert!(SENSOR.contains("read_noise_dn: f32,\n    _pad0: u32,\n}"));
+        assert!(SENSOR.contains("read_noise_dn: f32,\n    _pad0: u32,\n    _pad1: u32,\n}"));
     }
 
     #[test]

@@ -17,7 +17,6 @@ pub struct SensorConstants {
     pub black_dn: f32,
     pub white_dn: f32,
     pub dn_per_electron: f32,
-    pub electrons_per_dn: f32,
     pub read_noise_dn: f32,
 }
 
@@ -273,7 +272,7 @@ pub fn sample_draws(constants: &SensorConstants, index: u32, exposure: f32) -> (
         seed: derive_seed(constants.noise_seed, u64::from(index)),
         next: 0,
     };
-    let electrons = poisson(&mut stream, above_black * constants.electrons_per_dn);
+    let electrons = poisson(&mut stream, above_black / constants.dn_per_electron);
     (electrons, normal_quantile(stream.open_uniform()))
 }
 
