@@ -163,7 +163,7 @@ impl Demosaic {
 }
 
 /// Mirror index into 0..n without repeating the edge sample (period 2(n - 1); parity preserved).
-pub fn reflect(index: isize, n: usize) -> usize {
+fn reflect(index: isize, n: usize) -> usize {
     if n == 1 {
         return 0;
     }
@@ -191,7 +191,7 @@ fn nonzero_taps(kernel: &Kernel) -> Taps {
 
 /// The filter bank of `method` as the [`Taps`] each RGGB site (0 red, 1 green in a red row, 2 green in
 /// a blue row, 3 blue: 2 (y % 2) + x % 2) sums for each output channel; None: the site's own sample.
-/// Tap (j, i) reads row y + j - 2 and column x + i - 2, mirrored at the borders like [`reflect`].
+/// Tap (j, i) reads row y + j - 2 and column x + i - 2, mirrored at the borders (`reflect`).
 pub fn demosaic_taps(method: Demosaic) -> [[Option<Taps>; 3]; 4] {
     std::array::from_fn(|site| {
         std::array::from_fn(|channel| method.kernel(SITES[site][channel]).map(nonzero_taps))

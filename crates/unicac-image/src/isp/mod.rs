@@ -28,7 +28,7 @@ mod noise;
 mod pipeline;
 mod white_balance;
 
-pub use bayer::{demosaic, demosaic_taps, mosaic_rggb, reflect, rggb_channel, Demosaic, Taps};
+pub use bayer::{demosaic, demosaic_taps, mosaic_rggb, rggb_channel, Demosaic, Taps};
 pub use device::{HostIsp, IspDevice};
 pub use noise::{
     read_out, subtract_black_level, SensorNoise, DEFAULT_BIT_DEPTH, MIN_DEFAULT_SENSOR_BITS, NOISE_DRAWS,
