@@ -3,11 +3,14 @@
 
 use bytemuck::Pod;
 use std::ops::{Add, Div, Mul, Neg, Sub};
+pub use unicac_trace::pupil::TurnsFloat;
 
 /// f32 or f64. The WGSL prelude (`shader::source`) is generated from these constants, so the kernel and
 /// its twin use the same tolerances.
+/// `TurnsFloat` (unicac-trace) brings `round_even` and `to_u32`, and with them the pupil patterns' angle.
 pub trait Real:
-    Pod
+    TurnsFloat
+    + Pod
     + Copy
     + PartialOrd
     + std::fmt::Debug
@@ -30,13 +33,9 @@ pub trait Real:
     fn from_f64(v: f64) -> Self;
     fn to_f64(self) -> f64;
     fn from_u32(v: u32) -> Self;
-    /// Truncating conversion (the WGSL `u32(x)` for 0 <= x < 2^32).
-    fn to_u32(self) -> u32;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
     fn floor(self) -> Self;
-    /// Round half to even, as WGSL `round`.
-    fn round_even(self) -> Self;
     /// Relative Newton step tolerance: sqrt(EPSILON) / 16 (f32: 2^-15.5, 183 ulps of 1; f64: 2^-30,
     /// 9.3e-10, next to the CPU's 1e-9). Newton converges quadratically, so the error left after a step
     /// this small is about curvature x step^2: within a few ulps of the coordinates.
@@ -105,10 +104,6 @@ macro_rules! impl_real {
                 v as $t
             }
             #[inline]
-            fn to_u32(self) -> u32 {
-                self as u32
-            }
-            #[inline]
             fn sqrt(self) -> Self {
                 <$t>::sqrt(self)
             }
@@ -119,10 +114,6 @@ macro_rules! impl_real {
             #[inline]
             fn floor(self) -> Self {
                 <$t>::floor(self)
-            }
-            #[inline]
-            fn round_even(self) -> Self {
-                <$t>::round_ties_even(self)
             }
         }
     };

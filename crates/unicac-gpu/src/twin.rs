@@ -45,40 +45,12 @@ pub fn unit_fraction<R: Real>(bits: u64) -> R {
     top + rest
 }
 
-/// `cos_sin_turns`: cos and sin of 2 pi t, by quadrant reduction in turns and Taylor series.
-pub fn cos_sin_turns<R: Real>(t: R) -> [R; 2] {
-    let q = (t * r(4.0)).round_even();
-    let x = (t - q * r(0.25)) * r(std::f64::consts::TAU);
-    let x2 = x * x;
-    let s = x
-        * (r::<R>(1.0)
-            + x2 * (r::<R>(-1.0 / 6.0)
-                + x2 * (r::<R>(1.0 / 120.0)
-                    + x2 * (r::<R>(-1.0 / 5040.0)
-                        + x2 * (r::<R>(1.0 / 362880.0)
-                            + x2 * (r::<R>(-1.0 / 39916800.0)
-                                + x2 * (r::<R>(1.0 / 6227020800.0)
-                                    + x2 * (r::<R>(-1.0 / 1307674368000.0)
-                                        + x2 * r::<R>(1.0 / 355687428096000.0)))))))));
-    let c = r::<R>(1.0)
-        + x2 * (r::<R>(-0.5)
-            + x2 * (r::<R>(1.0 / 24.0)
-                + x2 * (r::<R>(-1.0 / 720.0)
-                    + x2 * (r::<R>(1.0 / 40320.0)
-                        + x2 * (r::<R>(-1.0 / 3628800.0)
-                            + x2 * (r::<R>(1.0 / 479001600.0)
-                                + x2 * (r::<R>(-1.0 / 87178291200.0)
-                                    + x2 * r::<R>(1.0 / 20922789888000.0))))))));
-    match q.to_u32() & 3 {
-        0 => [c, s],
-        1 => [-s, c],
-        2 => [-c, -s],
-        _ => [s, -c],
-    }
-}
+/// `cos_sin_turns` of common.wgsl: the CPU pupil patterns' own function (one polynomial in both
+/// precisions).
+pub use unicac_trace::pupil::cos_sin_turns;
 
 /// 2^64 (3 - sqrt 5) / 2, the golden angle in 64-bit fixed-point turns.
-const GOLDEN_TURNS: u64 = 0x61c8_8646_80b5_83ea;
+use unicac_trace::pupil::GOLDEN_TURNS;
 
 /// `pupil_point`: (px, py, w) of pattern slot `index`; w = 0 for grid slots outside the disc.
 pub fn pupil_point<R: Real>(params: &Params<R>, index: u32) -> [R; 3] {
@@ -431,7 +403,7 @@ mod tests {
         params
     }
 
-    /// The device's pupil patterns (in their f64 twin) are the CPU's, point for point.
+    /// The device's pupil patterns (in their f64 twin) are the CPU's, bit for bit.
     #[test]
     fn device_pupil_sampling_reproduces_the_cpu_patterns() {
         for pattern in ["hexapolar:9", "grid:24", "fibonacci:3001", "random:3001:42"] {
@@ -454,30 +426,9 @@ mod tests {
                 .map(|(d, c)| (d[0] - c[0]).abs().max((d[1] - c[1]).abs()))
                 .fold(0.0, f64::max);
             println!("{pattern}: {} points, worst difference {worst:.2e}", cpu.len());
-            // The CPU forms the Fibonacci angle as i x golden angle in f64, an error growing to about
-            // i ulps of 2.4 rad; the device's 64-bit fixed-point turns have none.
-            let limit = match sampling {
-                PupilSampling::Fibonacci { n } => n as f64 * 1e-15,
-                _ => 1e-14,
-            };
-            assert!(worst < limit, "{pattern}: {worst}");
+            // One `cos_sin_turns` and one fixed-point golden angle serve both: the same bits in f64.
+            assert_eq!(worst, 0.0, "{pattern}");
         }
-    }
-
-    #[test]
-    fn cos_sin_by_turns_is_accurate_in_both_precisions() {
-        let mut worst64 = 0.0f64;
-        let mut worst32 = 0.0f64;
-        for i in 0..=4096 {
-            let t = i as f64 / 4096.0;
-            let exact = (std::f64::consts::TAU * t).sin_cos();
-            let [c, s] = cos_sin_turns(t);
-            worst64 = worst64.max((c - exact.1).abs().max((s - exact.0).abs()));
-            let [c, s] = cos_sin_turns(t as f32);
-            worst32 = worst32.max((c as f64 - exact.1).abs().max((s as f64 - exact.0).abs()));
-        }
-        println!("cos/sin by turns: worst error f64 {worst64:.2e}, f32 {worst32:.2e}");
-        assert!(worst64 < 4.0 * f64::EPSILON && worst32 < 4.0 * f32::EPSILON as f64);
     }
 
     #[test]

@@ -9,6 +9,7 @@
 const GOLDEN_GAMMA: u64 = 0x9E37_79B9_7F4A_7C15;
 
 /// SplitMix64's output function: a bijective mix of all 64 bits.
+#[inline]
 pub fn finalise(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
@@ -16,6 +17,7 @@ pub fn finalise(mut z: u64) -> u64 {
 }
 
 /// The `counter`-th number of the stream `seed` (pupil samples, design restarts, test draws).
+#[inline]
 pub fn counter_hash(seed: u64, counter: u64) -> u64 {
     finalise((seed ^ counter.wrapping_mul(GOLDEN_GAMMA)).wrapping_add(GOLDEN_GAMMA))
 }
@@ -26,6 +28,7 @@ pub fn derive_seed(seed: u64, stream: u64) -> u64 {
 }
 
 /// Top 53 bits as a uniform f64 in [0, 1).
+#[inline]
 pub fn unit_interval(bits: u64) -> f64 {
     (bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }

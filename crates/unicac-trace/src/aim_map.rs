@@ -68,10 +68,7 @@ impl<'a> FieldAiming<'a> {
     pub fn ray(&self, px: f64, py: f64) -> TraceResult<Ray> {
         let aimer = self.aimer;
         let ray = match aimer.aiming {
-            Aiming::Paraxial => {
-                let radius = aimer.first_order.epd_mm / 2.0;
-                aimer.ray_from(self.start, px * radius, py * radius)
-            }
+            Aiming::Paraxial => self.paraxial_ray(px, py),
             // `Aimer::new` resolves Auto; an Aimer built otherwise aims for real.
             Aiming::Real | Aiming::Auto => aimer.real_ray(self.field_deg, px, py)?,
         };
@@ -87,6 +84,13 @@ impl<'a> FieldAiming<'a> {
             ));
         }
         Ok(ray)
+    }
+
+    /// The paraxially aimed ray through (px, py): through (px, py) EPD / 2 on the entrance-pupil plane.
+    #[inline]
+    fn paraxial_ray(&self, px: f64, py: f64) -> Ray {
+        let radius = self.aimer.first_order.epd_mm / 2.0;
+        self.aimer.ray_from(self.start, px * radius, py * radius)
     }
 
     /// The rays of `pupil`, in order: `ray` of each point, or for real aiming with a map the same ray
@@ -109,6 +113,24 @@ impl<'a> FieldAiming<'a> {
                 }
             })
             .collect()
+    }
+
+    /// The rays of `pupil` that could be aimed (`rays`), in order, appended to `out`; returns how many
+    /// points could not. Without a map no per-ray result vector is made.
+    pub fn aimed_rays_into(&self, pupil: &[[f64; 2]], out: &mut Vec<Ray>) -> usize {
+        let before = out.len();
+        match (self.aimer.aiming, &self.map) {
+            // `ray`'s paraxial case without its error value (a non-finite ray is one not aimed).
+            (Aiming::Paraxial, _) => out.extend(
+                pupil
+                    .iter()
+                    .map(|&[px, py]| self.paraxial_ray(px, py))
+                    .filter(Ray::is_finite),
+            ),
+            (_, None) => out.extend(pupil.iter().filter_map(|&[px, py]| self.ray(px, py).ok())),
+            (_, Some(_)) => out.extend(self.rays(pupil).into_iter().filter_map(Result::ok)),
+        }
+        pupil.len() - (out.len() - before)
     }
 }
 

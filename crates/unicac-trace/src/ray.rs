@@ -21,11 +21,14 @@ impl Ray {
         }
     }
 
+    /// Every coordinate finite. All six are tested (no early exit): branch-free, as a million-ray
+    /// aiming loop wants it.
+    #[inline]
     pub fn is_finite(&self) -> bool {
         self.position_mm
             .iter()
             .chain(&self.direction)
-            .all(|v| v.is_finite())
+            .fold(true, |finite, v| finite & v.is_finite())
     }
 }
 

@@ -86,46 +86,80 @@ impl SpotTracer {
     pub fn spot_at(&self, field: [f64; 2], sampling: &PupilSampling) -> Spot {
         let count = sampling.point_count();
         let aiming = self.aimer.for_field(field, count);
-        // Aimed, traced and reduced to arrivals chunk by chunk on every core: the aiming runs in parallel
-        // like the tracing, and no whole-pupil ray or status buffer is ever held (nor, for the patterns
-        // whose points are made by index, a pupil buffer). Arrivals keep pupil order.
-        let part = |chunk: &[[f64; 2]]| {
-            let mut rays: Vec<Ray> = aiming.rays(chunk).into_iter().filter_map(Result::ok).collect();
-            let mut statuses = vec![RayStatus::Ok; rays.len()];
-            self.system.trace_chunk(&mut rays, &mut statuses);
-            SpotPart {
-                not_aimed: chunk.len() - rays.len(),
-                counts: StatusCounts::from_statuses(&statuses),
-                points_mm: rays
-                    .iter()
-                    .zip(&statuses)
-                    .filter(|(_, s)| s.is_ok())
-                    .map(|(r, _)| [r.position_mm[0], r.position_mm[1]])
-                    .collect(),
+        // Aimed, traced and reduced to arrivals chunk by chunk on every core, each task reusing its
+        // buffers: no whole-pupil ray or status buffer is ever held (nor, for the patterns whose points
+        // are made by index, a pupil buffer). Chunk c's arrivals go straight to the spot's own buffer at
+        // c * SPOT_CHUNK (closed up below where rays were lost), so they are never gathered, and its
+        // pages are first touched by the threads that fill them.
+        let listed = sampling.indexed_point(0).is_none().then(|| sampling.points());
+        let mut points_mm = vec![[0.0; 2]; count];
+        let parts: Vec<SpotPart> = points_mm
+            .par_chunks_mut(SPOT_CHUNK)
+            .enumerate()
+            .map_init(ChunkBuffers::default, |buffers, (c, out)| {
+                let ChunkBuffers {
+                    pupil,
+                    rays,
+                    statuses,
+                } = buffers;
+                let indices = c * SPOT_CHUNK..c * SPOT_CHUNK + out.len();
+                let pupil: &[[f64; 2]] = match &listed {
+                    Some(points) => &points[indices],
+                    None => {
+                        pupil.clear();
+                        sampling.indexed_points_into(indices, pupil);
+                        pupil
+                    }
+                };
+                rays.clear();
+                let not_aimed = aiming.aimed_rays_into(pupil, rays);
+                statuses.clear();
+                statuses.resize(rays.len(), RayStatus::Ok);
+                self.system.trace_chunk(rays, statuses);
+                let mut arrived = 0;
+                for (ray, status) in rays.iter().zip(statuses.iter()) {
+                    if status.is_ok() {
+                        out[arrived] = [ray.position_mm[0], ray.position_mm[1]];
+                        arrived += 1;
+                    }
+                }
+                SpotPart {
+                    not_aimed,
+                    counts: StatusCounts::from_statuses(statuses.iter()),
+                    arrived,
+                }
+            })
+            .collect();
+        let mut end = 0;
+        for (c, part) in parts.iter().enumerate() {
+            let start = c * SPOT_CHUNK;
+            if start != end {
+                points_mm.copy_within(start..start + part.arrived, end);
             }
-        };
-        let parts: Vec<SpotPart> = if sampling.indexed_point(0).is_some() {
-            (0..count.div_ceil(SPOT_CHUNK))
-                .into_par_iter()
-                .map(|c| {
-                    let indices = c * SPOT_CHUNK..((c + 1) * SPOT_CHUNK).min(count);
-                    let chunk: Vec<[f64; 2]> = indices.filter_map(|i| sampling.indexed_point(i)).collect();
-                    part(&chunk)
-                })
-                .collect()
-        } else {
-            sampling.points().par_chunks(SPOT_CHUNK).map(part).collect()
-        };
+            end += part.arrived;
+        }
+        points_mm.truncate(end);
         let rays_not_aimed = parts.iter().map(|part| part.not_aimed).sum();
         let status_counts = parts
             .iter()
             .fold(StatusCounts::default(), |all, part| all.merge(part.counts));
-        let mut points_mm = Vec::with_capacity(parts.iter().map(|part| part.points_mm.len()).sum());
-        for part in &parts {
-            points_mm.extend_from_slice(&part.points_mm);
-        }
         let chief = self.chief_intercept_at(field);
         let centroid = centroid(&points_mm);
+        // Three independent passes over the arrivals, run side by side (each in its own fixed order).
+        let statistic = |reference: Option<[f64; 2]>, of: fn(&[[f64; 2]], [f64; 2]) -> f64| {
+            reference
+                .filter(|_| !points_mm.is_empty())
+                .map(|c| of(&points_mm, c) * 1e3)
+        };
+        let (rms_radius_um, (rms_radius_chief_um, geometric_radius_um)) = rayon::join(
+            || statistic(centroid, rms_about),
+            || {
+                rayon::join(
+                    || statistic(chief, rms_about),
+                    || statistic(centroid, max_distance),
+                )
+            },
+        );
         Spot {
             field_deg: field[1],
             field_x_deg: field[0],
@@ -136,11 +170,9 @@ impl SpotTracer {
             status_counts,
             centroid_x_mm: centroid.map(|c| c[0]),
             centroid_y_mm: centroid.map(|c| c[1]),
-            rms_radius_um: centroid.map(|c| rms_about(&points_mm, c) * 1e3),
-            rms_radius_chief_um: chief
-                .filter(|_| !points_mm.is_empty())
-                .map(|c| rms_about(&points_mm, c) * 1e3),
-            geometric_radius_um: centroid.map(|c| max_distance(&points_mm, c) * 1e3),
+            rms_radius_um,
+            rms_radius_chief_um,
+            geometric_radius_um,
             chief_x_mm: chief.map(|c| c[0]),
             chief_y_mm: chief.map(|c| c[1]),
             points_mm,
@@ -151,11 +183,19 @@ impl SpotTracer {
 /// Pupil points per parallel task of `SpotTracer::spot` (the batch tracer's own task size).
 const SPOT_CHUNK: usize = 2048;
 
-/// What one chunk of a spot's pupil contributes.
+/// What one chunk of a spot's pupil contributes (its arrivals are written in place).
 struct SpotPart {
     not_aimed: usize,
     counts: StatusCounts,
-    points_mm: Vec<[f64; 2]>,
+    arrived: usize,
+}
+
+/// A spot task's working buffers, reused from chunk to chunk.
+#[derive(Default)]
+struct ChunkBuffers {
+    pupil: Vec<[f64; 2]>,
+    rays: Vec<Ray>,
+    statuses: Vec<RayStatus>,
 }
 
 /// Spots for every (field, wavelength) pair, fields varying fastest.
