@@ -122,7 +122,8 @@ fn unit_fraction(bits: vec2<u32>) -> Real {
 
 // cos and sin of 2 pi t for t in [0, 1]: quadrant reduction in turns (exact), then Taylor series to
 // x^17 on |x| <= pi/4 (truncation below 1e-17). Vulkan offers no f64 sin/cos, and one polynomial in both
-// precisions keeps the twin and the kernel identical.
+// precisions keeps the twin and the kernel identical; the CPU's pupils use it too
+// (unicac_trace::pupil::cos_sin_turns), so the f64 kernel's points are the CPU's.
 fn cos_sin_turns(t: Real) -> vec2<Real> {
     let q = round(t * Real(4.0));
     let x = (t - q * Real(0.25)) * Real(6.283185307179586);
