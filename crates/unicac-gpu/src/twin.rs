@@ -49,7 +49,7 @@ pub fn unit_fraction<R: Real>(bits: u64) -> R {
 /// precisions).
 pub use unicac_trace::pupil::cos_sin_turns;
 
-/// 2^64 (3 - sqrt 5) / 2, the golden angle in 64-bit fixed-point turns.
+// 2^64 (3 - sqrt 5) / 2, the golden angle in 64-bit fixed-point turns (the CPU pattern's own).
 use unicac_trace::pupil::GOLDEN_TURNS;
 
 /// `pupil_point`: (px, py, w) of pattern slot `index`; w = 0 for grid slots outside the disc.

@@ -178,11 +178,12 @@ impl PupilSampling {
             // spot's work outside the trace).
             PupilSampling::Fibonacci { .. } | PupilSampling::Random { .. } => {
                 let count = self.point_count();
+                const CHUNK: usize = 1 << 14;
                 let mut points = vec![[0.0; 2]; count];
-                points.par_chunks_mut(1 << 14).enumerate().for_each(|(c, chunk)| {
+                points.par_chunks_mut(CHUNK).enumerate().for_each(|(c, chunk)| {
                     pulp::Arch::new().dispatch(IndexedPoints {
                         sampling: *self,
-                        first: c << 14,
+                        first: c * CHUNK,
                         out: chunk,
                     })
                 });
@@ -259,24 +260,30 @@ pub trait TurnsFloat:
 }
 
 impl TurnsFloat for f64 {
+    #[inline]
     fn constant(v: f64) -> f64 {
         v
     }
+    #[inline]
     fn round_even(self) -> f64 {
         self.round_ties_even()
     }
+    #[inline]
     fn to_u32(self) -> u32 {
         self as u32
     }
 }
 
 impl TurnsFloat for f32 {
+    #[inline]
     fn constant(v: f64) -> f32 {
         v as f32
     }
+    #[inline]
     fn round_even(self) -> f32 {
         self.round_ties_even()
     }
+    #[inline]
     fn to_u32(self) -> u32 {
         self as u32
     }

@@ -1,6 +1,7 @@
 //! Spot diagrams, RMS spot radius, ray fans and distortion.
 
 use crate::aim::{Aimer, Aiming};
+use crate::aim_map::FieldAiming;
 use crate::error::TraceResult;
 use crate::pupil::PupilSampling;
 use crate::ray::{Ray, RayStatus, StatusCounts};
@@ -97,48 +98,19 @@ impl SpotTracer {
             .par_chunks_mut(SPOT_CHUNK)
             .enumerate()
             .map_init(ChunkBuffers::default, |buffers, (c, out)| {
-                let ChunkBuffers {
-                    pupil,
-                    rays,
-                    statuses,
-                } = buffers;
                 let indices = c * SPOT_CHUNK..c * SPOT_CHUNK + out.len();
-                let pupil: &[[f64; 2]] = match &listed {
+                let pupil = match &listed {
                     Some(points) => &points[indices],
                     None => {
-                        pupil.clear();
-                        sampling.indexed_points_into(indices, pupil);
-                        pupil
+                        buffers.pupil.clear();
+                        sampling.indexed_points_into(indices, &mut buffers.pupil);
+                        &buffers.pupil
                     }
                 };
-                rays.clear();
-                let not_aimed = aiming.aimed_rays_into(pupil, rays);
-                statuses.clear();
-                statuses.resize(rays.len(), RayStatus::Ok);
-                self.system.trace_chunk(rays, statuses);
-                let mut arrived = 0;
-                for (ray, status) in rays.iter().zip(statuses.iter()) {
-                    if status.is_ok() {
-                        out[arrived] = [ray.position_mm[0], ray.position_mm[1]];
-                        arrived += 1;
-                    }
-                }
-                SpotPart {
-                    not_aimed,
-                    counts: StatusCounts::from_statuses(statuses.iter()),
-                    arrived,
-                }
+                self.arrivals(&aiming, pupil, &mut buffers.rays, &mut buffers.statuses, out)
             })
             .collect();
-        let mut end = 0;
-        for (c, part) in parts.iter().enumerate() {
-            let start = c * SPOT_CHUNK;
-            if start != end {
-                points_mm.copy_within(start..start + part.arrived, end);
-            }
-            end += part.arrived;
-        }
-        points_mm.truncate(end);
+        close_up(&mut points_mm, &parts);
         let rays_not_aimed = parts.iter().map(|part| part.not_aimed).sum();
         let status_counts = parts
             .iter()
@@ -178,6 +150,49 @@ impl SpotTracer {
             points_mm,
         }
     }
+
+    /// One chunk of a spot: the rays of `pupil` aimed into `rays`, traced, and their image points
+    /// written to the front of `out` in pupil order.
+    fn arrivals(
+        &self,
+        aiming: &FieldAiming<'_>,
+        pupil: &[[f64; 2]],
+        rays: &mut Vec<Ray>,
+        statuses: &mut Vec<RayStatus>,
+        out: &mut [[f64; 2]],
+    ) -> SpotPart {
+        rays.clear();
+        let not_aimed = aiming.aimed_rays_into(pupil, rays);
+        statuses.clear();
+        statuses.resize(rays.len(), RayStatus::Ok);
+        self.system.trace_chunk(rays, statuses);
+        let mut arrived = 0;
+        for (ray, status) in rays.iter().zip(statuses.iter()) {
+            if status.is_ok() {
+                out[arrived] = [ray.position_mm[0], ray.position_mm[1]];
+                arrived += 1;
+            }
+        }
+        SpotPart {
+            not_aimed,
+            counts: StatusCounts::from_statuses(statuses.iter()),
+            arrived,
+        }
+    }
+}
+
+/// Moves each chunk's arrivals (written at the chunk's start, c x SPOT_CHUNK) down to follow the previous
+/// chunk's, and cuts the buffer to the arrivals.
+fn close_up(points_mm: &mut Vec<[f64; 2]>, parts: &[SpotPart]) {
+    let mut end = 0;
+    for (c, part) in parts.iter().enumerate() {
+        let start = c * SPOT_CHUNK;
+        if start != end {
+            points_mm.copy_within(start..start + part.arrived, end);
+        }
+        end += part.arrived;
+    }
+    points_mm.truncate(end);
 }
 
 /// Pupil points per parallel task of `SpotTracer::spot` (the batch tracer's own task size).
