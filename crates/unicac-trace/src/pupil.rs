@@ -139,17 +139,26 @@ impl PupilSampling {
     /// CPU's widest vectors (runtime dispatch): the same IEEE operations lane by lane, so the same bits,
     /// several times faster than point by point (a million random points cost about what their trace does).
     pub fn indexed_points_into(&self, indices: std::ops::Range<usize>, out: &mut Vec<[f64; 2]>) -> bool {
-        if self.indexed_point(0).is_none() {
+        if !matches!(
+            self,
+            PupilSampling::Fibonacci { .. } | PupilSampling::Random { .. }
+        ) {
             return false;
         }
         let start = out.len();
         out.resize(start + indices.len(), [0.0; 2]);
+        self.fill_indexed(indices.start, &mut out[start..]);
+        true
+    }
+
+    /// Points first, first + 1, ... of an indexed pattern into `out`, in a `pulp` dispatch (see
+    /// `indexed_points_into`).
+    fn fill_indexed(&self, first: usize, out: &mut [[f64; 2]]) {
         pulp::Arch::new().dispatch(IndexedPoints {
             sampling: *self,
-            first: indices.start,
-            out: &mut out[start..],
+            first,
+            out,
         });
-        true
     }
 
     /// The sample points (px, py) in the unit disc.
@@ -180,13 +189,10 @@ impl PupilSampling {
                 let count = self.point_count();
                 const CHUNK: usize = 1 << 14;
                 let mut points = vec![[0.0; 2]; count];
-                points.par_chunks_mut(CHUNK).enumerate().for_each(|(c, chunk)| {
-                    pulp::Arch::new().dispatch(IndexedPoints {
-                        sampling: *self,
-                        first: c * CHUNK,
-                        out: chunk,
-                    })
-                });
+                points
+                    .par_chunks_mut(CHUNK)
+                    .enumerate()
+                    .for_each(|(c, chunk)| self.fill_indexed(c * CHUNK, chunk));
                 points
             }
         }
@@ -259,35 +265,27 @@ pub trait TurnsFloat:
     fn to_u32(self) -> u32;
 }
 
-impl TurnsFloat for f64 {
-    #[inline]
-    fn constant(v: f64) -> f64 {
-        v
-    }
-    #[inline]
-    fn round_even(self) -> f64 {
-        self.round_ties_even()
-    }
-    #[inline]
-    fn to_u32(self) -> u32 {
-        self as u32
-    }
+macro_rules! impl_turns_float {
+    ($t:ty) => {
+        impl TurnsFloat for $t {
+            #[inline]
+            fn constant(v: f64) -> $t {
+                v as $t
+            }
+            #[inline]
+            fn round_even(self) -> $t {
+                self.round_ties_even()
+            }
+            #[inline]
+            fn to_u32(self) -> u32 {
+                self as u32
+            }
+        }
+    };
 }
 
-impl TurnsFloat for f32 {
-    #[inline]
-    fn constant(v: f64) -> f32 {
-        v as f32
-    }
-    #[inline]
-    fn round_even(self) -> f32 {
-        self.round_ties_even()
-    }
-    #[inline]
-    fn to_u32(self) -> u32 {
-        self as u32
-    }
-}
+impl_turns_float!(f64);
+impl_turns_float!(f32);
 
 /// cos and sin of 2 pi t for t in [0, 1]: reduction to the nearest quarter turn (exact in turns), then
 /// Taylor series to x^17 / x^16 on |x| <= pi/4 (truncation below 1e-17). Branch-free apart from the
