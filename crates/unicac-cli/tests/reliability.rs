@@ -153,6 +153,30 @@ fn simulate_never_overwrites_an_input_or_another_output() {
 }
 
 #[test]
+fn simulate_refuses_non_finite_float_input_and_a_truncated_png() {
+    let dir = folder("simulate-bad-pixels");
+    let mut image = unicac_image::Planar::from_fn(40, 30, 3, |_, _, _| 0.5);
+    image.set(1, 7, 4, f32::INFINITY);
+    let exr = dir.join("inf.exr");
+    unicac_image::io::write_exr_channels(&exr, &image, &["R", "G", "B"]).unwrap();
+    let out = dir.join("out");
+    refused(
+        &["simulate", "builtin:cooke_triplet", s(&exr), "--out", s(&out)],
+        &["inf.exr", "pixel (x 7, y 4) of channel G is inf"],
+    );
+    // The header declares the size (the PSF map starts on it); the pixel data is cut short.
+    let png = dir.join("cut.png");
+    chart(&png, "64x48");
+    let bytes = std::fs::read(&png).unwrap();
+    std::fs::write(&png, &bytes[..bytes.len() / 2]).unwrap();
+    refused(
+        &["simulate", "builtin:cooke_triplet", s(&png), "--out", s(&out)],
+        &["cut.png", "cannot decode PNG"],
+    );
+    assert!(!out.exists());
+}
+
+#[test]
 fn simulate_keeps_the_input_file_name_and_extension() {
     let dir = folder("simulate-names");
     let tif = dir.join("IMG.tif");

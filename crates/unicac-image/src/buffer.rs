@@ -41,6 +41,27 @@ impl Planar {
         image
     }
 
+    /// [`Self::from_fn`] with the rows made in parallel (`f` must be `Sync`): the same samples.
+    pub fn from_fn_parallel(
+        width: usize,
+        height: usize,
+        channels: usize,
+        f: impl Fn(usize, usize, usize) -> f32 + Sync,
+    ) -> Planar {
+        use rayon::prelude::*;
+        let mut image = Planar::new(width, height, channels);
+        if width > 0 {
+            // Row r of the data is row r % height of channel r / height.
+            image.data.par_chunks_mut(width).enumerate().for_each(|(r, row)| {
+                let (c, y) = (r / height, r % height);
+                for (x, out) in row.iter_mut().enumerate() {
+                    *out = f(c, x, y);
+                }
+            });
+        }
+        image
+    }
+
     /// The first NaN or infinite sample as (channel, x, y, value), for errors that name the position.
     pub fn first_non_finite(&self) -> Option<(usize, usize, usize, f32)> {
         let index = self.data.iter().position(|v| !v.is_finite())?;
@@ -82,6 +103,17 @@ impl Planar {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parallel_from_fn_makes_the_same_samples() {
+        let f = |c: usize, x: usize, y: usize| (c * 1000 + y * 37 + x) as f32 * 0.5;
+        for (width, height, channels) in [(7, 5, 3), (1, 1, 1), (0, 4, 2), (4, 0, 3)] {
+            assert_eq!(
+                Planar::from_fn_parallel(width, height, channels, f),
+                Planar::from_fn(width, height, channels, f)
+            );
+        }
+    }
 
     #[test]
     fn planar_layout_indexes_channel_row_column() {

@@ -5,7 +5,7 @@ use crate::lens_input::load_lens;
 use crate::progress_display::ProgressDisplay;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
-use unicac_image::io::{read_image, FileFormat, LoadedImage, SampleDepth};
+use unicac_image::io::{declared_size, read_image, Encoding, FileFormat, LoadedImage, SampleDepth};
 use unicac_image::isp::{Pipeline, SensorNoise};
 use unicac_image::Planar;
 use unicac_io::progress::Progress;
@@ -55,15 +55,28 @@ fn simulate_all(
     settings.image = unicac_gpu::DeviceSelection::image_backend(device);
     let mut simulators = SimulatorSequence::new(lens, args.pixel_um, settings);
     for (index, (path, (out, format))) in args.images.iter().zip(outputs).enumerate() {
-        let loaded = read_image(path)?;
-        if let Some((channel, x, y, value)) = loaded.image.first_non_finite() {
-            bail!(
-                "{}: pixel (x {x}, y {y}) of channel {} is {value}; simulate needs finite values",
-                path.display(),
-                loaded.channel_names.get(channel).map_or("?", String::as_str)
-            );
+        // The PSF map needs only the image's size: it is prepared while the image decodes.
+        let (loaded, prepared) = match declared_size(path) {
+            Some((width, height)) => rayon::join(
+                || read_image(path),
+                || simulators.for_size(width, height).map(|_| ()),
+            ),
+            None => (read_image(path), Ok(())),
+        };
+        let loaded = loaded?;
+        prepared?;
+        // Integer codes are finite by construction; float files are checked.
+        if loaded.encoding == Encoding::Linear {
+            if let Some((channel, x, y, value)) = loaded.image.first_non_finite() {
+                bail!(
+                    "{}: pixel (x {x}, y {y}) of channel {} is {value}; simulate needs finite values",
+                    path.display(),
+                    loaded.channel_names.get(channel).map_or("?", String::as_str)
+                );
+            }
         }
-        let image = rgb(&loaded, path)?;
+        let bit_depth = loaded.bit_depth;
+        let image = rgb(loaded, path)?;
         let sim = simulators.for_size(image.width, image.height)?;
         if index == 0 {
             bar.suspend(|| report_psf_map(sim));
@@ -85,7 +98,7 @@ fn simulate_all(
             bar.suspend(|| report_read_out(&pipeline));
         }
         let degraded = sim.degrade(&pipeline, &image, image_seed(args.seed, index))?;
-        write_encoded(&degraded, out, *format, loaded.bit_depth)?;
+        write_encoded(&degraded, out, *format, bit_depth)?;
         if let (0, Some(crops)) = (index, &args.crops) {
             let sharp = unicac_image::color::linear_to_srgb(&image);
             super::crops::write(&sharp, &degraded, crops)?;
@@ -222,12 +235,12 @@ fn plot_psf_map(sim: &LensSimulator, lens_name: &str, path: &Path) -> Result<()>
 }
 
 /// The linear RGB planes of a loaded image (grey is replicated; alpha dropped).
-fn rgb(loaded: &LoadedImage, path: &Path) -> Result<Planar> {
+fn rgb(loaded: LoadedImage, path: &Path) -> Result<Planar> {
     if loaded.image.width == 0 || loaded.image.height == 0 {
         bail!("{}: the image is empty", path.display());
     }
     loaded
-        .rgb_planes(&loaded.to_linear())
+        .into_linear_rgb()
         .with_context(|| format!("{}: expected a grey or RGB image", path.display()))
 }
 

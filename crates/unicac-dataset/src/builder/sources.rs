@@ -510,7 +510,7 @@ impl Scene {
                         path.display()
                     )));
                 }
-                loaded.rgb_planes(&loaded.to_linear()).ok_or_else(|| {
+                loaded.into_linear_rgb().ok_or_else(|| {
                     DatasetError::Invalid(format!("image {}: expected a grey or RGB image", path.display()))
                 })
             }

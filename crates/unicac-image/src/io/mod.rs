@@ -123,9 +123,19 @@ impl LoadedImage {
     /// The image in linear light: colour planes of an sRGB file are decoded, an alpha plane ("A") is left
     /// as is; a linear file is returned unchanged.
     pub fn to_linear(&self) -> Planar {
-        let mut image = self.image.clone();
-        if self.encoding == Encoding::Srgb {
-            for (index, name) in self.channel_names.iter().enumerate() {
+        self.clone().into_linear()
+    }
+
+    /// [`Self::to_linear`] without the copy: the planes are decoded where they are.
+    pub fn into_linear(self) -> Planar {
+        let LoadedImage {
+            mut image,
+            encoding,
+            channel_names,
+            ..
+        } = self;
+        if encoding == Encoding::Srgb {
+            for (index, name) in channel_names.iter().enumerate() {
                 if name != "A" {
                     crate::color::apply_srgb(image.plane_mut(index), crate::color::Transfer::Decode);
                 }
@@ -137,20 +147,40 @@ impl LoadedImage {
     /// The R, G, B planes of `image` (this file's samples, or their `to_linear` form): a grey file's plane
     /// is replicated and alpha is dropped; `None` for files that are neither grey nor RGB.
     pub fn rgb_planes(&self, image: &Planar) -> Option<Planar> {
+        Some(select_planes(image, self.colour_planes()?))
+    }
+
+    /// The linear-light R, G, B planes (`rgb_planes(&to_linear())`), made in place: an RGB file's planes
+    /// are decoded where they are and not copied (a 12 MP image's planes are 144 MB).
+    pub fn into_linear_rgb(self) -> Option<Planar> {
+        let planes = self.colour_planes()?;
+        let linear = self.into_linear();
+        if planes == [0, 1, 2] && linear.channels == 3 {
+            return Some(linear);
+        }
+        Some(select_planes(&linear, planes))
+    }
+
+    /// Which planes are R, G and B: a grey plane three times, alpha skipped.
+    fn colour_planes(&self) -> Option<[usize; 3]> {
         let colour: Vec<usize> = (0..self.channel_names.len())
             .filter(|&i| self.channel_names[i] != "A")
             .collect();
-        let planes = match colour.as_slice() {
-            [y] => [*y; 3],
-            [r, g, b, ..] => [*r, *g, *b],
-            _ => return None,
-        };
-        let mut out = Planar::new(image.width, image.height, 3);
-        for (c, &p) in planes.iter().enumerate() {
-            out.plane_mut(c).copy_from_slice(image.plane(p));
+        match colour.as_slice() {
+            [y] => Some([*y; 3]),
+            [r, g, b, ..] => Some([*r, *g, *b]),
+            _ => None,
         }
-        Some(out)
     }
+}
+
+/// A three-plane copy of `image`'s planes `planes`.
+fn select_planes(image: &Planar, planes: [usize; 3]) -> Planar {
+    let mut out = Planar::new(image.width, image.height, 3);
+    for (c, &p) in planes.iter().enumerate() {
+        out.plane_mut(c).copy_from_slice(image.plane(p));
+    }
+    out
 }
 
 /// Reads a PNG, TIFF, BMP or OpenEXR file, choosing the decoder from the file's signature (not its extension).
@@ -166,6 +196,24 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<LoadedImage> {
             }
         })?;
     decode_image(path, &bytes)
+}
+
+/// The width and height a PNG, TIFF or BMP file's header declares, read without decoding (a few hundred
+/// bytes), so that work which depends only on the size can start beside the decode; `None` for OpenEXR
+/// files and whatever cannot be read (the decode itself reports why).
+pub fn declared_size(path: impl AsRef<Path>) -> Option<(usize, usize)> {
+    let reader = image::ImageReader::open(path.as_ref())
+        .ok()?
+        .with_guessed_format()
+        .ok()?;
+    if !matches!(
+        reader.format()?,
+        image::ImageFormat::Png | image::ImageFormat::Tiff | image::ImageFormat::Bmp
+    ) {
+        return None;
+    }
+    let (width, height) = reader.into_dimensions().ok()?;
+    Some((width as usize, height as usize))
 }
 
 /// Decodes the bytes of a PNG, TIFF or OpenEXR file (`path` only names it in errors); what

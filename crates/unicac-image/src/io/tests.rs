@@ -217,3 +217,34 @@ fn values_outside_unit_range_are_clipped_by_integer_writers() {
     write_png(&path, &image, SampleDepth::Sixteen).unwrap();
     assert_eq!(read_image(&path).unwrap().image.data, [0.0, 1.0]);
 }
+
+#[test]
+fn into_linear_rgb_is_rgb_planes_of_to_linear_for_every_layout() {
+    let folder = tempfile::tempdir().unwrap();
+    for channels in 1..=4 {
+        let path = folder.path().join(format!("c{channels}.png"));
+        write_png(&path, &coded_image(5, 3, channels, 65535), SampleDepth::Sixteen).unwrap();
+        let loaded = read_image(&path).unwrap();
+        let expected = loaded.rgb_planes(&loaded.to_linear()).unwrap();
+        assert_eq!(loaded.into_linear_rgb().unwrap(), expected, "{channels} channels");
+    }
+}
+
+#[test]
+fn declared_size_reads_png_and_tiff_headers_only() {
+    let folder = tempfile::tempdir().unwrap();
+    let png = folder.path().join("a.png");
+    let tiff = folder.path().join("a.tif");
+    let exr = folder.path().join("a.exr");
+    let image = coded_image(7, 4, 3, 255);
+    write_png(&png, &image, SampleDepth::Eight).unwrap();
+    write_tiff(&tiff, &image, SampleDepth::Sixteen).unwrap();
+    write_exr(&exr, &image).unwrap();
+    assert_eq!(declared_size(&png), Some((7, 4)));
+    assert_eq!(declared_size(&tiff), Some((7, 4)));
+    assert_eq!(declared_size(&exr), None, "OpenEXR: left to the decoder");
+    assert_eq!(declared_size(folder.path().join("missing.png")), None);
+    let truncated = folder.path().join("t.png");
+    std::fs::write(&truncated, &std::fs::read(&png).unwrap()[..12]).unwrap();
+    assert_eq!(declared_size(&truncated), None);
+}

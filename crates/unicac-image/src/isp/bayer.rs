@@ -26,7 +26,7 @@ pub fn rggb_channel(x: usize, y: usize) -> usize {
 /// 1-channel RGGB mosaic of a 3-channel RGB image: each photosite keeps the channel its filter passes.
 pub fn mosaic_rggb(rgb: &Planar) -> Result<Planar> {
     check_layout(rgb, "rgb", &[3])?;
-    Ok(Planar::from_fn(rgb.width, rgb.height, 1, |_, x, y| {
+    Ok(Planar::from_fn_parallel(rgb.width, rgb.height, 1, |_, x, y| {
         rgb.get(rggb_channel(x, y), x, y)
     }))
 }

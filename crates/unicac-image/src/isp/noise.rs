@@ -168,7 +168,7 @@ impl SensorNoise {
 pub fn read_out(exposure: &Planar, sensor: &SensorNoise, noise_seed: Option<u64>) -> Result<Planar> {
     sensor.validate()?;
     check_layout(exposure, "exposure", &[])?;
-    if exposure.data.iter().any(|v| v.is_nan()) {
+    if exposure.data.par_iter().any(|v| v.is_nan()) {
         return Err(ImageError::invalid("exposure", "NaN sample"));
     }
     let white = f64::from(sensor.white_level_dn()?);
@@ -208,7 +208,9 @@ pub fn subtract_black_level(dn: &Planar, sensor: &SensorNoise) -> Result<Planar>
     let black = sensor.black_level_dn;
     let range = sensor.white_level_dn()? - black;
     let mut out = dn.clone();
-    out.data.iter_mut().for_each(|v| *v = (*v - black) / range);
+    out.data
+        .par_chunks_mut(READ_OUT_CHUNK)
+        .for_each(|chunk| chunk.iter_mut().for_each(|v| *v = (*v - black) / range));
     Ok(out)
 }
 

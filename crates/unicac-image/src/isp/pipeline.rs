@@ -24,6 +24,7 @@ use crate::error::{check_layout, ImageError, Result};
 use crate::io::Encoding;
 use crate::quantise::quantise;
 use crate::Planar;
+use rayon::prelude::*;
 use unicac_io::counter_random::derive_seed;
 
 /// Sensor/ISP configuration. `Default` is DeepLens' sensor with its augmentation spread.
@@ -168,10 +169,20 @@ impl Pipeline {
     }
 
     fn finish(&self, mut rgb: Planar) -> Result<Planar> {
-        if rgb.data.iter().any(|v| v.is_nan()) {
+        // One parallel pass: NaN is refused, everything else clipped to [0, 1].
+        let clipped = rgb.data.par_chunks_mut(1 << 16).try_for_each(|chunk| {
+            chunk.iter_mut().try_for_each(|v| {
+                *v = v.clamp(0.0, 1.0);
+                if v.is_nan() {
+                    Err(())
+                } else {
+                    Ok(())
+                }
+            })
+        });
+        if clipped.is_err() {
             return Err(ImageError::invalid("image", "NaN sample reached the ISP output"));
         }
-        rgb.data.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
         if self.output_encoding == Encoding::Srgb {
             apply_srgb(&mut rgb.data, Transfer::Encode);
         }
@@ -211,6 +222,24 @@ mod tests {
         let db = psnr(&pair.degraded, &pair.target);
         eprintln!("noiseless ISP round trip: {db:.1} dB");
         assert!(db > 55.0, "mosaic -> 10-bit read-out -> WB -> Malvar: {db:.1} dB");
+    }
+
+    #[test]
+    fn the_output_is_clipped_and_a_nan_sample_is_refused() {
+        let pipeline = Pipeline {
+            no_noise: true,
+            no_isp: true,
+            output_encoding: Encoding::Linear,
+            ..Pipeline::default()
+        };
+        let draw = pipeline.draw(3).unwrap();
+        let bright = Planar::from_fn(300, 300, 3, |_, x, _| if x % 2 == 0 { 4.0 } else { -1.0 });
+        let out = pipeline.process(&bright, &draw).unwrap();
+        assert!(out.data.iter().all(|v| (0.0..=1.0).contains(v)));
+        let mut poisoned = bright.clone();
+        poisoned.set(2, 299, 299, f32::NAN);
+        let error = pipeline.process(&poisoned, &draw).unwrap_err().to_string();
+        assert!(error.contains("NaN sample reached the ISP output"), "{error}");
     }
 
     #[test]

@@ -9,6 +9,7 @@ use crate::Planar;
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::StandardNormal;
+use rayon::prelude::*;
 
 /// Smallest gain a perturbation may produce (keeps gains positive and invertible).
 pub const MIN_GAIN: f32 = 0.05;
@@ -70,11 +71,15 @@ pub fn apply_white_balance_mosaic(mosaic: &Planar, gains: WhiteBalanceGains) -> 
     let gains = gains.validate()?.to_array();
     check_layout(mosaic, "mosaic", &[1])?;
     let mut out = mosaic.clone();
-    for y in 0..mosaic.height {
-        for x in 0..mosaic.width {
-            let v = out.get(0, x, y);
-            out.set(0, x, y, v * gains[rggb_channel(x, y)]);
-        }
+    if mosaic.width > 0 {
+        out.data
+            .par_chunks_mut(mosaic.width)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, v) in row.iter_mut().enumerate() {
+                    *v *= gains[rggb_channel(x, y)];
+                }
+            });
     }
     Ok(out)
 }
