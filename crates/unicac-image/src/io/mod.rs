@@ -13,6 +13,7 @@
 
 mod atomic;
 mod openexr;
+mod png_stream;
 mod raster;
 
 use crate::error::{ImageError, Result};

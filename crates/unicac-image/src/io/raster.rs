@@ -1,5 +1,5 @@
 //! PNG and TIFF through the `image` crate (codecs `png` and `tiff` only): decoding to `Planar` and encoding
-//! 8/16-bit integer samples. The codecs are theirs; this module only maps between their interleaved pixel
+//! 8/16-bit integer samples (large PNG outputs streamed through the same codec: `png_stream`). The codecs are theirs; this module only maps between their interleaved pixel
 //! buffers and planar unit-range f32.
 
 use super::atomic::write_atomically;
@@ -142,20 +142,27 @@ pub(super) fn encode(path: &Path, image: &Planar, depth: SampleDepth, raster: Ra
         SampleDepth::Eight => 8,
         SampleDepth::Sixteen => 16,
     };
-    let bytes = interleaved_codes(image, bits, max_code(bits)?)
+    let bytes_per_sample = usize::from(bits / 8);
+    let streamed = raster == Raster::Png
+        && super::png_stream::worth_streaming(image.pixels() * image.channels * bytes_per_sample);
+    // PNG stores 16-bit samples big-endian; the `image` encoders take native-endian ones.
+    let order = if streamed {
+        u16::to_be_bytes
+    } else {
+        u16::to_ne_bytes
+    };
+    let bytes = interleaved_codes(image, bits, max_code(bits)?, order)
         .ok_or_else(|| encode_error("NaN or infinite sample cannot be stored as an integer".into()))?;
     let colour = colour_type(image.channels, depth);
-    write_atomically(path, format.name(), |sink| {
-        let result = match raster {
-            Raster::Png => {
-                image::codecs::png::PngEncoder::new(sink).write_image(&bytes, width, height, colour)
-            }
-            Raster::Tiff => {
-                image::codecs::tiff::TiffEncoder::new(sink).write_image(&bytes, width, height, colour)
-            }
-            Raster::Bmp => return Err("BMP is read only".to_string()),
-        };
-        result.map_err(|e| e.to_string())
+    write_atomically(path, format.name(), |sink| match raster {
+        Raster::Png if streamed => super::png_stream::write(sink, &bytes, width, height, colour),
+        Raster::Png => image::codecs::png::PngEncoder::new(sink)
+            .write_image(&bytes, width, height, colour)
+            .map_err(|e| e.to_string()),
+        Raster::Tiff => image::codecs::tiff::TiffEncoder::new(sink)
+            .write_image(&bytes, width, height, colour)
+            .map_err(|e| e.to_string()),
+        Raster::Bmp => Err("BMP is read only".to_string()),
     })
 }
 
@@ -173,9 +180,9 @@ fn colour_type(channels: usize, depth: SampleDepth) -> ExtendedColorType {
 }
 
 /// The integer codes of `image` (8 or 16 `bits`, codes up to `max`) in pixel-interleaved order as the image encoders take
-/// them (16-bit codes as native-endian bytes), row by row in parallel; `None` when a sample is NaN or
+/// them (16-bit codes as the bytes `order` makes), row by row in parallel; `None` when a sample is NaN or
 /// infinite.
-fn interleaved_codes(image: &Planar, bits: u8, max: u32) -> Option<Vec<u8>> {
+fn interleaved_codes(image: &Planar, bits: u8, max: u32, order: fn(u16) -> [u8; 2]) -> Option<Vec<u8>> {
     use rayon::prelude::*;
     let (n, channels) = (image.pixels(), image.channels);
     let bytes_per_sample = usize::from(bits / 8);
@@ -193,7 +200,7 @@ fn interleaved_codes(image: &Planar, bits: u8, max: u32) -> Option<Vec<u8>> {
                 let code = to_code(image.data[c * n + y * image.width + x], max)?;
                 match bits {
                     8 => out[0] = code as u8,
-                    _ => out.copy_from_slice(&(code as u16).to_ne_bytes()),
+                    _ => out.copy_from_slice(&order(code as u16)),
                 }
             }
             Some(())

@@ -248,3 +248,21 @@ fn declared_size_reads_png_and_tiff_headers_only() {
     std::fs::write(&truncated, &std::fs::read(&png).unwrap()[..12]).unwrap();
     assert_eq!(declared_size(&truncated), None);
 }
+
+#[test]
+fn large_pngs_are_streamed_and_read_back_exactly() {
+    let folder = tempfile::tempdir().unwrap();
+    // Both above png_stream's 8 MiB threshold: 16-bit RGB (9.6 MB) and 8-bit grey (9 MB).
+    for (image, depth, max) in [
+        (coded_image(1600, 1000, 3, 65535), SampleDepth::Sixteen, 65535),
+        (coded_image(3000, 3000, 1, 255), SampleDepth::Eight, 255),
+    ] {
+        assert!(super::png_stream::worth_streaming(
+            image.data.len() * (max as usize + 1).ilog2() as usize / 8
+        ));
+        let path = folder.path().join("large.png");
+        write_png(&path, &image, depth).unwrap();
+        assert_eq!(read_image(&path).unwrap().image, image);
+    }
+    assert_eq!(entries(folder.path()), [folder.path().join("large.png")]);
+}
