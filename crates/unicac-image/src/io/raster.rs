@@ -94,7 +94,6 @@ pub(super) fn decode(path: &Path, bytes: &[u8], raster: Raster) -> Result<Loaded
 /// The planes of interleaved native-endian samples (`bit_depth` 8 or 16: integer codes as unit-range
 /// values; 32: f32 as stored), row by row in parallel.
 fn deinterleave(raw: &[u8], width: usize, height: usize, channels: usize, bit_depth: u8) -> Planar {
-    use rayon::prelude::*;
     let bytes = usize::from(bit_depth / 8);
     let sample = |index: usize| -> f32 {
         let b = &raw[index * bytes..(index + 1) * bytes];
@@ -104,17 +103,9 @@ fn deinterleave(raw: &[u8], width: usize, height: usize, channels: usize, bit_de
             _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
         }
     };
-    let mut image = Planar::new(width, height, channels);
-    if width > 0 {
-        // Row r of the planar data is row r % height of channel r / height.
-        image.data.par_chunks_mut(width).enumerate().for_each(|(r, row)| {
-            let (c, y) = (r / height, r % height);
-            for (x, out) in row.iter_mut().enumerate() {
-                *out = sample((y * width + x) * channels + c);
-            }
-        });
-    }
-    image
+    Planar::from_fn_parallel(width, height, channels, |c, x, y| {
+        sample((y * width + x) * channels + c)
+    })
 }
 
 /// Writes `image` (1 = grey, 2 = grey + alpha, 3 = RGB, 4 = RGBA channels; values in [0, 1], clipped) as
