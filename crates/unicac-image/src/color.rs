@@ -118,7 +118,7 @@ pub fn apply_srgb(samples: &mut [f32], direction: Transfer) {
 
 /// Replaces every sample by `f` of it, in parallel chunks large enough that scheduling costs nothing
 /// next to the work.
-fn map_in_parallel(samples: &mut [f32], f: impl Fn(f32) -> f32 + Sync) {
+pub(crate) fn map_in_parallel(samples: &mut [f32], f: impl Fn(f32) -> f32 + Sync) {
     const CHUNK: usize = 1 << 16;
     samples
         .par_chunks_mut(CHUNK)

@@ -1,6 +1,6 @@
 //! PNG and TIFF through the `image` crate (codecs `png` and `tiff` only): decoding to `Planar` and encoding
-//! 8/16-bit integer samples (large PNG outputs streamed through the same codec: `png_stream`). The codecs are theirs; this module only maps between their interleaved pixel
-//! buffers and planar unit-range f32.
+//! 8/16-bit integer samples (large PNG outputs streamed through the same codec: `png_stream`). The codecs
+//! are theirs; this module only maps between their interleaved pixel buffers and planar unit-range f32.
 
 use super::atomic::write_atomically;
 use super::{Encoding, FileFormat, LoadedImage, SampleDepth};

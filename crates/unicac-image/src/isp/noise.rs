@@ -208,9 +208,7 @@ pub fn subtract_black_level(dn: &Planar, sensor: &SensorNoise) -> Result<Planar>
     let black = sensor.black_level_dn;
     let range = sensor.white_level_dn()? - black;
     let mut out = dn.clone();
-    out.data
-        .par_chunks_mut(READ_OUT_CHUNK)
-        .for_each(|chunk| chunk.iter_mut().for_each(|v| *v = (*v - black) / range));
+    crate::color::map_in_parallel(&mut out.data, |v| (v - black) / range);
     Ok(out)
 }
 
