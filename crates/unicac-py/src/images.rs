@@ -14,7 +14,11 @@ use unicac_image::{charts, color, Planar};
 fn rgb_planes(loaded: &LoadedImage, image: &Planar, path: &str) -> PyResult<Planar> {
     loaded
         .rgb_planes(image)
-        .ok_or_else(|| ImageError::new_err(format!("{path}: expected a grey or RGB image")))
+        .ok_or_else(|| not_grey_or_rgb(path))
+}
+
+fn not_grey_or_rgb(path: &str) -> PyErr {
+    ImageError::new_err(format!("{path}: expected a grey or RGB image"))
 }
 
 /// Reads a PNG, TIFF or OpenEXR file as an H x W x 3 array (grey replicated, alpha dropped), as
@@ -36,7 +40,9 @@ pub fn read_image<'py>(py: Python<'py>, path: PathBuf, linear: bool) -> PyResult
         // encoded_out expects sRGB-encoded unit-range samples and returns codes for integer kinds.
         return encoded_out(py, &encoded, kind);
     }
-    let rgb = rgb_planes(&loaded, &loaded.to_linear(), &name)?;
+    // Decoded to linear light in place: no copies of the file's planes.
+    let rgb = crate::pool::detach(py, || loaded.into_linear_rgb())
+        .ok_or_else(|| not_grey_or_rgb(&name))?;
     planar_out(py, &rgb, false)
 }
 
