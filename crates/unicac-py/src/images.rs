@@ -12,9 +12,7 @@ use unicac_image::{charts, color, Planar};
 
 /// The R, G, B planes of a loaded file (grey replicated, alpha dropped), as `unicac simulate` reads it.
 fn rgb_planes(loaded: &LoadedImage, image: &Planar, path: &str) -> PyResult<Planar> {
-    loaded
-        .rgb_planes(image)
-        .ok_or_else(|| not_grey_or_rgb(path))
+    loaded.rgb_planes(image).ok_or_else(|| not_grey_or_rgb(path))
 }
 
 fn not_grey_or_rgb(path: &str) -> PyErr {
@@ -41,8 +39,7 @@ pub fn read_image<'py>(py: Python<'py>, path: PathBuf, linear: bool) -> PyResult
         return encoded_out(py, &encoded, kind);
     }
     // Decoded to linear light in place: no copies of the file's planes.
-    let rgb = crate::pool::detach(py, || loaded.into_linear_rgb())
-        .ok_or_else(|| not_grey_or_rgb(&name))?;
+    let rgb = crate::pool::detach(py, || loaded.into_linear_rgb()).ok_or_else(|| not_grey_or_rgb(&name))?;
     planar_out(py, &rgb, false)
 }
 

@@ -78,7 +78,7 @@ pub fn isp_unprocess<'py>(
     let image = planar_f32(ground_truth, "ground_truth", 3, &[3])?;
     let p = pipeline(isp, noise);
     let d = draw(isp, noise, seed)?;
-    let out = crate::pool::detach(py, || p.unprocess(&image, &d).or_raise())?;
+    let out = crate::pool::detach(py, || p.unprocess(image, &d).or_raise())?;
     planar_out(py, &out, false)
 }
 

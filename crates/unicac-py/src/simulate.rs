@@ -156,7 +156,7 @@ impl PySimulator {
         let (linear, kind) = image_linear(image, "image")?;
         self.check_dims(&linear, "image")?;
         let pipeline = pipeline(isp, noise, sensor_bits)?;
-        let degraded = crate::pool::detach(py, || self.sim.degrade(&pipeline, &linear, seed).or_raise())?;
+        let degraded = crate::pool::detach(py, || self.sim.degrade(&pipeline, linear, seed).or_raise())?;
         crate::device::warn_image_notes(py, &self.sim.settings.image)?;
         encoded_out(py, &degraded, kind)
     }
@@ -179,7 +179,7 @@ impl PySimulator {
         let pipeline = pipeline(isp, noise, sensor_bits)?;
         // `degrade` (not Pipeline::render_pair) so that optics errors keep their own class.
         let (degraded, target) = crate::pool::detach(py, || -> PyResult<(Planar, Planar)> {
-            let degraded = self.sim.degrade(&pipeline, &linear, seed).or_raise()?;
+            let degraded = self.sim.degrade(&pipeline, linear.clone(), seed).or_raise()?;
             Ok((degraded, pipeline.finish_reference(&linear).or_raise()?))
         })?;
         crate::device::warn_image_notes(py, &self.sim.settings.image)?;

@@ -462,8 +462,8 @@ impl LensSimulator {
 
     /// The whole chain on one sharp linear image, as `unicac simulate` runs it: the ISP draw of `seed`
     /// (white-balance perturbation, noise seed), inverse white balance, the optics (`apply`), then sensor
-    /// noise and the ISP.
-    pub fn degrade(&self, pipeline: &Pipeline, image: &Planar, seed: u64) -> SimResult<Planar> {
+    /// noise and the ISP. The image is consumed (unprocessed in place).
+    pub fn degrade(&self, pipeline: &Pipeline, image: Planar, seed: u64) -> SimResult<Planar> {
         let draw = pipeline.draw(seed)?;
         let raw = pipeline.unprocess(image, &draw)?;
         self.process(pipeline, &self.apply(&raw)?, &draw)
@@ -600,7 +600,7 @@ impl LensSimulator {
         self.check_frame(image)?;
         let source = self.source_window(window)?;
         let draw = pipeline.draw(seed)?;
-        let raw = pipeline.unprocess(&crop(image, source), &draw)?;
+        let raw = pipeline.unprocess(crop(image, source), &draw)?;
         self.process(pipeline, &self.apply_region(&raw, source, window)?, &draw)
     }
 

@@ -97,10 +97,11 @@ fn simulate_all(
         if index == 0 {
             bar.suspend(|| report_read_out(&pipeline));
         }
-        let degraded = sim.degrade(&pipeline, &image, image_seed(args.seed, index))?;
+        // The sharp side of --crops, encoded before `degrade` consumes the image.
+        let sharp = (index == 0 && args.crops.is_some()).then(|| unicac_image::color::linear_to_srgb(&image));
+        let degraded = sim.degrade(&pipeline, image, image_seed(args.seed, index))?;
         write_encoded(&degraded, out, *format, bit_depth)?;
-        if let (0, Some(crops)) = (index, &args.crops) {
-            let sharp = unicac_image::color::linear_to_srgb(&image);
+        if let (Some(sharp), Some(crops)) = (sharp, &args.crops) {
             super::crops::write(&sharp, &degraded, crops)?;
             bar.suspend(|| eprintln!("wrote {}", crops.display()));
         }

@@ -111,7 +111,7 @@ pub fn render_pair(sim: &LensSimulator, frame: &Planar, row: &PairRow) -> Result
     }
     let sim_error = |e: unicac_sim::SimError| DatasetError::simulation(format!("pair {}", row.pair_id))(e);
     let raw = pipeline
-        .unprocess(frame, &draw)
+        .unprocess(frame.clone(), &draw)
         .map_err(image_error(&row.pair_id))?;
     let blurred = sim.blur(&raw).map_err(sim_error)?;
     let through_lens = sim.geometry(&blurred).map_err(sim_error)?;

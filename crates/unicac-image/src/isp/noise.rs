@@ -166,6 +166,17 @@ impl SensorNoise {
 /// `derive_seed(noise_seed, i)`: first its photo-electrons, then its read noise. The samples are
 /// therefore read out in parallel, and the same on any number of threads.
 pub fn read_out(exposure: &Planar, sensor: &SensorNoise, noise_seed: Option<u64>) -> Result<Planar> {
+    let mut dn = exposure.clone();
+    read_out_in_place(&mut dn, sensor, noise_seed)?;
+    Ok(dn)
+}
+
+/// [`read_out`] where the samples are: `exposure` becomes the DN (the pipeline's own mosaic: no copy).
+pub(crate) fn read_out_in_place(
+    exposure: &mut Planar,
+    sensor: &SensorNoise,
+    noise_seed: Option<u64>,
+) -> Result<()> {
     sensor.validate()?;
     check_layout(exposure, "exposure", &[])?;
     if exposure.data.par_iter().any(|v| v.is_nan()) {
@@ -178,8 +189,8 @@ pub fn read_out(exposure: &Planar, sensor: &SensorNoise, noise_seed: Option<u64>
         read_noise_dn: f64::from(sensor.read_noise_dn()),
         noise_seed,
     };
-    let mut out = exposure.clone();
-    out.data
+    exposure
+        .data
         .par_chunks_mut(READ_OUT_CHUNK)
         .enumerate()
         .for_each(|(chunk, samples)| {
@@ -189,7 +200,7 @@ pub fn read_out(exposure: &Planar, sensor: &SensorNoise, noise_seed: Option<u64>
                 samples,
             })
         });
-    Ok(out)
+    Ok(())
 }
 
 /// The read-out of one sample, in f64: the sensor's constants and the noise seed.
@@ -246,13 +257,19 @@ const READ_OUT_CHUNK: usize = 1 << 14;
 /// Relative exposure from DN: black level subtracted and divided by (W - B). Not clipped: read noise below
 /// black stays negative so that averages remain unbiased.
 pub fn subtract_black_level(dn: &Planar, sensor: &SensorNoise) -> Result<Planar> {
+    let mut out = dn.clone();
+    subtract_black_level_in_place(&mut out, sensor)?;
+    Ok(out)
+}
+
+/// [`subtract_black_level`] where the samples are.
+pub(crate) fn subtract_black_level_in_place(dn: &mut Planar, sensor: &SensorNoise) -> Result<()> {
     sensor.validate()?;
     check_layout(dn, "dn", &[])?;
     let black = sensor.black_level_dn;
     let range = sensor.white_level_dn()? - black;
-    let mut out = dn.clone();
-    crate::color::map_in_parallel(&mut out.data, |v| (v - black) / range);
-    Ok(out)
+    crate::color::map_in_parallel(&mut dn.data, |v| (v - black) / range);
+    Ok(())
 }
 
 #[cfg(test)]

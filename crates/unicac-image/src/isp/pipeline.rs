@@ -14,10 +14,10 @@
 
 use super::bayer::{demosaic, mosaic_rggb, Demosaic};
 use super::device::{HostIsp, IspDevice};
-use super::noise::{read_out, subtract_black_level, SensorNoise};
+use super::noise::{read_out_in_place, subtract_black_level_in_place, SensorNoise};
 use super::white_balance::{
-    apply_white_balance, apply_white_balance_mosaic, invert_white_balance, perturb_white_balance,
-    WhiteBalanceGains,
+    apply_white_balance_in_place, apply_white_balance_mosaic_in_place, invert_white_balance_in_place,
+    perturb_white_balance, WhiteBalanceGains,
 };
 use crate::color::{apply_srgb, Transfer};
 use crate::error::{check_layout, ImageError, Result};
@@ -25,6 +25,7 @@ use crate::io::Encoding;
 use crate::quantise::quantise;
 use crate::Planar;
 use rayon::prelude::*;
+use std::borrow::Cow;
 use unicac_io::counter_random::derive_seed;
 
 /// Sensor/ISP configuration. `Default` is DeepLens' sensor with its augmentation spread.
@@ -98,9 +99,11 @@ impl Pipeline {
         Ok(IspDraw { gains, noise_seed })
     }
 
-    /// Camera-raw RGB of a linear-light ground truth: inverse white balance with the drawn gains.
-    pub fn unprocess(&self, ground_truth: &Planar, draw: &IspDraw) -> Result<Planar> {
-        invert_white_balance(ground_truth, draw.gains)
+    /// Camera-raw RGB of a linear-light ground truth: inverse white balance with the drawn gains, in
+    /// place (the image is consumed: a 12 MP frame is 144 MB).
+    pub fn unprocess(&self, mut ground_truth: Planar, draw: &IspDraw) -> Result<Planar> {
+        invert_white_balance_in_place(&mut ground_truth, draw.gains)?;
+        Ok(ground_truth)
     }
 
     /// Sensor and ISP on camera-raw RGB (after the optics), returning the degraded image in the output
@@ -114,29 +117,38 @@ impl Pipeline {
     pub fn process_on(&self, raw_rgb: &Planar, draw: &IspDraw, device: &dyn IspDevice) -> Result<Planar> {
         check_layout(raw_rgb, "raw_rgb", &[3])?;
         let sensor = &self.sensor;
-        let read = |exposure: &Planar| match draw.noise_seed {
-            Some(seed) => match device.read_out(exposure, sensor, seed) {
-                Some(dn) => Ok(dn),
-                None => read_out(exposure, sensor, Some(seed)),
-            },
-            None => read_out(exposure, sensor, None),
+        // Reads `exposure` out, on the device when it takes the step, else on the CPU where the
+        // samples are (copied first only if they are the caller's).
+        let read = |exposure: Cow<Planar>| -> Result<Planar> {
+            if let Some(seed) = draw.noise_seed {
+                if let Some(dn) = device.read_out(&exposure, sensor, seed) {
+                    return Ok(dn);
+                }
+            }
+            let mut dn = exposure.into_owned();
+            read_out_in_place(&mut dn, sensor, draw.noise_seed)?;
+            Ok(dn)
         };
         let rgb = if self.no_isp && draw.noise_seed.is_none() {
             // Optics only: with no ISP and no noise there is nothing for the sensor to add but its
             // digitisation, and a user who switched both off asks for the optics at full precision.
             let mut exposure = raw_rgb.clone();
             exposure.data.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
-            apply_white_balance(&exposure, draw.gains)?
+            apply_white_balance_in_place(&mut exposure, draw.gains)?;
+            exposure
         } else if self.no_isp {
-            apply_white_balance(&subtract_black_level(&read(raw_rgb)?, sensor)?, draw.gains)?
+            let mut exposure = read(Cow::Borrowed(raw_rgb))?;
+            subtract_black_level_in_place(&mut exposure, sensor)?;
+            apply_white_balance_in_place(&mut exposure, draw.gains)?;
+            exposure
         } else {
-            let dn = read(&mosaic_rggb(raw_rgb)?)?;
+            let mut dn = read(Cow::Owned(mosaic_rggb(raw_rgb)?))?;
             match device.develop(&dn, sensor, draw.gains, self.demosaic) {
                 Some(rgb) => rgb,
                 None => {
-                    let balanced =
-                        apply_white_balance_mosaic(&subtract_black_level(&dn, sensor)?, draw.gains)?;
-                    demosaic(&balanced, self.demosaic)?
+                    subtract_black_level_in_place(&mut dn, sensor)?;
+                    apply_white_balance_mosaic_in_place(&mut dn, draw.gains)?;
+                    demosaic(&dn, self.demosaic)?
                 }
             }
         };
@@ -159,7 +171,7 @@ impl Pipeline {
         optics: impl FnOnce(&Planar) -> Result<Planar>,
     ) -> Result<RenderedPair> {
         let draw = self.draw(seed)?;
-        let raw = self.unprocess(ground_truth, &draw)?;
+        let raw = self.unprocess(ground_truth.clone(), &draw)?;
         let degraded = self.process(&optics(&raw)?, &draw)?;
         Ok(RenderedPair {
             degraded,

@@ -57,23 +57,48 @@ impl WhiteBalanceGains {
 
 /// White-balanced copy of a 3-channel camera-raw RGB image: channel c times gain c.
 pub fn apply_white_balance(rgb: &Planar, gains: WhiteBalanceGains) -> Result<Planar> {
+    let mut out = rgb.clone();
+    apply_white_balance_in_place(&mut out, gains)?;
+    Ok(out)
+}
+
+/// [`apply_white_balance`] where the samples are.
+pub(crate) fn apply_white_balance_in_place(rgb: &mut Planar, gains: WhiteBalanceGains) -> Result<()> {
     scale_rgb(rgb, gains.validate()?.to_array())
 }
 
 /// Inverse white balance (camera-raw RGB from a white-balanced image): channel c divided by gain c.
 pub fn invert_white_balance(rgb: &Planar, gains: WhiteBalanceGains) -> Result<Planar> {
+    let mut out = rgb.clone();
+    invert_white_balance_in_place(&mut out, gains)?;
+    Ok(out)
+}
+
+/// [`invert_white_balance`] where the samples are (the pipeline's own images: no copy).
+pub(crate) fn invert_white_balance_in_place(rgb: &mut Planar, gains: WhiteBalanceGains) -> Result<()> {
     scale_rgb(rgb, gains.validate()?.to_array().map(|g| 1.0 / g))
 }
 
 /// White balance applied on a 1-channel RGGB mosaic, each photosite scaled by the gain of its filter colour
 /// (the order of a camera ISP: white balance before demosaicing, so that demosaicing sees neutral edges).
 pub fn apply_white_balance_mosaic(mosaic: &Planar, gains: WhiteBalanceGains) -> Result<Planar> {
+    let mut out = mosaic.clone();
+    apply_white_balance_mosaic_in_place(&mut out, gains)?;
+    Ok(out)
+}
+
+/// [`apply_white_balance_mosaic`] where the samples are.
+pub(crate) fn apply_white_balance_mosaic_in_place(
+    mosaic: &mut Planar,
+    gains: WhiteBalanceGains,
+) -> Result<()> {
     let gains = gains.validate()?.to_array();
     check_layout(mosaic, "mosaic", &[1])?;
-    let mut out = mosaic.clone();
     if mosaic.width > 0 {
-        out.data
-            .par_chunks_mut(mosaic.width)
+        let width = mosaic.width;
+        mosaic
+            .data
+            .par_chunks_mut(width)
             .enumerate()
             .for_each(|(y, row)| {
                 for (x, v) in row.iter_mut().enumerate() {
@@ -81,7 +106,7 @@ pub fn apply_white_balance_mosaic(mosaic: &Planar, gains: WhiteBalanceGains) -> 
                 }
             });
     }
-    Ok(out)
+    Ok(())
 }
 
 /// Randomly perturbed gains, `nominal + N(0, std_dev²)` independently per channel, floored at [`MIN_GAIN`];
@@ -108,13 +133,13 @@ pub fn perturb_white_balance(
     })
 }
 
-fn scale_rgb(rgb: &Planar, factors: [f32; 3]) -> Result<Planar> {
+/// Channel c of `rgb` times `factors[c]`, in place and in parallel.
+fn scale_rgb(rgb: &mut Planar, factors: [f32; 3]) -> Result<()> {
     check_layout(rgb, "rgb", &[3])?;
-    let mut out = rgb.clone();
-    for (channel, factor) in factors.iter().enumerate() {
-        out.plane_mut(channel).iter_mut().for_each(|v| *v *= factor);
+    for (channel, factor) in factors.into_iter().enumerate() {
+        crate::color::map_in_parallel(rgb.plane_mut(channel), |v| v * factor);
     }
-    Ok(out)
+    Ok(())
 }
 
 #[cfg(test)]
