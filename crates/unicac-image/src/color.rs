@@ -116,14 +116,39 @@ pub fn apply_srgb(samples: &mut [f32], direction: Transfer) {
     }
 }
 
+/// Clips every sample to [0, 1] and, with `encode`, sRGB-encodes it as [`apply_srgb`] does, in one
+/// parallel pass; false when a sample is NaN (the samples are then left part done).
+pub(crate) fn clip_and_encode_in_place(samples: &mut [f32], encode: bool) -> bool {
+    let table = power_branch_table();
+    samples
+        .par_chunks_mut(MAP_CHUNK)
+        .map(|chunk| {
+            let mut numbers = true;
+            for v in chunk {
+                let clipped = v.clamp(0.0, 1.0);
+                numbers &= !clipped.is_nan();
+                *v = if encode {
+                    srgb_encode_by_table(clipped, table)
+                } else {
+                    clipped
+                };
+            }
+            numbers
+        })
+        .reduce(|| true, |a, b| a && b)
+}
+
 /// Replaces every sample by `f` of it, in parallel chunks large enough that scheduling costs nothing
 /// next to the work.
 pub(crate) fn map_in_parallel(samples: &mut [f32], f: impl Fn(f32) -> f32 + Sync) {
-    const CHUNK: usize = 1 << 16;
     samples
-        .par_chunks_mut(CHUNK)
+        .par_chunks_mut(MAP_CHUNK)
         .for_each(|chunk| chunk.iter_mut().for_each(|v| *v = f(*v)));
 }
+
+/// Samples per parallel task of the sample maps (large enough that scheduling costs nothing next to the
+/// work).
+const MAP_CHUNK: usize = 1 << 16;
 
 /// Largest code of 16-bit samples; the decoding table's last index.
 const MAX_CODE_16: u32 = 65_535;

@@ -478,7 +478,7 @@ impl LensSimulator {
     /// The ideal (undistorted) frame position that output pixel `real` (frame pixels) shows, where the
     /// warp samples the blurred ideal image, and the shading there (1 with the illumination off).
     /// `guess`: an ideal position near the answer (the planar map's inversion starts there).
-    #[inline]
+    #[inline(always)]
     fn source_of(&self, real: [f64; 2], guess: [f64; 2]) -> ([f64; 2], f32) {
         match &self.optics {
             FieldOptics::Radial {

@@ -137,12 +137,7 @@ pub(super) fn encode(path: &Path, image: &Planar, depth: SampleDepth, raster: Ra
     let streamed = raster == Raster::Png
         && super::png_stream::worth_streaming(image.pixels() * image.channels * bytes_per_sample);
     // PNG stores 16-bit samples big-endian; the `image` encoders take native-endian ones.
-    let order = if streamed {
-        u16::to_be_bytes
-    } else {
-        u16::to_ne_bytes
-    };
-    let bytes = interleaved_codes(image, bits, max_code(bits)?, order)
+    let bytes = interleaved_codes(image, bits, max_code(bits)?, streamed)
         .ok_or_else(|| encode_error("NaN or infinite sample cannot be stored as an integer".into()))?;
     let colour = colour_type(image.channels, depth);
     write_atomically(path, format.name(), |sink| match raster {
@@ -170,33 +165,51 @@ fn colour_type(channels: usize, depth: SampleDepth) -> ExtendedColorType {
     }
 }
 
-/// The integer codes of `image` (8 or 16 `bits`, codes up to `max`) in pixel-interleaved order as the image encoders take
-/// them (16-bit codes as the bytes `order` makes), row by row in parallel; `None` when a sample is NaN or
-/// infinite.
-fn interleaved_codes(image: &Planar, bits: u8, max: u32, order: fn(u16) -> [u8; 2]) -> Option<Vec<u8>> {
+/// The integer codes of `image` (8 or 16 `bits`, codes up to `max`) in pixel-interleaved order as the
+/// image encoders take them (16-bit codes big-endian or native-endian), row by row in parallel; `None`
+/// when a sample is NaN or infinite.
+fn interleaved_codes(image: &Planar, bits: u8, max: u32, big_endian: bool) -> Option<Vec<u8>> {
+    match (bits, big_endian) {
+        (8, _) => interleaved_codes_as(image, max, |code| [code as u8]),
+        (_, true) => interleaved_codes_as(image, max, |code| (code as u16).to_be_bytes()),
+        (_, false) => interleaved_codes_as(image, max, |code| (code as u16).to_ne_bytes()),
+    }
+}
+
+/// [`interleaved_codes`] with each code stored as the `BYTES` bytes `store` makes. Rows in parallel,
+/// each filled a channel at a time along the row, without a division per sample or an early exit,
+/// so the loop compiles to straight-line code (a non-finite sample is remembered, not branched on).
+fn interleaved_codes_as<const BYTES: usize>(
+    image: &Planar,
+    max: u32,
+    store: impl Fn(u32) -> [u8; BYTES] + Sync,
+) -> Option<Vec<u8>> {
     use rayon::prelude::*;
-    let (n, channels) = (image.pixels(), image.channels);
-    let bytes_per_sample = usize::from(bits / 8);
-    let row_bytes = image.width * channels * bytes_per_sample;
+    let (width, channels) = (image.width, image.channels);
+    let row_bytes = width * channels * BYTES;
     let mut bytes = vec![0u8; row_bytes * image.height];
     if row_bytes == 0 {
         return Some(bytes);
     }
-    bytes
+    let planes: Vec<&[f32]> = (0..channels).map(|c| image.plane(c)).collect();
+    let all_finite = bytes
         .par_chunks_mut(row_bytes)
         .enumerate()
-        .try_for_each(|(y, row)| {
-            for (i, out) in row.chunks_exact_mut(bytes_per_sample).enumerate() {
-                let (x, c) = (i / channels, i % channels);
-                let code = to_code(image.data[c * n + y * image.width + x], max)?;
-                match bits {
-                    8 => out[0] = code as u8,
-                    _ => out.copy_from_slice(&order(code as u16)),
+        .map(|(y, row)| {
+            let mut finite = true;
+            for (c, plane) in planes.iter().enumerate() {
+                let samples = &plane[y * width..(y + 1) * width];
+                let pixels = row.chunks_exact_mut(channels * BYTES);
+                for (pixel, &value) in pixels.zip(samples) {
+                    let code = to_code(value, max);
+                    finite &= code.is_some();
+                    pixel[c * BYTES..(c + 1) * BYTES].copy_from_slice(&store(code.unwrap_or(0)));
                 }
             }
-            Some(())
-        })?;
-    Some(bytes)
+            finite
+        })
+        .reduce(|| true, |a, b| a && b);
+    all_finite.then_some(bytes)
 }
 
 /// Refuses a PNG whose palette (PLTE chunk) is not a whole number of 3-byte RGB entries, which the

@@ -38,3 +38,13 @@ pub use white_balance::{
     apply_white_balance, apply_white_balance_mosaic, invert_white_balance, perturb_white_balance,
     WhiteBalanceGains, MIN_GAIN,
 };
+
+use crate::{Planar, Result};
+
+/// A copy of `image` with `edit` applied: the public, copying form of a step whose pipeline form works in
+/// place (the pipeline edits its own images; callers that keep theirs get a new one).
+fn edited_copy(image: &Planar, edit: impl FnOnce(&mut Planar) -> Result<()>) -> Result<Planar> {
+    let mut copy = image.clone();
+    edit(&mut copy)?;
+    Ok(copy)
+}

@@ -166,9 +166,7 @@ impl SensorNoise {
 /// `derive_seed(noise_seed, i)`: first its photo-electrons, then its read noise. The samples are
 /// therefore read out in parallel, and the same on any number of threads.
 pub fn read_out(exposure: &Planar, sensor: &SensorNoise, noise_seed: Option<u64>) -> Result<Planar> {
-    let mut dn = exposure.clone();
-    read_out_in_place(&mut dn, sensor, noise_seed)?;
-    Ok(dn)
+    super::edited_copy(exposure, |image| read_out_in_place(image, sensor, noise_seed))
 }
 
 /// [`read_out`] where the samples are: `exposure` becomes the DN (the pipeline's own mosaic: no copy).
@@ -189,12 +187,13 @@ pub(crate) fn read_out_in_place(
         read_noise_dn: f64::from(sensor.read_noise_dn()),
         noise_seed,
     };
+    let arch = pulp::Arch::new();
     exposure
         .data
         .par_chunks_mut(READ_OUT_CHUNK)
         .enumerate()
         .for_each(|(chunk, samples)| {
-            pulp::Arch::new().dispatch(ReadOutChunk {
+            arch.dispatch(ReadOutChunk {
                 digitiser,
                 first_index: (chunk * READ_OUT_CHUNK) as u64,
                 samples,
@@ -257,9 +256,7 @@ const READ_OUT_CHUNK: usize = 1 << 14;
 /// Relative exposure from DN: black level subtracted and divided by (W - B). Not clipped: read noise below
 /// black stays negative so that averages remain unbiased.
 pub fn subtract_black_level(dn: &Planar, sensor: &SensorNoise) -> Result<Planar> {
-    let mut out = dn.clone();
-    subtract_black_level_in_place(&mut out, sensor)?;
-    Ok(out)
+    super::edited_copy(dn, |image| subtract_black_level_in_place(image, sensor))
 }
 
 /// [`subtract_black_level`] where the samples are.

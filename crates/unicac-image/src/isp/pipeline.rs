@@ -19,12 +19,10 @@ use super::white_balance::{
     apply_white_balance_in_place, apply_white_balance_mosaic_in_place, invert_white_balance_in_place,
     perturb_white_balance, WhiteBalanceGains,
 };
-use crate::color::{apply_srgb, Transfer};
 use crate::error::{check_layout, ImageError, Result};
 use crate::io::Encoding;
 use crate::quantise::quantise;
 use crate::Planar;
-use rayon::prelude::*;
 use std::borrow::Cow;
 use unicac_io::counter_random::derive_seed;
 
@@ -181,22 +179,10 @@ impl Pipeline {
     }
 
     fn finish(&self, mut rgb: Planar) -> Result<Planar> {
-        // One parallel pass: NaN is refused, everything else clipped to [0, 1].
-        let clipped = rgb.data.par_chunks_mut(1 << 16).try_for_each(|chunk| {
-            chunk.iter_mut().try_for_each(|v| {
-                *v = v.clamp(0.0, 1.0);
-                if v.is_nan() {
-                    Err(())
-                } else {
-                    Ok(())
-                }
-            })
-        });
-        if clipped.is_err() {
+        // One parallel pass: NaN is refused, everything else clipped to [0, 1] (and encoded).
+        let encode = self.output_encoding == Encoding::Srgb;
+        if !crate::color::clip_and_encode_in_place(&mut rgb.data, encode) {
             return Err(ImageError::invalid("image", "NaN sample reached the ISP output"));
-        }
-        if self.output_encoding == Encoding::Srgb {
-            apply_srgb(&mut rgb.data, Transfer::Encode);
         }
         match self.output_bits {
             Some(bits) => quantise(&rgb, bits),

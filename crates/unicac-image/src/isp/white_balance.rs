@@ -57,9 +57,7 @@ impl WhiteBalanceGains {
 
 /// White-balanced copy of a 3-channel camera-raw RGB image: channel c times gain c.
 pub fn apply_white_balance(rgb: &Planar, gains: WhiteBalanceGains) -> Result<Planar> {
-    let mut out = rgb.clone();
-    apply_white_balance_in_place(&mut out, gains)?;
-    Ok(out)
+    super::edited_copy(rgb, |image| apply_white_balance_in_place(image, gains))
 }
 
 /// [`apply_white_balance`] where the samples are.
@@ -69,9 +67,7 @@ pub(crate) fn apply_white_balance_in_place(rgb: &mut Planar, gains: WhiteBalance
 
 /// Inverse white balance (camera-raw RGB from a white-balanced image): channel c divided by gain c.
 pub fn invert_white_balance(rgb: &Planar, gains: WhiteBalanceGains) -> Result<Planar> {
-    let mut out = rgb.clone();
-    invert_white_balance_in_place(&mut out, gains)?;
-    Ok(out)
+    super::edited_copy(rgb, |image| invert_white_balance_in_place(image, gains))
 }
 
 /// [`invert_white_balance`] where the samples are (the pipeline's own images: no copy).
@@ -82,9 +78,7 @@ pub(crate) fn invert_white_balance_in_place(rgb: &mut Planar, gains: WhiteBalanc
 /// White balance applied on a 1-channel RGGB mosaic, each photosite scaled by the gain of its filter colour
 /// (the order of a camera ISP: white balance before demosaicing, so that demosaicing sees neutral edges).
 pub fn apply_white_balance_mosaic(mosaic: &Planar, gains: WhiteBalanceGains) -> Result<Planar> {
-    let mut out = mosaic.clone();
-    apply_white_balance_mosaic_in_place(&mut out, gains)?;
-    Ok(out)
+    super::edited_copy(mosaic, |image| apply_white_balance_mosaic_in_place(image, gains))
 }
 
 /// [`apply_white_balance_mosaic`] where the samples are.
