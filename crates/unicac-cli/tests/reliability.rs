@@ -144,6 +144,12 @@ fn simulate_never_overwrites_an_input_or_another_output() {
     );
     // A refused or failed run leaves no (empty) output folder behind.
     assert!(!out.exists());
+    // --out naming a file (the input itself, here) is refused by name, before any work.
+    refused(
+        &["simulate", "builtin:cooke_triplet", s(&input), "--out", s(&input)],
+        &["--out", "a.png", "is a file"],
+    );
+    assert_eq!(std::fs::read(&input).unwrap(), before);
     let missing = dir.join("missing.png");
     refused(
         &["simulate", "builtin:cooke_triplet", s(&missing), "--out", s(&out)],

@@ -122,6 +122,14 @@ impl FieldOptics {
     }
 }
 
+/// How far [`LensSimulator::apply`] got before the CPU path's warp and shading.
+enum Applied {
+    /// The whole result (a device took the pass, or the geometry is switched off).
+    Done(Planar),
+    /// The blurred frame, for the warp and the shading.
+    Blurred(Planar),
+}
+
 pub struct LensSimulator {
     pub grid: SensorGrid,
     /// The real chief ray over the field: of the lens, or of its centred twin (`Lens::nominal`) when
@@ -336,21 +344,45 @@ impl LensSimulator {
     /// Simulates the lens on a linear RGB image of the prepared size: `blur`, then `geometry` (on the
     /// settings' image device when it takes the pass).
     pub fn apply(&self, image: &Planar) -> SimResult<Planar> {
+        match self.apply_up_to_geometry(image)? {
+            Applied::Done(out) => Ok(out),
+            Applied::Blurred(blurred) => {
+                let frame = self.frame();
+                Ok(self.warp_and_shade(&blurred, frame, frame))
+            }
+        }
+    }
+
+    /// `apply` of an image the caller gives up: on the CPU path the warp writes its output over the
+    /// sharp image, dead once blurred, instead of into a new frame (at 12 MP 144 MB fewer fresh pages).
+    fn apply_consuming(&self, image: Planar) -> SimResult<Planar> {
+        match self.apply_up_to_geometry(&image)? {
+            Applied::Done(out) => Ok(out),
+            Applied::Blurred(blurred) => {
+                let frame = self.frame();
+                Ok(self.warp_and_shade_into(&blurred, frame, frame, image))
+            }
+        }
+    }
+
+    /// `apply` but the CPU path's warp and shading: the device's whole pass when it takes it, else the
+    /// blur, which is the result when the geometry is switched off.
+    fn apply_up_to_geometry(&self, image: &Planar) -> SimResult<Applied> {
         self.check_frame(image)?;
         let blurred = if self.geometry_on_device() {
             if let Some(out) = self.settings.image.apply(&self.frame_pass(image)) {
-                return Ok(out);
+                return Ok(Applied::Done(out));
             }
             // The CPU path, without asking the device again for each half.
             self.blur_on_cpu(image)
         } else {
             self.blur(image)?
         };
-        if !self.moves_or_shades() {
-            return Ok(blurred); // no copy of a frame that `geometry` would hand back unchanged
-        }
-        let frame = self.frame();
-        Ok(self.warp_and_shade(&blurred, frame, frame))
+        Ok(if self.moves_or_shades() {
+            Applied::Blurred(blurred)
+        } else {
+            Applied::Done(blurred) // no copy of a frame that `geometry` would hand back unchanged
+        })
     }
 
     /// The lens's spatially varying blur alone (no distortion, no shading), in the ideal image's
@@ -466,7 +498,7 @@ impl LensSimulator {
     pub fn degrade(&self, pipeline: &Pipeline, image: Planar, seed: u64) -> SimResult<Planar> {
         let draw = pipeline.draw(seed)?;
         let raw = pipeline.unprocess(image, &draw)?;
-        self.process(pipeline, &self.apply(&raw)?, &draw)
+        self.process(pipeline, &self.apply_consuming(raw)?, &draw)
     }
 
     /// `pipeline.process` (the sensor and the ISP) with the steps this simulator's image device takes
@@ -522,10 +554,27 @@ impl LensSimulator {
     /// the field landing at r (bilinear; when the distortion is off, at r itself, which copies the
     /// pixel), times the shading at r when it is on (`source_of`).
     fn warp_and_shade(&self, blurred: &Planar, source: PixelWindow, window: PixelWindow) -> Planar {
+        let out = Planar::new(window.width, window.height, 3);
+        self.warp_and_shade_into(blurred, source, window, out)
+    }
+
+    /// `warp_and_shade` into `out` (window-sized, RGB; every sample is written, so its values do not
+    /// matter).
+    fn warp_and_shade_into(
+        &self,
+        blurred: &Planar,
+        source: PixelWindow,
+        window: PixelWindow,
+        mut out: Planar,
+    ) -> Planar {
         assert_eq!(blurred.channels, 3, "an RGB image");
+        assert_eq!(
+            (out.width, out.height, out.channels),
+            (window.width, window.height, 3),
+            "an output of the window's size"
+        );
         let (w, h) = (blurred.width, blurred.height);
         let planes = [blurred.plane(0), blurred.plane(1), blurred.plane(2)];
-        let mut out = Planar::new(window.width, window.height, 3);
         let (red, rest) = out.data.split_at_mut(window.width * window.height);
         let (green, blue) = rest.split_at_mut(window.width * window.height);
         red.par_chunks_mut(window.width)

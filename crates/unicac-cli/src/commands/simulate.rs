@@ -118,6 +118,12 @@ fn simulate_all(
 /// replaces the extension where it names another format. No output may be an input (`simulate d/a.png
 /// --out d/`) or another output (`x/a.png y/a.png`), and the PSF-map picture is checked with them.
 fn plan_outputs(args: &SimulateArgs) -> Result<Vec<(PathBuf, FileFormat)>> {
+    if args.out.exists() && !args.out.is_dir() {
+        bail!(
+            "--out {}: is a file; --out names the folder the simulated images are written to",
+            args.out.display()
+        );
+    }
     let mut plan = crate::outputs::plan(Some(args.lens.lens.as_str()));
     let mut outputs = Vec::with_capacity(args.images.len());
     for input in &args.images {
