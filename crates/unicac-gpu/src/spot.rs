@@ -6,7 +6,7 @@ use crate::device::GpuResult;
 use crate::source::{ParaxialAim, PupilSource, RaySource};
 use crate::trace::GpuTracer;
 use unicac_optics::Lens;
-use unicac_trace::spot::{centroid, rms_about};
+use unicac_trace::spot::SpotStatistics;
 use unicac_trace::{Aiming, PupilSampling, Spot, SpotTracer};
 
 /// Spots for every (field, wavelength) pair, fields varying fastest (as `unicac_trace::spots`).
@@ -57,13 +57,7 @@ pub fn spot(
         .map(|(r, _)| [r.position_mm[0], r.position_mm[1]])
         .collect();
     let chief = cpu.chief_intercept(field_deg);
-    let centre = centroid(&points_mm);
-    let farthest = |c: [f64; 2]| {
-        points_mm
-            .iter()
-            .map(|p| (p[0] - c[0]).hypot(p[1] - c[1]))
-            .fold(0.0, f64::max)
-    };
+    let statistics = SpotStatistics::of(&points_mm, chief);
     Ok(Spot {
         field_deg,
         field_x_deg: 0.0,
@@ -72,13 +66,11 @@ pub fn spot(
         rays_ok: points_mm.len(),
         rays_not_aimed,
         status_counts: traced.counts,
-        centroid_x_mm: centre.map(|c| c[0]),
-        centroid_y_mm: centre.map(|c| c[1]),
-        rms_radius_um: centre.map(|c| rms_about(&points_mm, c) * 1e3),
-        rms_radius_chief_um: chief
-            .filter(|_| !points_mm.is_empty())
-            .map(|c| rms_about(&points_mm, c) * 1e3),
-        geometric_radius_um: centre.map(|c| farthest(c) * 1e3),
+        centroid_x_mm: statistics.centroid_mm.map(|c| c[0]),
+        centroid_y_mm: statistics.centroid_mm.map(|c| c[1]),
+        rms_radius_um: statistics.rms_radius_um,
+        rms_radius_chief_um: statistics.rms_radius_chief_um,
+        geometric_radius_um: statistics.geometric_radius_um,
         chief_x_mm: chief.map(|c| c[0]),
         chief_y_mm: chief.map(|c| c[1]),
         points_mm,

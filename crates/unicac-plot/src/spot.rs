@@ -7,7 +7,6 @@ use crate::PlotError;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
-use unicac_trace::spot::centroid;
 use unicac_trace::Spot;
 
 const PANEL_SIZE: (u32, u32) = (340, 360);
@@ -21,17 +20,16 @@ pub fn spot_diagram(spots: &[Spot], path: &Path) -> Result<(), PlotError> {
     if spots.is_empty() {
         return Err(PlotError::InvalidInput("no spots to draw".into()));
     }
-    let largest_radius_mm = spots
+    let largest_radius_um = spots
         .iter()
-        .filter_map(|s| centroid(&s.points_mm).map(|c| (s, c)))
-        .flat_map(|(s, c)| s.points_mm.iter().map(move |p| (p[0] - c[0]).hypot(p[1] - c[1])))
+        .filter_map(|s| s.geometric_radius_um)
         .fold(0.0, f64::max);
     render(
         &SpotDiagram {
             spots,
             fields: style::distinct(spots.iter().map(|s| s.field_deg)),
             wavelengths: style::sorted_distinct(spots.iter().map(|s| s.wavelength_um)),
-            half_width_um: style::nice_ceiling(1.1 * largest_radius_mm * 1e3),
+            half_width_um: style::nice_ceiling(1.1 * largest_radius_um),
         },
         path,
     )
@@ -113,8 +111,8 @@ impl SpotDiagram<'_> {
             style::rank(&self.wavelengths, spot.wavelength_um),
             self.wavelengths.len(),
         );
-        match centroid(&spot.points_mm) {
-            Some([cx, cy]) => {
+        match spot.centroid_x_mm.zip(spot.centroid_y_mm) {
+            Some((cx, cy)) => {
                 let dot =
                     |p: &[f64; 2]| Circle::new(((p[0] - cx) * 1e3, (p[1] - cy) * 1e3), 1.6, colour.filled());
                 chart.draw_series(spot.points_mm.iter().map(dot))?;

@@ -116,22 +116,7 @@ impl SpotTracer {
             .iter()
             .fold(StatusCounts::default(), |all, part| all.merge(part.counts));
         let chief = self.chief_intercept_at(field);
-        let centroid = centroid(&points_mm);
-        // Three independent passes over the arrivals, run side by side (each in its own fixed order).
-        let statistic = |reference: Option<[f64; 2]>, of: fn(&[[f64; 2]], [f64; 2]) -> f64| {
-            reference
-                .filter(|_| !points_mm.is_empty())
-                .map(|c| of(&points_mm, c) * 1e3)
-        };
-        let (rms_radius_um, (rms_radius_chief_um, geometric_radius_um)) = rayon::join(
-            || statistic(centroid, rms_about),
-            || {
-                rayon::join(
-                    || statistic(chief, rms_about),
-                    || statistic(centroid, max_distance),
-                )
-            },
-        );
+        let statistics = SpotStatistics::of(&points_mm, chief);
         Spot {
             field_deg: field[1],
             field_x_deg: field[0],
@@ -140,11 +125,11 @@ impl SpotTracer {
             rays_ok: points_mm.len(),
             rays_not_aimed,
             status_counts,
-            centroid_x_mm: centroid.map(|c| c[0]),
-            centroid_y_mm: centroid.map(|c| c[1]),
-            rms_radius_um,
-            rms_radius_chief_um,
-            geometric_radius_um,
+            centroid_x_mm: statistics.centroid_mm.map(|c| c[0]),
+            centroid_y_mm: statistics.centroid_mm.map(|c| c[1]),
+            rms_radius_um: statistics.rms_radius_um,
+            rms_radius_chief_um: statistics.rms_radius_chief_um,
+            geometric_radius_um: statistics.geometric_radius_um,
             chief_x_mm: chief.map(|c| c[0]),
             chief_y_mm: chief.map(|c| c[1]),
             points_mm,
@@ -244,23 +229,118 @@ pub fn spots_at(
     Ok(spots)
 }
 
-pub fn centroid(points: &[[f64; 2]]) -> Option<[f64; 2]> {
-    if points.is_empty() {
-        return None;
-    }
-    let n = points.len() as f64;
-    let (sx, sy) = points
-        .iter()
-        .fold((0.0, 0.0), |(sx, sy), p| (sx + p[0], sy + p[1]));
-    Some([sx / n, sy / n])
+/// A spot's size figures from its arrivals (mm) and the chief ray's intercept: the one implementation
+/// behind the CPU and GPU spots.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpotStatistics {
+    pub centroid_mm: Option<[f64; 2]>,
+    /// RMS radius about the centroid.
+    pub rms_radius_um: Option<f64>,
+    /// RMS radius about the chief ray's intercept.
+    pub rms_radius_chief_um: Option<f64>,
+    /// Largest distance of an arrival from the centroid.
+    pub geometric_radius_um: Option<f64>,
 }
 
-pub fn rms_about(points: &[[f64; 2]], reference: [f64; 2]) -> f64 {
-    let sum: f64 = points
+impl SpotStatistics {
+    /// Two passes over the arrivals, each on every core: the centroid and both RMS radii from each
+    /// chunk's moments merged in chunk order (Chan et al.'s pairwise update: no cancellation of large
+    /// sums of squares, and the same digits whatever the threads), then the largest distance from the
+    /// centroid (an exact maximum, so chunking cannot change it). None where no ray arrived (and for
+    /// the chief radius, where the chief ray did not).
+    pub fn of(points_mm: &[[f64; 2]], chief_mm: Option<[f64; 2]>) -> SpotStatistics {
+        let Some(&origin) = points_mm.first() else {
+            return SpotStatistics {
+                centroid_mm: None,
+                rms_radius_um: None,
+                rms_radius_chief_um: None,
+                geometric_radius_um: None,
+            };
+        };
+        // Moments of the offsets from the first arrival: small numbers whose sums round far below an ulp
+        // of a spot's position off axis (the offsets themselves are exact by Sterbenz's lemma).
+        let parts: Vec<Moments> = points_mm
+            .par_chunks(SPOT_CHUNK)
+            .map(|chunk| Moments::of(chunk, origin, chief_mm))
+            .collect();
+        let all = parts.into_iter().fold(Moments::default(), Moments::merge);
+        let centroid_mm = [origin[0] + all.mean[0], origin[1] + all.mean[1]];
+        SpotStatistics {
+            centroid_mm: Some(centroid_mm),
+            rms_radius_um: Some((all.squared_deviations / all.count).sqrt() * 1e3),
+            rms_radius_chief_um: chief_mm.map(|_| (all.squared_to_chief / all.count).sqrt() * 1e3),
+            geometric_radius_um: Some(
+                points_mm
+                    .par_chunks(SPOT_CHUNK)
+                    .map(|chunk| max_distance(chunk, centroid_mm))
+                    .reduce(|| 0.0, f64::max)
+                    * 1e3,
+            ),
+        }
+    }
+}
+
+/// Count, mean offset from an origin and sums of squares of some arrivals: about their own mean, and
+/// about the chief ray's intercept (0 without one).
+#[derive(Debug, Clone, Copy, Default)]
+struct Moments {
+    count: f64,
+    mean: [f64; 2],
+    squared_deviations: f64,
+    squared_to_chief: f64,
+}
+
+impl Moments {
+    fn of(points: &[[f64; 2]], origin: [f64; 2], chief: Option<[f64; 2]>) -> Moments {
+        let offset = |p: &[f64; 2]| [p[0] - origin[0], p[1] - origin[1]];
+        let n = points.len() as f64;
+        let (sx, sy) = points
+            .iter()
+            .map(offset)
+            .fold((0.0, 0.0), |(sx, sy), d| (sx + d[0], sy + d[1]));
+        let mean = [sx / n, sy / n];
+        Moments {
+            count: n,
+            mean,
+            squared_deviations: points
+                .iter()
+                .map(|p| {
+                    let d = offset(p);
+                    (d[0] - mean[0]).powi(2) + (d[1] - mean[1]).powi(2)
+                })
+                .sum(),
+            squared_to_chief: chief.map_or(0.0, |c| squared_distance_sum(points, c)),
+        }
+    }
+
+    /// The moments of both sets of arrivals together (`self` first; Chan et al.'s update).
+    fn merge(self, other: Moments) -> Moments {
+        if other.count == 0.0 {
+            return self;
+        }
+        if self.count == 0.0 {
+            return other;
+        }
+        let count = self.count + other.count;
+        let delta = [other.mean[0] - self.mean[0], other.mean[1] - self.mean[1]];
+        let share = other.count / count;
+        Moments {
+            count,
+            mean: [self.mean[0] + delta[0] * share, self.mean[1] + delta[1] * share],
+            squared_deviations: self.squared_deviations
+                + other.squared_deviations
+                + (delta[0] * delta[0] + delta[1] * delta[1]) * self.count * share,
+            squared_to_chief: self.squared_to_chief + other.squared_to_chief,
+        }
+    }
+}
+
+/// Sum of squared distances of the points from `reference`.
+fn squared_distance_sum(points: &[[f64; 2]], reference: [f64; 2]) -> f64 {
+    points
         .iter()
         .map(|p| (p[0] - reference[0]).powi(2) + (p[1] - reference[1]).powi(2))
-        .sum();
-    (sum / points.len() as f64).sqrt()
+        .sum()
 }
 
 /// Largest distance of a point from `reference`, the largest of every point's `hypot`. hypot is a libm
@@ -428,6 +508,70 @@ pub fn real_working_f_number(lens: &Lens) -> TraceResult<Option<f64>> {
 mod tests {
     use super::*;
     use crate::pupil::{counter_hash, unit_interval};
+
+    #[test]
+    fn spot_statistics_match_compensated_sums_on_a_spot_far_off_axis() {
+        // Neumaier's compensated sum: a reference within an ulp or two of the exact sum.
+        let exact_sum = |values: &mut dyn Iterator<Item = f64>| {
+            let (mut sum, mut carried) = (0.0f64, 0.0f64);
+            for v in values {
+                let t = sum + v;
+                carried += if sum.abs() >= v.abs() {
+                    (sum - t) + v
+                } else {
+                    (v - t) + sum
+                };
+                sum = t;
+            }
+            sum + carried
+        };
+        // 300,001 arrivals 30 um across, 18 mm off axis (a real spot's shape of numbers), and an empty spot.
+        let points: Vec<[f64; 2]> = (0..300_001u64)
+            .map(|i| {
+                let u = unit_interval(counter_hash(9, 2 * i)) - 0.5;
+                let v = unit_interval(counter_hash(9, 2 * i + 1)) - 0.5;
+                [3e-6 + 0.03 * u, 18.134 + 0.03 * v * v]
+            })
+            .collect();
+        let chief = [1e-6, 18.1345];
+        let n = points.len() as f64;
+        let mean = [0, 1].map(|a| exact_sum(&mut points.iter().map(|p| p[a])) / n);
+        let rms_about = |r: [f64; 2]| {
+            (exact_sum(
+                &mut points
+                    .iter()
+                    .map(|p| (p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2)),
+            ) / n)
+                .sqrt()
+                * 1e3
+        };
+        let statistics = SpotStatistics::of(&points, Some(chief));
+        let centroid = statistics.centroid_mm.unwrap();
+        assert!((centroid[0] - mean[0]).abs() <= 1e-18, "{centroid:?} {mean:?}");
+        assert!(
+            (centroid[1] - mean[1]).abs() <= f64::EPSILON * mean[1],
+            "{centroid:?} {mean:?}"
+        );
+        let close = |ours: f64, reference: f64| (ours / reference - 1.0).abs() < 1e-14;
+        assert!(close(statistics.rms_radius_um.unwrap(), rms_about(mean)));
+        assert!(close(statistics.rms_radius_chief_um.unwrap(), rms_about(chief)));
+        let farthest = points
+            .iter()
+            .map(|p| (p[0] - mean[0]).hypot(p[1] - mean[1]))
+            .fold(0.0, f64::max);
+        assert!(close(statistics.geometric_radius_um.unwrap(), farthest * 1e3));
+        let empty = SpotStatistics::of(&[], Some(chief));
+        assert_eq!(
+            (
+                empty.centroid_mm,
+                empty.rms_radius_um,
+                empty.rms_radius_chief_um,
+                empty.geometric_radius_um
+            ),
+            (None, None, None, None)
+        );
+        assert_eq!(SpotStatistics::of(&points, None).rms_radius_chief_um, None);
+    }
 
     #[test]
     fn max_distance_equals_the_largest_hypot() {

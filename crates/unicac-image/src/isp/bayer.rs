@@ -226,37 +226,16 @@ pub fn demosaic(mosaic: &Planar, method: Demosaic) -> Result<Planar> {
         .zip(blue.par_chunks_mut(width))
         .enumerate()
         .for_each_init(RowScratch::default, |scratch, (y, ((r, g), b))| {
-            let rows: [usize; 5] =
-                std::array::from_fn(|j| reflect(y as isize + j as isize - 2, height) * width);
-            let mut out = [r, g, b];
+            let rows = reflected_rows(y, height, width);
+            let out = [r, g, b];
             if !interior.is_empty() {
                 scratch.split_rows(raw, &rows, width);
+                let own_row = &raw[y * width..(y + 1) * width];
                 for parity in 0..2 {
                     let site = 2 * (y % 2) + parity;
-                    // Interior columns of this parity: x = 2k + parity for k in ks.
-                    let ks = 1..(width - 1 - parity) / 2;
                     for (channel, taps) in plan[site].iter().enumerate() {
-                        let out = &mut out[channel];
-                        match taps {
-                            None => ks.clone().for_each(|k| {
-                                let x = 2 * k + parity;
-                                out[x] = raw[y * width + x];
-                            }),
-                            Some(taps) => {
-                                scratch.sums.clear();
-                                scratch.sums.resize(ks.len(), 0.0);
-                                arch.dispatch(HalfRowSums {
-                                    taps,
-                                    halves: &scratch.halves,
-                                    parity,
-                                    first_k: ks.start,
-                                    sums: &mut scratch.sums,
-                                });
-                                for (k, &sum) in ks.clone().zip(&scratch.sums) {
-                                    out[2 * k + parity] = sum;
-                                }
-                            }
-                        }
+                        let half = InteriorHalfRow { parity, width };
+                        half.fill(out[channel], taps.as_deref(), own_row, scratch, arch);
                     }
                 }
             }
@@ -268,6 +247,51 @@ pub fn demosaic(mosaic: &Planar, method: Demosaic) -> Result<Planar> {
             }
         });
     Ok(rgb)
+}
+
+/// Start offsets of the five rows y - 2 ..= y + 2 that row y's taps read, mirrored at the borders.
+fn reflected_rows(y: usize, height: usize, width: usize) -> [usize; 5] {
+    std::array::from_fn(|j| reflect(y as isize + j as isize - 2, height) * width)
+}
+
+/// The interior columns of one parity in one output row: x = 2k + parity for k in 1 .. (width - 1 -
+/// parity) / 2, the columns whose taps all lie inside the row.
+struct InteriorHalfRow {
+    parity: usize,
+    width: usize,
+}
+
+impl InteriorHalfRow {
+    /// Writes this half of one channel's output row: the site's own sample (`taps` None, read from
+    /// `own_row`) or its tap sums over the halves `scratch` holds for this row.
+    fn fill(
+        &self,
+        out: &mut [f32],
+        taps: Option<&[(usize, usize, f32)]>,
+        own_row: &[f32],
+        scratch: &mut RowScratch,
+        arch: pulp::Arch,
+    ) {
+        let parity = self.parity;
+        let ks = 1..(self.width - 1 - parity) / 2;
+        match taps {
+            None => ks.for_each(|k| out[2 * k + parity] = own_row[2 * k + parity]),
+            Some(taps) => {
+                scratch.sums.clear();
+                scratch.sums.resize(ks.len(), 0.0);
+                arch.dispatch(HalfRowSums {
+                    taps,
+                    halves: &scratch.halves,
+                    parity,
+                    first_k: ks.start,
+                    sums: &mut scratch.sums,
+                });
+                for (k, &sum) in ks.zip(&scratch.sums) {
+                    out[2 * k + parity] = sum;
+                }
+            }
+        }
+    }
 }
 
 /// Reflected column index of tap offset i (x - 2 .. x + 2) at column x: entry x + i.
@@ -299,19 +323,29 @@ fn demosaiced_sample(
 }
 
 /// A [`demosaic`] task's buffers, reused from row to row: the five rows it reads, split into even and
-/// odd columns, and the sums of one half row.
+/// odd columns, which rows those are, and the sums of one half row.
 #[derive(Default)]
 struct RowScratch {
     halves: [[Vec<f32>; 2]; 5],
+    loaded: Option<[usize; 5]>,
     sums: Vec<f32>,
 }
 
 impl RowScratch {
-    /// `halves[j][h][m]` = sample 2m + h of the row starting at `rows[j]`.
+    /// `halves[j][h][m]` = sample 2m + h of the row starting at `rows[j]`. A task's rows mostly come one
+    /// after another, so the window rolls: four of the five rows are kept and only the new one is split.
     fn split_rows(&mut self, raw: &[f32], rows: &[usize; 5], width: usize) {
-        for (halves, &start) in self.halves.iter_mut().zip(rows) {
-            let row = &raw[start..start + width];
-            for (h, half) in halves.iter_mut().enumerate() {
+        let rolls_by_one = self.loaded.is_some_and(|loaded| loaded[1..] == rows[..4]);
+        let fresh = if rolls_by_one {
+            self.halves.rotate_left(1);
+            4..5
+        } else {
+            0..5
+        };
+        self.loaded = Some(*rows);
+        for j in fresh {
+            let row = &raw[rows[j]..rows[j] + width];
+            for (h, half) in self.halves[j].iter_mut().enumerate() {
                 half.clear();
                 half.extend(row.iter().skip(h).step_by(2));
             }
@@ -401,8 +435,7 @@ mod tests {
                 let plan = demosaic_taps(method);
                 let rgb = demosaic(&mosaic, method).unwrap();
                 for y in 0..height {
-                    let rows: [usize; 5] =
-                        std::array::from_fn(|j| reflect(y as isize + j as isize - 2, height) * width);
+                    let rows = reflected_rows(y, height, width);
                     for x in 0..width {
                         let site = 2 * (y % 2) + x % 2;
                         for (c, taps) in plan[site].iter().enumerate() {

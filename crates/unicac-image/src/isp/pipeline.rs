@@ -23,6 +23,7 @@ use crate::error::{check_layout, ImageError, Result};
 use crate::io::Encoding;
 use crate::quantise::quantise;
 use crate::Planar;
+use rayon::prelude::*;
 use std::borrow::Cow;
 use unicac_io::counter_random::derive_seed;
 
@@ -131,7 +132,7 @@ impl Pipeline {
             // Optics only: with no ISP and no noise there is nothing for the sensor to add but its
             // digitisation, and a user who switched both off asks for the optics at full precision.
             let mut exposure = raw_rgb.clone();
-            exposure.data.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
+            exposure.data.par_iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0)); // saturates before the gains
             apply_white_balance_in_place(&mut exposure, draw.gains)?;
             exposure
         } else if self.no_isp {
