@@ -258,7 +258,7 @@ impl SpotStatistics {
             };
         };
         // Moments of the offsets from the first arrival: small numbers whose sums round far below an ulp
-        // of a spot's position off axis (the offsets themselves are exact by Sterbenz's lemma).
+        // of a spot's position off axis (where the offsets themselves are exact, by Sterbenz's lemma).
         let parts: Vec<Moments> = points_mm
             .par_chunks(SPOT_CHUNK)
             .map(|chunk| Moments::of(chunk, origin, chief_mm))
