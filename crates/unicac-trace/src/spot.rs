@@ -231,7 +231,7 @@ pub fn spots_at(
 
 /// A spot's size figures from its arrivals (mm) and the chief ray's intercept: the one implementation
 /// behind the CPU and GPU spots.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SpotStatistics {
     pub centroid_mm: Option<[f64; 2]>,
     /// RMS radius about the centroid.
@@ -250,12 +250,7 @@ impl SpotStatistics {
     /// the chief radius, where the chief ray did not).
     pub fn of(points_mm: &[[f64; 2]], chief_mm: Option<[f64; 2]>) -> SpotStatistics {
         let Some(&origin) = points_mm.first() else {
-            return SpotStatistics {
-                centroid_mm: None,
-                rms_radius_um: None,
-                rms_radius_chief_um: None,
-                geometric_radius_um: None,
-            };
+            return SpotStatistics::default(); // no arrival: every figure None
         };
         // Moments of the offsets from the first arrival: small numbers whose sums round far below an ulp
         // of a spot's position off axis (where the offsets themselves are exact, by Sterbenz's lemma).

@@ -233,8 +233,8 @@ pub fn demosaic(mosaic: &Planar, method: Demosaic) -> Result<Planar> {
                 let own_row = &raw[y * width..(y + 1) * width];
                 for parity in 0..2 {
                     let site = 2 * (y % 2) + parity;
+                    let half = InteriorHalfRow { parity, width };
                     for (channel, taps) in plan[site].iter().enumerate() {
-                        let half = InteriorHalfRow { parity, width };
                         half.fill(out[channel], taps.as_deref(), own_row, scratch, arch);
                     }
                 }
