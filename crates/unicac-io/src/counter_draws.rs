@@ -93,29 +93,85 @@ impl CounterStream {
     // `floor` is one instruction rather than a libm call.
     #[inline(always)]
     fn poisson_ptrs(&mut self, mean: f64) -> f64 {
-        let b = 0.931 + 2.53 * mean.sqrt();
-        let a = -0.059 + 0.02483 * b;
-        let v_r = 0.9277 - 3.6224 / (b - 2.0);
+        let ptrs = Ptrs::new(mean);
         for _ in 0..MAX_STEPS {
-            let u = self.uniform() - 0.5;
-            let v = self.uniform();
-            let us = 0.5 - u.abs();
-            let k = ((2.0 * a / us + b) * u + mean + 0.43).floor();
-            if us >= 0.07 && v <= v_r {
-                return k;
+            let attempt = ptrs.attempt(mean, self.uniform(), self.uniform());
+            if attempt.squeezed {
+                return attempt.k;
             }
+            let (k, us, v) = (attempt.k, attempt.us, attempt.v);
             if k < 0.0 || (us < 0.013 && v > us) {
                 continue;
             }
             // The exact test (~0.8 per draw at a mean of 10, ~0.2 at large means), whose logarithms
             // the squeeze above spares.
-            let inverse_alpha = 1.1239 + 1.1328 / (b - 3.4);
-            let log_accept = (v * inverse_alpha / (a / (us * us) + b)).ln();
+            let inverse_alpha = 1.1239 + 1.1328 / (ptrs.b - 3.4);
+            let log_accept = (v * inverse_alpha / (ptrs.a / (us * us) + ptrs.b)).ln();
             if log_accept <= ln_poisson_probability(k, mean) {
                 return k;
             }
         }
         mean.round()
+    }
+}
+
+/// A Poisson draw of `mean` then a standard normal draw from the fresh stream `seed`, in their common
+/// case only and without a branch, so that a loop over samples vectorises: the first PTRS attempt
+/// accepted by its squeeze (~35% of draws at a mean of 10, ~80% at large means) and a normal quantile
+/// from Acklam's central branch (95%): 68% of pairs at a mean of 250, 74% at 6,000. Returns (Poisson, normal, taken): when `taken`, the pair is what
+/// `CounterStream::new(seed)` gives by `poisson(mean)` then `standard_normal()`, bit for bit (the same
+/// functions compute it); otherwise the values mean nothing and the caller draws the sequential way.
+#[inline(always)]
+pub fn common_poisson_then_normal(seed: u64, mean: f64) -> (f64, f64, bool) {
+    let uniform = |counter| unit_interval(counter_hash(seed, counter));
+    let attempt = Ptrs::new(mean).attempt(mean, uniform(0), uniform(1));
+    let p = open_unit_interval(counter_hash(seed, 2));
+    let taken = (POISSON_INVERSION_BELOW..f64::INFINITY).contains(&mean)
+        & attempt.squeezed
+        & (P_LOW..=1.0 - P_LOW).contains(&p);
+    (attempt.k, central_normal_quantile(p), taken)
+}
+
+/// Hörmann's PTRS constants for one mean.
+#[derive(Clone, Copy)]
+struct Ptrs {
+    b: f64,
+    a: f64,
+    v_r: f64,
+}
+
+/// One PTRS attempt: the candidate `k` from the attempt's two uniforms, and whether the squeeze
+/// accepts it without the exact test.
+struct PtrsAttempt {
+    k: f64,
+    us: f64,
+    v: f64,
+    squeezed: bool,
+}
+
+impl Ptrs {
+    #[inline(always)]
+    fn new(mean: f64) -> Self {
+        let b = 0.931 + 2.53 * mean.sqrt();
+        Ptrs {
+            b,
+            a: -0.059 + 0.02483 * b,
+            v_r: 0.9277 - 3.6224 / (b - 2.0),
+        }
+    }
+
+    /// The attempt whose uniforms (in [0, 1)) are `first` and `v`; branch-free.
+    #[inline(always)]
+    fn attempt(&self, mean: f64, first: f64, v: f64) -> PtrsAttempt {
+        let u = first - 0.5;
+        let us = 0.5 - u.abs();
+        let k = ((2.0 * self.a / us + self.b) * u + mean + 0.43).floor();
+        PtrsAttempt {
+            k,
+            us,
+            v,
+            squeezed: (us >= 0.07) & (v <= self.v_r),
+        }
     }
 }
 
@@ -125,9 +181,43 @@ pub fn open_unit_interval(bits: u64) -> f64 {
     ((bits >> 12) as f64 + 0.5) * (1.0 / (1u64 << 52) as f64)
 }
 
+/// Below this p (and above 1 - P_LOW) Acklam's quantile takes its tail branch.
+const P_LOW: f64 = 0.02425;
+
 /// The standard normal quantile at p in (0, 1) (Acklam's algorithm: a rational function of p in the
 /// centre, of sqrt(-2 ln q) in the tails below 0.02425 and above 0.97575).
 pub fn inverse_normal_cdf(p: f64) -> f64 {
+    const C: [f64; 6] = [
+        -7.784894002430293e-3,
+        -3.223964580411365e-1,
+        -2.400758277161838,
+        -2.549732539343734,
+        4.374664141464968,
+        2.938163982698783,
+    ];
+    const D: [f64; 4] = [
+        7.784695709041462e-3,
+        3.224671290700398e-1,
+        2.445134137142996,
+        3.754408661907416,
+    ];
+    let tail = |q: f64| {
+        let t = (-2.0 * q.ln()).sqrt();
+        (((((C[0] * t + C[1]) * t + C[2]) * t + C[3]) * t + C[4]) * t + C[5])
+            / ((((D[0] * t + D[1]) * t + D[2]) * t + D[3]) * t + 1.0)
+    };
+    if p < P_LOW {
+        tail(p)
+    } else if p <= 1.0 - P_LOW {
+        central_normal_quantile(p)
+    } else {
+        -tail(1.0 - p)
+    }
+}
+
+/// Acklam's central branch, for P_LOW <= p <= 1 - P_LOW.
+#[inline(always)]
+fn central_normal_quantile(p: f64) -> f64 {
     const A: [f64; 6] = [
         -3.969683028665376e1,
         2.209460984245205e2,
@@ -143,36 +233,10 @@ pub fn inverse_normal_cdf(p: f64) -> f64 {
         6.680131188771972e1,
         -1.328068155288572e1,
     ];
-    const C: [f64; 6] = [
-        -7.784894002430293e-3,
-        -3.223964580411365e-1,
-        -2.400758277161838,
-        -2.549732539343734,
-        4.374664141464968,
-        2.938163982698783,
-    ];
-    const D: [f64; 4] = [
-        7.784695709041462e-3,
-        3.224671290700398e-1,
-        2.445134137142996,
-        3.754408661907416,
-    ];
-    const P_LOW: f64 = 0.02425;
-    let tail = |q: f64| {
-        let t = (-2.0 * q.ln()).sqrt();
-        (((((C[0] * t + C[1]) * t + C[2]) * t + C[3]) * t + C[4]) * t + C[5])
-            / ((((D[0] * t + D[1]) * t + D[2]) * t + D[3]) * t + 1.0)
-    };
-    if p < P_LOW {
-        tail(p)
-    } else if p <= 1.0 - P_LOW {
-        let q = p - 0.5;
-        let r = q * q;
-        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
-            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
-    } else {
-        -tail(1.0 - p)
-    }
+    let q = p - 0.5;
+    let r = q * q;
+    (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
+        / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
 }
 
 /// ln(k!) for a whole number k >= 0: sums of logarithms below 10, Stirling's series of ln Γ(k + 1)
@@ -375,6 +439,48 @@ mod tests {
             "variance {}",
             squares / n
         );
+    }
+
+    #[test]
+    fn the_common_case_gives_the_sequential_draws_bit_for_bit() {
+        for mean in [
+            9.99f64,
+            10.0,
+            17.3,
+            250.0,
+            6000.0,
+            400_000.0,
+            f64::INFINITY,
+            0.0,
+            f64::NAN,
+        ] {
+            let draws = 20_000u64;
+            let mut taken_count = 0u64;
+            for i in 0..draws {
+                let seed = derive_seed(31, i);
+                let (poisson, normal, taken) = common_poisson_then_normal(seed, mean);
+                if taken {
+                    taken_count += 1;
+                    let mut stream = CounterStream::new(seed);
+                    let sequential = (stream.poisson(mean), stream.standard_normal());
+                    assert_eq!(
+                        (poisson.to_bits(), normal.to_bits()),
+                        (sequential.0.to_bits(), sequential.1.to_bits()),
+                        "mean {mean}, draw {i}"
+                    );
+                }
+            }
+            let share = taken_count as f64 / draws as f64;
+            eprintln!("mean {mean}: common case {share:.3}");
+            // Inversion's means, the infinite and the empty mean are never taken; PTRS's squeeze accepts
+            // ~35% of first attempts at a mean of 10 and ~80% at large means, the normal's centre holds
+            // 95% (this seed: 33% of pairs at 10, 68% at 250, 74% at 6000).
+            if (10.0..f64::INFINITY).contains(&mean) {
+                assert!(share > 0.3, "mean {mean}: common case {share}");
+            } else {
+                assert_eq!(taken_count, 0, "mean {mean}");
+            }
+        }
     }
 
     #[test]
