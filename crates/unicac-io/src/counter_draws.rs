@@ -95,11 +95,12 @@ impl CounterStream {
     fn poisson_ptrs(&mut self, mean: f64) -> f64 {
         let ptrs = Ptrs::new(mean);
         for _ in 0..MAX_STEPS {
-            let attempt = ptrs.attempt(mean, self.uniform(), self.uniform());
+            let (first, v) = (self.uniform(), self.uniform());
+            let attempt = ptrs.attempt(mean, first, v);
             if attempt.squeezed {
                 return attempt.k;
             }
-            let (k, us, v) = (attempt.k, attempt.us, attempt.v);
+            let (k, us) = (attempt.k, attempt.us);
             if k < 0.0 || (us < 0.013 && v > us) {
                 continue;
             }
@@ -140,12 +141,11 @@ struct Ptrs {
     v_r: f64,
 }
 
-/// One PTRS attempt: the candidate `k` from the attempt's two uniforms, and whether the squeeze
-/// accepts it without the exact test.
+/// One PTRS attempt: the candidate `k`, the distance `us` of the first uniform from the ends, and
+/// whether the squeeze accepts `k` without the exact test.
 struct PtrsAttempt {
     k: f64,
     us: f64,
-    v: f64,
     squeezed: bool,
 }
 
@@ -169,7 +169,6 @@ impl Ptrs {
         PtrsAttempt {
             k,
             us,
-            v,
             squeezed: (us >= 0.07) & (v <= self.v_r),
         }
     }
