@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Installs what unicac needs on a fresh Debian 12 machine and checks the Rust toolchain.
+# Installs what unicac needs on a fresh Debian 12 machine and checks the Rust toolchain (g++: the
+# kernels of `unicac-train train --compile on`).
 # Idempotent: apt runs only when a package is missing. Sourced by demo.sh and test.sh.
 set -euo pipefail
 
-APT_PACKAGES=(pkg-config libfontconfig1-dev libfreetype-dev fonts-dejavu-core mesa-vulkan-drivers libvulkan1 python3-venv)
+APT_PACKAGES=(pkg-config g++ libfontconfig1-dev libfreetype-dev fonts-dejavu-core mesa-vulkan-drivers libvulkan1 python3-venv)
 MIN_RUST_MINOR=89   # workspace rust-version 1.89 (AVX-512 target features, pulp x86-v4)
 
 missing=()

@@ -4,6 +4,7 @@ minutes on 2 cores. Skipped only when torch is not importable."""
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import signal
@@ -460,6 +461,43 @@ def test_resume_after_an_interruption_gives_the_same_weights(tmp_path, dataset, 
     other["train"]["optim"]["lr"] = 0.5
     with pytest.raises(RunError, match="config differs"):
         Trainer(config_mod.validate(other), tmp_path / "nafnet-killed", resume=True, quiet=True)
+
+
+def test_a_compiled_training_step_trains_as_the_eager_one_and_resumes_bit_identically(tmp_path, dataset):
+    """`train.compile: on` (torch.compile): the same run as eager steps up to float rounding, the same
+    config hash (a session setting), and deterministic: a resumed run reaches bit-identical weights."""
+    eager = tiny_config("nafnet", dataset)
+    # One level and block: a graph that compiles in seconds, with every kind of NAFNet layer.
+    eager["network"].update(width=8, enc_blocks=[1], middle_blocks=1, dec_blocks=[1])
+    eager["train"]["allow_small_receptive_field"] = True
+    eager = config_mod.validate(eager)
+    compiled = copy.deepcopy(eager)
+    compiled["train"]["compile"] = "on"
+    assert config_mod.sha256(compiled) == config_mod.sha256(eager)
+    Trainer(eager, tmp_path / "eager", quiet=True).train()
+    Trainer(compiled, tmp_path / "straight", quiet=True).train()
+    Trainer(compiled, tmp_path / "killed", quiet=True).train(stop_after=5)  # checkpoint at 4, then "killed"
+    Trainer(compiled, tmp_path / "killed", resume=True, quiet=True).train()
+    a, b, c = (_weights(tmp_path / run) for run in ("straight", "killed", "eager"))
+    assert a["iteration"] == b["iteration"] == c["iteration"] == 6
+    for name, value in a["net"].items():
+        assert torch.equal(value, b["net"][name]), f"resumed: net.{name}"
+        assert torch.allclose(value, c["net"][name], rtol=0, atol=1e-4), f"eager: net.{name}"
+
+    def losses(run: str) -> list[float]:
+        log = [json.loads(x) for x in (tmp_path / run / "log.jsonl").read_text().splitlines()]
+        return [r["loss"] for r in log if r["kind"] == "train"]
+
+    assert losses("straight") == pytest.approx(losses("eager"), rel=1e-4)
+
+
+def test_compile_without_a_cpp_compiler_is_refused_before_any_work(tmp_path, dataset, monkeypatch):
+    config = tiny_config("nafnet", dataset)
+    config["train"]["compile"] = "on"
+    monkeypatch.setenv("CXX", str(tmp_path / "no-such-compiler"))
+    with pytest.raises(config_mod.ConfigError, match="train.compile: on needs a C\\+\\+ compiler"):
+        Trainer(config_mod.validate(config), tmp_path / "run", quiet=True)
+    assert not (tmp_path / "run").exists()
 
 
 def test_resume_after_sigkill(tmp_path, dataset):

@@ -63,6 +63,7 @@ def _config_from_args(args: argparse.Namespace) -> dict[str, Any]:
     overrides = [(train, "total_iter", args.iters), (data, "patch_px", args.patch_px), (data, "batch_size", args.batch),
                  (data, "num_workers", args.workers), (train, "time_budget_s", args.time_budget_s),
                  (train, "device", args.device), (train, "amp", args.amp), (train, "channels_last", args.channels_last),
+                 (train, "compile", args.compile),
                  (config["path"], "pretrain_network_g", args.init_from)]
     for section, key, value in overrides:
         if value is not None:
@@ -195,6 +196,9 @@ def parser() -> argparse.ArgumentParser:
     t.add_argument("--amp", choices=("auto", "off", "bf16", "fp16"), help="mixed precision (replaces train.amp; auto: "
                    "bf16 or fp16 on a GPU, off on CPU)")
     t.add_argument("--channels-last", choices=("auto", "on", "off"), help="replaces train.channels_last (auto: on for cuda)")
+    t.add_argument("--compile", choices=("on", "off"), help="torch.compile the training step (replaces train.compile; "
+                   "default off): about a minute of compiling, then 1.2-1.6x faster steps on CPU (nafnet, wiener-nafnet "
+                   "at 128 and 256 px); needs a C++ compiler")
     t.add_argument("--init-from", help="a finished run folder, a checkpoint or an exported model (.onnx, e.g. "
                    "models/bench-small/NAME.onnx) whose weights start this run (replaces path.pretrain_network_g: "
                    "fine-tuning)")

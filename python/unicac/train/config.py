@@ -93,6 +93,10 @@ SCHEMA: dict[str, Any] = {
         "device": _f(str, "auto", choices=("auto", "cpu", "cuda")),
         "amp": _f(str, "auto", choices=("auto", "off", "bf16", "fp16")),
         "channels_last": _f(str, "auto", choices=("auto", "on", "off")),
+        # torch.compile of the training step (Inductor: fused kernels; needs a C++ compiler on CPU). About
+        # a minute of compiling first, then 1.2-1.6x the steps per second of eager steps on 2 CPU cores at
+        # 128 and 256 px (docs/models.md). A session setting: rounding differs slightly from eager steps.
+        "compile": _f(str, "off", choices=("off", "on")),
         # Exponential moving average of the generator's weights (validated and exported when set).
         "ema_decay": _f((float, type(None)), None, low=0.0, high=0.999999),
         # Refuse (false) or only warn (true): a patch under twice the dataset's largest PSF kernel, a
@@ -271,7 +275,7 @@ def shipped(model: str) -> Path:
 
 
 #: Settings of one session, not of the run: a resumed run may change them (left out of the hash).
-SESSION_KEYS = ("time_budget_s", "allow_small_patch", "allow_small_receptive_field", "allow_misaligned")
+SESSION_KEYS = ("time_budget_s", "allow_small_patch", "allow_small_receptive_field", "allow_misaligned", "compile")
 
 
 def without_session(config: dict[str, Any]) -> dict[str, Any]:

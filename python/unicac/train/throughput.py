@@ -3,7 +3,7 @@ of the data sources that feed it (the figures in docs/models.md):
 
     python -m unicac.train.throughput [--patches 128 256] [--batch 4] [--models nafnet restormer ...]
         [--lenses builtin:cooke_triplet ...] [--dataset DIR] [--frame 512x384] [--samples 20]
-        [--steps 3] [--gpu-tflops T --paper-iters 200000 --paper-batch 32] [--json]
+        [--steps 3] [--compile on|off] [--gpu-tflops T --paper-iters 200000 --paper-batch 32] [--json]
 
 Per model and patch size: the mean time of `--steps` optimiser steps (forward, L1 loss, backward,
 AdamW) after one warm-up step, as samples/s, and the training FLOPs of one sample (the forward
@@ -59,15 +59,20 @@ def forward_flops(net: Any, patch: int) -> int:
     return int(counter.get_total_flops())
 
 
-def step_seconds(net: Any, batch: int, patch: int, steps: int) -> float:
-    """Mean seconds of one optimiser step (after a warm-up step)."""
+def step_seconds(net: Any, batch: int, patch: int, steps: int, compile_step: bool = False) -> float:
+    """Mean seconds of one optimiser step (after a warm-up step, which compiles the step when
+    `compile_step`: what `train.compile: on` runs)."""
     optimiser = torch.optim.AdamW(net.parameters(), 1e-4)
+    forward = net.training_outputs
+    if compile_step:
+        torch._dynamo.reset()  # a graph for this size alone, as a training run has
+        forward = torch.compile(forward)
     x = _inputs(net, batch, patch)
     gt = torch.rand(batch, 3, patch, patch)
 
     def step() -> None:
         maps = {k: v for k, v in x.items() if k != "lq"}
-        out = net.training_outputs(x["lq"], **maps)
+        out = forward(x["lq"], **maps)
         loss = torch.nn.functional.l1_loss(out["restored"], gt)
         if "prediction" in out:
             loss = loss + torch.nn.functional.l1_loss(out["prediction"], maps[net.predicts])
@@ -117,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--gpu-tflops", type=float, help="project the paper's recipe onto a GPU sustaining this many TFLOP/s")
     p.add_argument("--paper-iters", type=int, default=200_000)
     p.add_argument("--paper-batch", type=int, default=32)
+    p.add_argument("--compile", choices=("on", "off"), default="off",
+                   help="time the step through torch.compile, as `unicac-train train --compile on` runs it")
     p.add_argument("--json", action="store_true")
     args = p.parse_args(argv)
     if not 1 <= args.samples <= MAX_SAMPLES:
@@ -141,15 +148,20 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _measure(args: argparse.Namespace) -> int:
+    if args.compile == "on":
+        from .models.trainer import require_cpp_compiler
+
+        require_cpp_compiler("--compile on")
     names = args.models or sorted(path.stem for path in config_mod.CONFIG_DIR.glob("*.yml"))
     configs = {name: config_mod.load(config_mod.shipped(name)) for name in names}  # bad names fail first
-    report: dict[str, Any] = {"threads": torch.get_num_threads(), "batch": args.batch, "data": _data_rates(args), "models": []}
+    report: dict[str, Any] = {"threads": torch.get_num_threads(), "batch": args.batch, "compile": args.compile,
+                              "data": _data_rates(args), "models": []}
     for name, config in configs.items():
         torch.manual_seed(0)
         net = build_network(config["network"])
         row: dict[str, Any] = {"model": name, "params": count_parameters(net), "sizes": {}}
         for patch in args.patches:
-            seconds = step_seconds(net, args.batch, patch, args.steps)
+            seconds = step_seconds(net, args.batch, patch, args.steps, compile_step=args.compile == "on")
             flops = 3 * forward_flops(net, patch)
             row["sizes"][str(patch)] = {"step_s": seconds, "samples_per_s": args.batch / seconds, "train_gflops_per_sample": flops / 1e9}
         if args.gpu_tflops:
@@ -161,7 +173,8 @@ def _measure(args: argparse.Namespace) -> int:
         return 0
     for row in report["data"]:
         print(f"data {row['source']:<38} {row['patch_px']:4d} px {row['samples_per_s']:8.1f} samples/s (one worker)")
-    print(f"training step: batch {args.batch}, {report['threads']} threads")
+    compiled = ", torch.compile" if args.compile == "on" else ""
+    print(f"training step: batch {args.batch}, {report['threads']} threads{compiled}")
     for row in report["models"]:
         sizes = "  ".join(f"{p} px: {v['samples_per_s']:6.2f} samples/s ({v['train_gflops_per_sample']:.1f} GFLOP/sample)"
                           for p, v in row["sizes"].items())
