@@ -491,6 +491,18 @@ def test_a_compiled_training_step_trains_as_the_eager_one_and_resumes_bit_identi
     assert losses("straight") == pytest.approx(losses("eager"), rel=1e-4)
 
 
+def test_unquoted_on_and_off_in_a_yaml_config_are_the_words(tmp_path, dataset):
+    import yaml
+
+    config = tiny_config("nafnet", dataset)
+    config["train"].update(yaml.safe_load("{compile: on, channels_last: off}"))  # YAML gives True, False
+    resolved = config_mod.validate(config)
+    assert (resolved["train"]["compile"], resolved["train"]["channels_last"]) == ("on", "off")
+    config["train"]["amp"] = True  # amp's words are not on / off: still refused
+    with pytest.raises(config_mod.ConfigError, match="train.amp: expected str, got bool"):
+        config_mod.validate(config)
+
+
 def test_compile_without_a_cpp_compiler_is_refused_before_any_work(tmp_path, dataset, monkeypatch):
     config = tiny_config("nafnet", dataset)
     config["train"]["compile"] = "on"

@@ -139,6 +139,9 @@ SCHEMA: dict[str, Any] = {
 
 
 def _check_value(key: str, field: Field, value: Any) -> Any:
+    # YAML 1.1 reads an unquoted on / off as a boolean: where a field's words are on and off, take it so.
+    if isinstance(value, bool) and field.choices is not None and {"on", "off"} <= set(field.choices):
+        value = "on" if value else "off"
     # bool is an int in Python: refuse it where a number is expected, and ints where a bool is.
     ok = isinstance(value, field.types) and not (isinstance(value, bool) and bool not in field.types)
     if not ok:
