@@ -65,7 +65,7 @@ def step_seconds(net: Any, batch: int, patch: int, steps: int, compile_step: boo
     optimiser = torch.optim.AdamW(net.parameters(), 1e-4)
     forward = net.training_outputs
     if compile_step:
-        torch._dynamo.reset()  # a graph for this size alone, as a training run has
+        torch.compiler.reset()  # a graph for this size alone, as a training run has
         forward = torch.compile(forward)
     x = _inputs(net, batch, patch)
     gt = torch.rand(batch, 3, patch, patch)

@@ -260,8 +260,9 @@ impl Digitiser {
 ///
 /// With noise, each block of [`LANE_BLOCK`] samples is read out twice over: first every sample in the
 /// draws' common case by a loop without branches, which the compiler vectorises, then the samples
-/// outside it (dark ones, rejected first attempts, normal tails: ~15-20% in a typical image) one at a
-/// time by the sequential draws. Both give the same bits for a sample that either can read.
+/// outside it (dark ones, first attempts left to the exact test, normal tails: a quarter of bright
+/// samples, more of dark ones) one at a time by the sequential draws. Both give the same bits for a
+/// sample that either can read.
 struct ReadOutChunk<'a> {
     digitiser: Digitiser,
     first_index: u64,
