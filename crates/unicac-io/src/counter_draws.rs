@@ -119,9 +119,11 @@ impl CounterStream {
 /// A Poisson draw of `mean` then a standard normal draw from the fresh stream `seed`, in their common
 /// case only and without a branch, so that a loop over samples vectorises: the first PTRS attempt
 /// accepted by its squeeze (~35% of draws at a mean of 10, ~80% at large means) and a normal quantile
-/// from Acklam's central branch (95%): 68% of pairs at a mean of 250, 74% at 6,000. Returns (Poisson, normal, taken): when `taken`, the pair is what
-/// `CounterStream::new(seed)` gives by `poisson(mean)` then `standard_normal()`, bit for bit (the same
-/// functions compute it); otherwise the values mean nothing and the caller draws the sequential way.
+/// from Acklam's central branch (95%): 68% of pairs at a mean of 250, 74% at 6,000.
+///
+/// Returns (Poisson, normal, taken): when `taken`, the pair is what `CounterStream::new(seed)` gives by
+/// `poisson(mean)` then `standard_normal()`, bit for bit (the same functions compute it); otherwise the
+/// values mean nothing and the caller draws the sequential way.
 #[inline(always)]
 pub fn common_poisson_then_normal(seed: u64, mean: f64) -> (f64, f64, bool) {
     let uniform = |counter| unit_interval(counter_hash(seed, counter));
