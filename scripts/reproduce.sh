@@ -7,9 +7,15 @@
 # Usage: scripts/reproduce.sh [--scale tiny|cpu|small|paper-test|paper] [--out DIR] [--ray WORKERS]
 #        [--images DIR --test-images DIR] [--models-from DIR]
 #        [--time-budget-s S]   (per model and session: training stops cleanly and exports what it reached)
+#        [--iters N]   (training iterations per model instead of the scale's; not with --models-from)
+#        [--models NAME,NAME...]   (only these of the scale's models, trained and benchmarked in the scale's
+#        order: e.g. restormer in a second process beside the rest; a run folder trains in one process)
+#        [--compile on|off]   (unicac-train --compile: the training step through torch.compile, 1.2-1.6x
+#        faster on CPU after about a minute of compiling per model; default off)
 #        [--design-evaluations N]   (design with `--evaluations-per-spec N` instead of the scale's wall-clock
 #        budget: a library that is the same on any machine and under any load, docs/design.md; another
-#        library than the clock-budgeted default, so other test lenses)
+#        library than the clock-budgeted default, so other test lenses; the small scale's default is
+#        1000000)
 #        [--psf-basis-from DATASET]   (with --models-from: the dataset the models were trained on, whose PSF
 #        basis the new dataset adopts so that psf_code models read codes they know, and none of whose
 #        training or validation lenses it may hold; default: the dataset folder beside the models folder)
@@ -23,13 +29,15 @@
 # exports and the report are redone only when missing). Each stage's wall time goes to OUT/timings.tsv.
 # --ray N runs design and dataset on Ray (`unicac-ray`, N tasks in flight; same bytes as the CLI);
 # training on several processes is `torchrun` (docs/scale.md), not driven from here.
-# The scales (docs/reproduce.md): tiny (minutes, a smoke test), cpu (six models briefly trained, about
-# an hour here), small (this 2-core machine, about 1.5 hours),
+# The scales (docs/reproduce.md): tiny (minutes, a smoke test), cpu (the zoo briefly trained, about
+# an hour here), small (the zoo trained to convergence, 3,000 iterations each: about a day of one CPU
+# core, most of it restormer; training resumes across sessions),
 # paper (the paper's sizes: a cluster; supply real scenes with --images / --test-images).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 scale=tiny out= ray_workers= images= test_images= budget= models_from= basis_from= design_evaluations=
+iters_given= compile=off models_given=
 while [ $# -gt 0 ]; do
   case "$1" in
     --scale) scale=${2:?--scale needs a value}; shift 2 ;;
@@ -41,6 +49,9 @@ while [ $# -gt 0 ]; do
     --models-from) models_from=${2:?--models-from needs a value}; shift 2 ;;
     --psf-basis-from) basis_from=${2:?--psf-basis-from needs a value}; shift 2 ;;
     --design-evaluations) design_evaluations=${2:?--design-evaluations needs a value}; shift 2 ;;
+    --iters) iters_given=${2:?--iters needs a value}; shift 2 ;;
+    --compile) compile=${2:?--compile needs a value}; shift 2 ;;
+    --models) models_given=${2:?--models needs a value}; shift 2 ;;
     *) echo "reproduce.sh: unknown argument '$1' (see the usage at the top of scripts/reproduce.sh)" >&2; exit 2 ;;
   esac
 done
@@ -48,6 +59,10 @@ out=${out:-out/reproduce-$scale}
 if [ -n "$design_evaluations" ] && ! [[ "$design_evaluations" =~ ^[1-9][0-9]{0,12}$ ]]; then
   echo "reproduce.sh: --design-evaluations takes merit evaluations per specification, 1 to 10^12 (unicac design --evaluations-per-spec), not '$design_evaluations'" >&2; exit 2
 fi
+if [ -n "$iters_given" ] && ! { [[ "$iters_given" =~ ^[1-9][0-9]{0,8}$ ]] && ((iters_given <= 100000000)); }; then
+  echo "reproduce.sh: --iters takes training iterations per model, 1 to 100000000 (unicac-train train --iters), not '$iters_given'" >&2; exit 2
+fi
+case $compile in on|off) ;; *) echo "reproduce.sh: --compile takes on or off (unicac-train train --compile), not '$compile'" >&2; exit 2 ;; esac
 if [ -n "$ray_workers" ] && ! { [[ "$ray_workers" =~ ^[0-9]{1,5}$ ]] && ((10#$ray_workers >= 1 && 10#$ray_workers <= 4096)); }; then
   echo "reproduce.sh: --ray takes a number of workers from 1 to 4096 (unicac-ray --workers), not '$ray_workers'" >&2; exit 2
 fi
@@ -60,9 +75,10 @@ fi
 # The zoo (docs/models.md): each prior model next to its equal-size control; nafnet before nafnet-gan,
 # which fine-tunes it.
 # Ordered by what the claims need first (training resumes across sessions): the plain model, the dense
-# prior and its control, physics plus learning, then the ablations, the blind pair, restormer and the GAN.
+# prior and its control, physics plus learning, then the ablations, the blind pair, the GAN and, last,
+# restormer (about ten times a NAFNet's training time on a CPU).
 zoo=(nafnet nafnet-psf nafnet-psf-control wiener-nafnet nafnet-fov nafnet-psf-moments nafnet-psf-blind
-  nafnet-psf-blind-control restormer nafnet-gan)
+  nafnet-psf-blind-control nafnet-gan restormer)
 case "$scale" in
   tiny)
     grid=(--grid-elements 1,2,3 --grid-half-fov-deg 20,30 --grid-f-numbers 4 --grid-stops middle)
@@ -84,10 +100,14 @@ case "$scale" in
     ;;
   small)
     grid=(--grid-elements 1,2,3,4 --grid-half-fov-deg 20,30,40 --grid-f-numbers 2,3,4 --grid-stops front,middle,back)
-    design_count=1 design_budget_s=2400
+    # Budgeted in merit evaluations, not seconds, so that the library (and with it the test lenses
+    # and every report) is the same on any machine: 1 M per specification is at least the share a
+    # specification without an early acceptable design got of the clock budget used before (2,400 s).
+    design_count=1 design_budget_s=2400 design_evaluations=${design_evaluations:-1000000}
     levels=5 per_level=5 val_lenses=10
     images=${images:-dead-leaves:60:384x288} test_images=${test_images:-dead-leaves:3:384x288} frame=384x288
-    pairs_per_lens=8 crop=256x256 iters=1000 patch=256 batch=4
+    # 3,000 iterations: where nafnet's validation PSNR flattens with this recipe (models/bench-small).
+    pairs_per_lens=8 crop=256x256 iters=3000 patch=256 batch=4
     allow=()
     models=("${zoo[@]}")
     ;;
@@ -118,6 +138,26 @@ case "$scale" in
 esac
 
 # Checked before any work (design and dataset take hours at the larger scales).
+if [ -n "$iters_given" ]; then
+  if [ -n "$models_from" ]; then
+    echo "reproduce.sh: --iters $iters_given: nothing is trained here (the models come from $models_from)" >&2; exit 2
+  fi
+  iters=$iters_given
+fi
+if [ -n "$models_given" ]; then
+  chosen=()
+  IFS=, read -ra asked <<< "$models_given"
+  for name in "${asked[@]}"; do
+    [[ " ${models[*]} " == *" $name "* ]] || {
+      echo "reproduce.sh: --models: '$name' is not one of the $scale scale's models (${models[*]})" >&2; exit 2; }
+  done
+  for name in "${models[@]}"; do [[ ",$models_given," == *",$name,"* ]] && chosen+=("$name"); done
+  models=("${chosen[@]}")
+  # nafnet-gan fine-tunes the nafnet run: without nafnet here, that run must already exist.
+  if [[ " ${models[*]} " == *" nafnet-gan "* && " ${models[*]} " != *" nafnet "* && ! -f "$out/runs/nafnet/checkpoints/latest.pt" ]]; then
+    echo "reproduce.sh: --models: nafnet-gan fine-tunes $out/runs/nafnet, which holds no checkpoint; add nafnet to --models" >&2; exit 2
+  fi
+fi
 if [ -n "$models_from" ] && [ ! -d "$models_from" ]; then
   echo "reproduce.sh: --models-from $models_from: no such folder (train the models first, e.g. --scale small)" >&2; exit 2
 fi
@@ -190,7 +230,7 @@ for model in "${models[@]}"; do
   [ -n "$budget" ] && extra+=(--time-budget-s "$budget")
   [ "$model" = nafnet-gan ] && extra+=(--init-from "$out/runs/nafnet")
   stage "train:$model" "$py" -m unicac.train train --model "$model" --dataset "$out/dataset" --iters "$iters" \
-    --patch-px "$patch" --batch "$batch" "${allow[@]}" "${extra[@]}" --out "$run" "${resume[@]}"
+    --patch-px "$patch" --batch "$batch" --compile "$compile" "${allow[@]}" "${extra[@]}" --out "$run" "${resume[@]}"
   "$py" -m unicac.train export "$run" --out "$onnx"
 done
 

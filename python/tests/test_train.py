@@ -5,6 +5,7 @@ minutes on 2 cores. Skipped only when torch is not importable."""
 from __future__ import annotations
 
 import copy
+import gc
 import json
 import os
 import signal
@@ -544,6 +545,21 @@ def test_resume_after_sigkill(tmp_path, dataset):
     a, b = _weights(tmp_path / "straight"), _weights(run)
     for name in a["net"]:
         assert torch.equal(a["net"][name], b["net"][name]), name
+
+
+def test_a_run_folder_trains_in_one_process_at_a_time(tmp_path, dataset):
+    """Two trainings of one folder would interleave their checkpoints: the second is refused while the
+    first holds the folder (the kernel drops the lock when its holder ends; after SIGKILL: above)."""
+    config = tiny_config("nafnet", dataset)
+    first = Trainer(config, tmp_path / "run", quiet=True)
+    first.train(stop_after=1)  # before the first checkpoint, so a second fresh start passes its checks
+    second = Trainer(config, tmp_path / "run", quiet=True)
+    with pytest.raises(RunError, match="another process is training this run"):
+        second.train()
+    del first
+    gc.collect()
+    second.train()
+    assert _weights(tmp_path / "run")["iteration"] == 6
 
 
 # -- export ----------------------------------------------------------------------------------------

@@ -8,6 +8,8 @@ Run folder (`--out RUN_DIR`):
                              a loss or weight that turns NaN/inf stops the run before it is saved
     log.csv, log.jsonl       training loss / lr / it/s every print_freq iterations, validation PSNR/SSIM
     curves.png               the curves
+    .lock                    held (flock) by the process training the run: a second process training
+                             the same folder is refused rather than interleaving its checkpoints
 
 Reproducibility: weights are initialised from `manual_seed`; sample k of the stream is a pure function
 of (manual_seed, k) (see `data`); `torch.use_deterministic_algorithms(True)`. A run resumed from a
@@ -38,6 +40,7 @@ only rank 0 validates, logs and writes checkpoints.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import json
 import os
 import pickle
@@ -104,14 +107,28 @@ class RunFolder:
         self.config = self.path / "config.yml"
         self.info = self.path / "run.json"
         self.checkpoint = self.path / "checkpoints" / "latest.pt"
+        self.lock = self.path / ".lock"
         #: A psf_code model's PSF basis, kept with the run (its dataset may not outlive it).
         self.psf_basis = self.path / "psf_basis"
 
     def outputs(self, resume: bool) -> list[Path]:
         """The files a run writes here (a resumed run keeps the config.yml it was started with)."""
-        files = [self.info, self.checkpoint] + [self.path / name for name in LOG_FILES]
+        files = [self.info, self.checkpoint, self.lock] + [self.path / name for name in LOG_FILES]
         files += [self.psf_basis / name for name in PSF_BASIS_FILES]
         return files if resume else [self.config] + files
+
+    def hold(self) -> Any:
+        """Makes the folder and takes its lock for as long as the returned handle lives (the kernel
+        releases it when the process ends, SIGKILL included); refuses a folder another process holds."""
+        self.path.mkdir(parents=True, exist_ok=True)
+        handle = open(self.lock, "a")
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.close()
+            raise RunError(f"{self.path}: another process is training this run; wait for it to end, or "
+                           "train into another --out") from None
+        return handle
 
     def load_config(self) -> dict[str, Any]:
         if not self.path.is_dir():
@@ -228,6 +245,7 @@ class Trainer:
         self.run = RunFolder(run_dir)
         self.resumed = resume
         self.saved_iter: Optional[int] = None  # the iteration of the checkpoint on disk
+        self._lock: Any = None  # the run folder's lock (rank 0, from the first write on)
         train = config["train"]
         if train["device"] != "cpu":
             # cuBLAS needs this for deterministic matrix products; it is read when CUDA starts.
@@ -458,7 +476,8 @@ class Trainer:
     def _write_run_info(self, **extra: Any) -> None:
         if self.rank != 0:
             return
-        self.run.path.mkdir(parents=True, exist_ok=True)
+        if self._lock is None:
+            self._lock = self.run.hold()
         if not (self.resumed and self.run.config.is_file()):  # a resumed run's config is an input
             config_mod.dump(config_mod.without_session(self.config), self.run.config)
         info = {
