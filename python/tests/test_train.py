@@ -5,7 +5,6 @@ minutes on 2 cores. Skipped only when torch is not importable."""
 from __future__ import annotations
 
 import copy
-import gc
 import json
 import os
 import signal
@@ -29,7 +28,7 @@ from unicac.train.cli import main as cli_main  # noqa: E402
 from unicac.train.data import augment as augment_mod  # noqa: E402
 from unicac.train.losses import LPIPS, LPIPS_SCALE_RGB, LPIPS_SHIFT_RGB, VGG16_LAYOUT  # noqa: E402
 from unicac.train.metrics import psnr, ssim  # noqa: E402
-from unicac.train.models import RunError, Trainer  # noqa: E402
+from unicac.train.models import RunError, RunFolder, Trainer  # noqa: E402
 
 # One thread: tiny tensors gain nothing from more, and on a shared 2-core machine a second thread
 # spin-waiting makes every step ten times slower. (Determinism holds at any fixed thread count.)
@@ -549,17 +548,17 @@ def test_resume_after_sigkill(tmp_path, dataset):
 
 def test_a_run_folder_trains_in_one_process_at_a_time(tmp_path, dataset):
     """Two trainings of one folder would interleave their checkpoints: the second is refused while the
-    first holds the folder (the kernel drops the lock when its holder ends; after SIGKILL: above)."""
+    first holds the folder, from its first write to its end (the kernel also drops the lock when its
+    holder dies: SIGKILL, above), and nothing of the run is touched."""
     config = tiny_config("nafnet", dataset)
-    first = Trainer(config, tmp_path / "run", quiet=True)
-    first.train(stop_after=1)  # before the first checkpoint, so a second fresh start passes its checks
-    second = Trainer(config, tmp_path / "run", quiet=True)
+    run = tmp_path / "run"
+    held = RunFolder(run).hold()  # what a training process holds
     with pytest.raises(RunError, match="another process is training this run"):
-        second.train()
-    del first
-    gc.collect()
-    second.train()
-    assert _weights(tmp_path / "run")["iteration"] == 6
+        Trainer(config, run, quiet=True).train()
+    assert sorted(p.name for p in run.iterdir()) == [".lock"]
+    held.close()
+    Trainer(config, run, quiet=True).train()
+    assert _weights(run)["iteration"] == 6
 
 
 # -- export ----------------------------------------------------------------------------------------

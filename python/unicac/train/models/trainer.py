@@ -245,7 +245,6 @@ class Trainer:
         self.run = RunFolder(run_dir)
         self.resumed = resume
         self.saved_iter: Optional[int] = None  # the iteration of the checkpoint on disk
-        self._lock: Any = None  # the run folder's lock (rank 0, from the first write on)
         train = config["train"]
         if train["device"] != "cpu":
             # cuBLAS needs this for deterministic matrix products; it is read when CUDA starts.
@@ -476,8 +475,7 @@ class Trainer:
     def _write_run_info(self, **extra: Any) -> None:
         if self.rank != 0:
             return
-        if self._lock is None:
-            self._lock = self.run.hold()
+        self.run.path.mkdir(parents=True, exist_ok=True)
         if not (self.resumed and self.run.config.is_file()):  # a resumed run's config is an input
             config_mod.dump(config_mod.without_session(self.config), self.run.config)
         info = {
@@ -675,7 +673,16 @@ class Trainer:
     def train(self, stop_after: Optional[int] = None) -> dict[str, Any]:
         """Runs iterations start .. total_iter (or stops after iteration `stop_after`, as a kill would,
         without a final checkpoint; or when `train.time_budget_s` is spent, with a checkpoint and a
-        validation); returns the last validation scores."""
+        validation); returns the last validation scores. The run folder is held (`RunFolder.hold`)
+        from the first write to the return."""
+        lock = self.run.hold() if self.rank == 0 else None
+        try:
+            return self._train_session(stop_after)
+        finally:
+            if lock is not None:
+                lock.close()
+
+    def _train_session(self, stop_after: Optional[int]) -> dict[str, Any]:
         cfg = self.config
         total = cfg["train"]["total_iter"]
         every_val, every_ckpt, every_log = cfg["val"]["val_freq"], cfg["logger"]["save_checkpoint_freq"], cfg["logger"]["print_freq"]
