@@ -103,7 +103,7 @@ case "$scale" in
     # Budgeted in merit evaluations, not seconds, so that the library (and with it the test lenses
     # and every report) is the same on any machine: 1 M per specification kept 177 designs in about
     # 21 min on 2 cores (the clock budget used before, 2,400 s, kept 174-177).
-    design_count=1 design_budget_s=2400 design_evaluations=${design_evaluations:-1000000}
+    design_count=1 design_evaluations=${design_evaluations:-1000000}
     levels=5 per_level=5 val_lenses=10
     images=${images:-dead-leaves:60:384x288} test_images=${test_images:-dead-leaves:3:384x288} frame=384x288
     # 3,000 iterations: where nafnet's validation PSNR flattens with this recipe (models/bench-small).
@@ -188,8 +188,11 @@ stage() {   # stage NAME COMMAND...: runs it, appends "NAME<TAB>seconds" to timi
   printf '%s\t%d.%03d\n' "$name" $((ms / 1000)) $((ms % 1000)) >> "$timings"
 }
 
-design_budget=(--time-budget-s "$design_budget_s")
-if [ -n "$design_evaluations" ]; then design_budget=(--evaluations-per-spec "$design_evaluations"); fi
+if [ -n "$design_evaluations" ]; then
+  design_budget=(--evaluations-per-spec "$design_evaluations")
+else
+  design_budget=(--time-budget-s "$design_budget_s")
+fi
 design_args=(--grid "${grid[@]}" --count "$design_count" --aspheric --first-acceptable
   "${design_budget[@]}" --seed "${design_seed:-1}" --out "$out/library")
 dataset_args=(--lenses "$out/library" --images "$images" --test-images "$test_images" --frame "$frame"

@@ -475,7 +475,6 @@ class Trainer:
     def _write_run_info(self, **extra: Any) -> None:
         if self.rank != 0:
             return
-        self.run.path.mkdir(parents=True, exist_ok=True)
         if not (self.resumed and self.run.config.is_file()):  # a resumed run's config is an input
             config_mod.dump(config_mod.without_session(self.config), self.run.config)
         info = {
