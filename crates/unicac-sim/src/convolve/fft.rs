@@ -133,20 +133,8 @@ fn fill_patch<T: FftNum>(
 }
 
 /// The zero-padded transform of the centred `size` x `size` parts of `real` + i `imaginary` (either
-/// may be absent; `size` is at most their size) on `fft`'s grid.
-fn kernel_spectrum<T: FftNum>(
-    fft: &Fft2<T>,
-    real: &Kernel,
-    imaginary: Option<&Kernel>,
-    size: usize,
-) -> Vec<Complex<T>> {
-    let mut grid = vec![Complex::new(T::zero(), T::zero()); fft.len()];
-    let mut spectrum = vec![Complex::new(T::zero(), T::zero()); fft.len()];
-    kernel_spectrum_into(fft, real, imaginary, size, &mut grid, &mut spectrum);
-    spectrum
-}
-
-/// `kernel_spectrum` into `spectrum`, with `grid` as the (overwritten) working grid; both `fft.len()`.
+/// may be absent; `size` is at most their size) on `fft`'s grid, into `spectrum` (every element
+/// written), with `grid` as the (overwritten) working grid; both `fft.len()`.
 fn kernel_spectrum_into<T: FftNum>(
     fft: &Fft2<T>,
     real: &Kernel,
@@ -351,6 +339,8 @@ pub(super) struct TileFft {
     right: Vec<Complex<f32>>,
     /// The previous tile's right pair spectrum, reused as this tile's left one when the keys match.
     previous_right: Option<(PairKey, Vec<Complex<f32>>)>,
+    /// The previous tile's left pair spectrum's buffer, for this tile's right pair.
+    spare: Vec<Complex<f32>>,
 }
 
 impl TileFft {
@@ -364,6 +354,7 @@ impl TileFft {
             left: Vec::new(),
             right: Vec::new(),
             previous_right: None,
+            spare: Vec::new(),
         }
     }
 
@@ -419,11 +410,21 @@ impl TileFft {
         let [top_left, top_right, bottom_left, bottom_right] = kernels.corners;
         let key = |column| (column, size, (fft.width, fft.height));
         let left_key = key(kernels.columns.0);
+        // The patch's transform is in `self.spectrum`, so `self.grid` is free to be the kernels'
+        // working grid; their spectra go to recycled buffers (fresh zeroed ones per tile cost page
+        // clearing), which the transform overwrites whole.
+        let mut pair_spectrum = |real, imaginary, spare: &mut Vec<Complex<f32>>| {
+            let mut spectrum = std::mem::take(spare);
+            spectrum.resize(n, Complex::default());
+            kernel_spectrum_into(fft, real, Some(imaginary), size, &mut self.grid, &mut spectrum);
+            spectrum
+        };
         let left_spectrum = match self.previous_right.take() {
             Some((k, spectrum)) if k == left_key => spectrum,
-            _ => kernel_spectrum(fft, top_left, Some(bottom_left), size),
+            Some((_, stale)) => pair_spectrum(top_left, bottom_left, &mut { stale }),
+            None => pair_spectrum(top_left, bottom_left, &mut Vec::new()),
         };
-        let right_spectrum = kernel_spectrum(fft, top_right, Some(bottom_right), size);
+        let right_spectrum = pair_spectrum(top_right, bottom_right, &mut self.spare);
         for (spectrum, out) in [
             (&left_spectrum, &mut self.left),
             (&right_spectrum, &mut self.right),
@@ -435,6 +436,7 @@ impl TileFft {
             fft.inverse(&mut self.product, out);
         }
         self.previous_right = Some((key(kernels.columns.1), right_spectrum));
+        self.spare = left_spectrum;
         TileCorners {
             left: &self.left,
             right: &self.right,
