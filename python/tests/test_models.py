@@ -6,6 +6,7 @@ few iterations. Skipped only when torch is not importable."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import sys
 from pathlib import Path
@@ -251,6 +252,8 @@ def test_a_patch_under_twice_the_largest_kernel_is_refused_or_warned(tmp_path, c
     recipe = json.loads((tmp_path / "r2" / "run.json").read_text())["recipe"]
     assert recipe["patch_px"] == 16 and recipe["batch_size"] == 1 and recipe["largest_kernel_px"] == 11
     assert recipe["receptive_field_px"] >= 11
+    lenses_digest = hashlib.sha256((wide / "lenses.jsonl").read_bytes()).hexdigest()
+    assert recipe["dataset_lenses_sha256"] == lenses_digest
     # The session's --allow-small-patch is not the run's: the saved config does not carry it.
     assert config_mod.load(tmp_path / "r2" / "config.yml")["train"]["allow_small_patch"] is False
 

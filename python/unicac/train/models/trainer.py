@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import hashlib
 import json
 import os
 import pickle
@@ -351,12 +352,16 @@ class Trainer:
             "channels_last": self.channels_last, "compile": train["compile"],  # this session's
             "largest_kernel_px": None, "receptive_field_px": None,
             "receptive_field_exact": None, "psf_basis_sha256": None, "pair_checks": None,
+            "dataset_lenses_sha256": None,
         }
         if "psf_code" in self.net.needs and data["type"] == "unicac":
             recipe["psf_basis_sha256"] = self.train_set.folder.psf_basis()["sha256"]
         if data["type"] != "unicac":
             return recipe  # on-the-fly lenses: their kernels are not known before they are traced
         folder = self.train_set.folder
+        # Which library, grading and split the model learned from: a rebuilt dataset (the `small` scale
+        # designs by evaluations, the same everywhere) can be matched to the run by this digest.
+        recipe["dataset_lenses_sha256"] = hashlib.sha256((folder.root / "lenses.jsonl").read_bytes()).hexdigest()
         recipe["pair_checks"] = self._check_alignment(folder, data["split"])
         kernel = folder.largest_kernel_px(data["split"])
         if kernel is None:
