@@ -373,7 +373,7 @@ mod tests {
             values.push(-f32::from_bits(bits));
             bits += 997;
         }
-        if values.len() % LANE_BLOCK == 0 {
+        if values.len().is_multiple_of(LANE_BLOCK) {
             values.push(0.25);
         }
         values
@@ -384,7 +384,7 @@ mod tests {
         let table = power_branch_table();
         // An odd length: blocks and parallel chunks end part-filled.
         let values = encoding_test_values();
-        assert!(values.len() % LANE_BLOCK != 0 && values.len() > MAP_CHUNK);
+        assert!(!values.len().is_multiple_of(LANE_BLOCK) && values.len() > MAP_CHUNK);
         let mut encoded = values.clone();
         apply_srgb(&mut encoded, Transfer::Encode);
         for (v, e) in values.iter().zip(&encoded) {
