@@ -120,13 +120,20 @@ impl<'a> FieldAiming<'a> {
     pub fn aimed_rays_into(&self, pupil: &[[f64; 2]], out: &mut Vec<Ray>) -> usize {
         let before = out.len();
         match (self.aimer.aiming, &self.map) {
-            // `ray`'s paraxial case without its error value (a non-finite ray is one not aimed).
-            (Aiming::Paraxial, _) => out.extend(
-                pupil
-                    .iter()
-                    .map(|&[px, py]| self.paraxial_ray(px, py))
-                    .filter(Ray::is_finite),
-            ),
+            // `ray`'s paraxial case without its error value (a non-finite ray is one not aimed). All
+            // rays are written first (an exact-size loop without a branch per ray), and the rare
+            // non-finite ones dropped afterwards, in order.
+            (Aiming::Paraxial, _) => {
+                out.extend(pupil.iter().map(|&[px, py]| self.paraxial_ray(px, py)));
+                let all_finite = out[before..].iter().fold(true, |all, ray| all & ray.is_finite());
+                if !all_finite {
+                    let mut index = 0;
+                    out.retain(|ray| {
+                        index += 1;
+                        index <= before || ray.is_finite()
+                    });
+                }
+            }
             (_, None) => out.extend(pupil.iter().filter_map(|&[px, py]| self.ray(px, py).ok())),
             (_, Some(_)) => out.extend(self.rays(pupil).into_iter().filter_map(Result::ok)),
         }

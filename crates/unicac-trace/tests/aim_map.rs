@@ -104,3 +104,25 @@ fn small_pupils_and_paraxial_aiming_give_the_per_ray_rays_bit_for_bit() {
         }
     }
 }
+
+#[test]
+fn paraxially_aimed_rays_drop_the_points_that_cannot_be_aimed_and_keep_the_order() {
+    let lens = builtin::lens("cooke_triplet").unwrap();
+    let aimer = Aimer::new(&lens, lens.primary_wavelength_um(), Aiming::Paraxial).unwrap();
+    let mut pupil = PupilSampling::Hexapolar { rings: 4 }.points();
+    pupil[3] = [f64::NAN, 0.2];
+    pupil[17] = [0.1, f64::INFINITY];
+    let aiming = aimer.for_field([0.0, 14.0], pupil.len());
+    // Rays already in the buffer stay, and are not counted.
+    let earlier = aimer.ray(5.0, 0.0, 0.5).unwrap();
+    let mut out = vec![earlier; 2];
+    let not_aimed = aiming.aimed_rays_into(&pupil, &mut out);
+    assert_eq!(not_aimed, 2);
+    let expected: Vec<_> = pupil
+        .iter()
+        .filter(|p| p[0].is_finite() && p[1].is_finite())
+        .map(|&[px, py]| aimer.ray(14.0, px, py).unwrap())
+        .collect();
+    assert_eq!(out[..2], [earlier, earlier]);
+    assert_eq!(out[2..], expected[..]);
+}
