@@ -34,12 +34,12 @@ impl std::str::FromStr for PupilSampling {
     fn from_str(text: &str) -> Result<Self, String> {
         let mut parts = text.split(':');
         let kind = parts.next().unwrap_or_default();
-        let number = |part: Option<&str>| -> Result<u64, String> {
-            part.ok_or_else(|| format!("'{text}': missing count"))?
+        let number = |part: Option<&str>, what: &str| -> Result<u64, String> {
+            part.ok_or_else(|| format!("'{text}': missing {what}"))?
                 .parse::<u64>()
-                .map_err(|_| format!("'{text}': the count must be a non-negative integer"))
+                .map_err(|_| format!("'{text}': the {what} must be a non-negative integer"))
         };
-        let n = number(parts.next())?;
+        let n = number(parts.next(), "count")?;
         if n == 0 {
             return Err(format!("'{text}': the count must be at least 1"));
         }
@@ -52,7 +52,7 @@ impl std::str::FromStr for PupilSampling {
             "random" => PupilSampling::Random {
                 n: n_usize,
                 seed: match parts.next() {
-                    Some(_) => number(text.rsplit(':').next())?,
+                    Some(seed) => number(Some(seed), "seed")?,
                     None => DEFAULT_SEED,
                 },
             },
@@ -62,6 +62,11 @@ impl std::str::FromStr for PupilSampling {
                 ))
             }
         };
+        if parts.next().is_some() {
+            return Err(format!(
+                "'{text}': too many ':' parts; expected hexapolar:R, grid:N, fibonacci:N or random:N[:SEED]"
+            ));
+        }
         sampling.check().map_err(|e| format!("'{text}': {e}"))?;
         Ok(sampling)
     }
@@ -447,9 +452,18 @@ mod tests {
 
     #[test]
     fn parsing_rejects_bad_patterns() {
-        for bad in ["hexapolar", "grid:0", "spiral:4", "random:x"] {
+        for bad in [
+            "hexapolar",
+            "grid:0",
+            "spiral:4",
+            "random:x",
+            "grid:5:3",
+            "random:5:6:7",
+        ] {
             assert!(bad.parse::<PupilSampling>().is_err(), "{bad}");
         }
+        let message = "random:5:abc".parse::<PupilSampling>().unwrap_err();
+        assert!(message.contains("the seed must be"), "{message}");
         assert_eq!(
             "random:10:3".parse::<PupilSampling>().unwrap(),
             PupilSampling::Random { n: 10, seed: 3 }
