@@ -121,17 +121,14 @@ impl<'a> FieldAiming<'a> {
         let before = out.len();
         match (self.aimer.aiming, &self.map) {
             // `ray`'s paraxial case without its error value (a non-finite ray is one not aimed). All
-            // rays are written first (an exact-size loop without a branch per ray), and the rare
-            // non-finite ones dropped afterwards, in order.
+            // rays are written first (an exact-size loop without a branch per ray); in the rare batch
+            // holding a non-finite one they are made again, filtered.
             (Aiming::Paraxial, _) => {
-                out.extend(pupil.iter().map(|&[px, py]| self.paraxial_ray(px, py)));
-                let all_finite = out[before..].iter().fold(true, |all, ray| all & ray.is_finite());
-                if !all_finite {
-                    let mut index = 0;
-                    out.retain(|ray| {
-                        index += 1;
-                        index <= before || ray.is_finite()
-                    });
+                let paraxial = |&[px, py]: &[f64; 2]| self.paraxial_ray(px, py);
+                out.extend(pupil.iter().map(paraxial));
+                if !out[before..].iter().fold(true, |all, ray| all & ray.is_finite()) {
+                    out.truncate(before);
+                    out.extend(pupil.iter().map(paraxial).filter(Ray::is_finite));
                 }
             }
             (_, None) => out.extend(pupil.iter().filter_map(|&[px, py]| self.ray(px, py).ok())),
