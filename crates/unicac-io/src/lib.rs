@@ -19,9 +19,10 @@
 //! - [`counter_random`]: the one counter-based random source (SplitMix64; CPU and GPU alike);
 //! - [`counter_draws`]: uniform, normal and Poisson draws from one sample's counter stream (sensor noise);
 //! - [`progress`]: the one progress protocol of long library work;
-//! - [`choice`]: `named_choice!`, enums parsed from and printed as one table of names.
+//! - [`choice`]: `named_choice!`, enums parsed from and printed as one table of names;
+//! - [`memory`]: large buffers advised onto huge pages (fewer first-touch page faults).
 //!
-//! std, thiserror, sha2 and serde (JSON) only, so that every crate (optics, image, plot, sim, dataset, bench)
+//! std, libc (one `madvise`), thiserror, sha2 and serde (JSON) only, so that every crate (optics, image, plot, sim, dataset, bench)
 //! can depend on it.
 
 mod atomic;
@@ -29,6 +30,7 @@ pub mod choice;
 pub mod counter_draws;
 pub mod counter_random;
 pub mod digest;
+pub mod memory;
 mod plan;
 pub mod progress;
 mod read;

@@ -121,12 +121,17 @@ impl<'a> FieldAiming<'a> {
         let before = out.len();
         match (self.aimer.aiming, &self.map) {
             // `ray`'s paraxial case without its error value (a non-finite ray is one not aimed). All
-            // rays are written first (an exact-size loop without a branch per ray); in the rare batch
-            // holding a non-finite one they are made again, filtered.
+            // rays are written first (an exact-size loop without a branch per ray, noting finiteness as
+            // it goes); in the rare batch holding a non-finite one they are made again, filtered.
             (Aiming::Paraxial, _) => {
                 let paraxial = |&[px, py]: &[f64; 2]| self.paraxial_ray(px, py);
-                out.extend(pupil.iter().map(paraxial));
-                if !out[before..].iter().fold(true, |all, ray| all & ray.is_finite()) {
+                let mut all_finite = true;
+                out.extend(pupil.iter().map(|point| {
+                    let ray = paraxial(point);
+                    all_finite &= ray.is_finite();
+                    ray
+                }));
+                if !all_finite {
                     out.truncate(before);
                     out.extend(pupil.iter().map(paraxial).filter(Ray::is_finite));
                 }
