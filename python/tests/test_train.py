@@ -26,7 +26,7 @@ from unicac.train import config as config_mod  # noqa: E402
 from unicac.train.archs import build_network, count_parameters  # noqa: E402
 from unicac.train.cli import main as cli_main  # noqa: E402
 from unicac.train.data import augment as augment_mod  # noqa: E402
-from unicac.train.losses import LPIPS, LPIPS_SCALE_RGB, LPIPS_SHIFT_RGB, VGG16_LAYOUT  # noqa: E402
+from unicac.train.losses import LPIPS, LPIPS_SCALE_RGB, LPIPS_SHIFT_RGB, VGG16_LAYOUT, frequency_loss  # noqa: E402
 from unicac.train.metrics import psnr, ssim  # noqa: E402
 from unicac.train.models import RunError, RunFolder, Trainer  # noqa: E402
 
@@ -381,6 +381,41 @@ def test_a_few_steps_reduce_the_loss(tmp_path, dataset, lpips_cache, model):
                                                   collate_fn=__import__("unicac.train.data", fromlist=["collate"]).collate)))
     losses = [trainer._step(batch, 0) for _ in range(12)]
     assert losses[-1] < 0.8 * losses[0], losses
+
+
+def test_the_frequency_loss_is_the_mean_spectral_l1_and_counts_lost_detail():
+    g = torch.Generator().manual_seed(3)
+    sharp = torch.rand(2, 3, 32, 40, generator=g)
+    other = torch.rand(2, 3, 32, 40, generator=g)
+    # Against numpy's FFT: the mean |difference| of real and imaginary parts of the half spectra.
+    a, b = np.fft.rfft2(sharp.double().numpy()), np.fft.rfft2(other.double().numpy())
+    expected = np.concatenate([np.abs(a.real - b.real).ravel(), np.abs(a.imag - b.imag).ravel()]).mean()
+    assert abs(frequency_loss(sharp, other).item() / expected - 1) < 1e-5
+    assert frequency_loss(sharp, sharp).item() == 0.0
+    # A blur and a uniform shift of equal pixel L1: the shift is one (DC) coefficient, the blur takes
+    # every high frequency, so the frequency loss tells them apart where the pixel loss cannot.
+    blurred = torch.nn.functional.avg_pool2d(sharp, 3, stride=1, padding=1, count_include_pad=False)
+    pixel_l1 = (blurred - sharp).abs().mean()
+    shifted = sharp + pixel_l1
+    assert abs((shifted - sharp).abs().mean() - pixel_l1) < 1e-6
+    assert frequency_loss(blurred, sharp) > 5 * frequency_loss(shifted, sharp)
+
+
+def test_the_frequency_term_adds_to_the_training_loss(tmp_path, dataset):
+    config = tiny_config("nafnet", dataset)
+    plain = Trainer(copy.deepcopy(config), tmp_path / "plain", quiet=True)
+    config["train"]["losses"]["frequency"]["weight"] = 0.1
+    with_term = Trainer(config_mod.validate(config), tmp_path / "frequency", quiet=True)
+    with_term.net.load_state_dict(plain.net.state_dict())
+    batch = next(iter(torch.utils.data.DataLoader(plain.train_set, batch_size=2, sampler=range(2),
+                                                  collate_fn=__import__("unicac.train.data", fromlist=["collate"]).collate)))
+    base, restored = plain._losses(plain._to_device(batch), 0)
+    total, _ = with_term._losses(with_term._to_device(batch), 0)
+    assert abs(total.item() - (base.item() + 0.1 * frequency_loss(restored, batch["gt"]).item())) < 1e-5
+    with pytest.raises(config_mod.ConfigError, match="train.losses.frequency.weight"):
+        bad = copy.deepcopy(config)
+        bad["train"]["losses"]["frequency"]["weight"] = -1
+        config_mod.validate(bad)
 
 
 @needs_maps

@@ -118,6 +118,8 @@ SCHEMA: dict[str, Any] = {
         },
         "losses": {
             "pixel": {"type": _f(str, "L1Loss", choices=("L1Loss", "CharbonnierLoss")), "weight": _f((float, int), 1.0, low=0, high=MAX_LOSS_WEIGHT)},
+            # L1 between the restored and true images' spectra (losses.frequency_loss).
+            "frequency": {"weight": _f((float, int), 0.0, low=0, high=MAX_LOSS_WEIGHT)},
             # Blind PSF prior: L1 between predicted and true PSF-feature maps.
             "psf": {"weight": _f((float, int), 0.0, low=0, high=MAX_LOSS_WEIGHT)},
             # LPIPS (VGG16 or AlexNet weights from `unicac weights fetch lpips`).

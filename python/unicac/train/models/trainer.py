@@ -65,7 +65,7 @@ from ..archs.nafnet import PRIOR_SCALE
 from ..archs.receptive import receptive_field_px
 from ..data import IterationSampler, build_train_set, build_val_set, collate
 from ..logger import LOG_FILES, SEVERE_SCORES, VALIDATION_LOG_FIELDS, Progress, RunLog
-from ..losses import LPIPS, MIN_SIDE_PX, gan_loss, pixel_loss
+from ..losses import LPIPS, MIN_SIDE_PX, frequency_loss, gan_loss, pixel_loss
 from ..metrics import psnr, ssim
 
 
@@ -522,6 +522,8 @@ class Trainer:
             out = self.view(batch["lq"], **self._maps(batch))
         restored = out["restored"].float()
         loss = losses["pixel"]["weight"] * pixel_loss(losses["pixel"]["type"], restored, batch["gt"])
+        if losses["frequency"]["weight"] > 0:
+            loss = loss + losses["frequency"]["weight"] * frequency_loss(restored, batch["gt"])
         if "prediction" in out:
             loss = loss + losses["psf"]["weight"] * self._prediction_loss(out["prediction"], batch[self.net.predicts])
         if self.lpips is not None:
