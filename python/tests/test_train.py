@@ -412,6 +412,12 @@ def test_the_frequency_term_adds_to_the_training_loss(tmp_path, dataset):
     base, restored = plain._losses(plain._to_device(batch), 0)
     total, _ = with_term._losses(with_term._to_device(batch), 0)
     assert abs(total.item() - (base.item() + 0.1 * frequency_loss(restored, batch["gt"]).item())) < 1e-5
+    # A run started before the term existed (its resolved config has no `frequency`) keeps its hash, so it
+    # resumes under this schema; using the term changes the hash.
+    before_the_term = copy.deepcopy(plain.config)
+    del before_the_term["train"]["losses"]["frequency"]
+    assert config_mod.sha256(before_the_term) == config_mod.sha256(plain.config) == plain.config_sha256
+    assert config_mod.sha256(config) != plain.config_sha256
     with pytest.raises(config_mod.ConfigError, match="train.losses.frequency.weight"):
         bad = copy.deepcopy(config)
         bad["train"]["losses"]["frequency"]["weight"] = -1

@@ -292,10 +292,20 @@ def without_session(config: dict[str, Any]) -> dict[str, Any]:
     return run
 
 
+#: Loss terms the schema gained after runs had been trained with it: hashed only when used (a positive
+#: weight), so that a run started before a term existed still resumes under the newer schema (whose
+#: resolved config holds the term at weight 0) and keeps its hash in checkpoints and ONNX metadata.
+HASHED_ONLY_WHEN_USED = ("frequency",)
+
+
 def sha256(config: dict[str, Any]) -> str:
-    """Hash of the resolved config (canonical JSON) without the session settings (`SESSION_KEYS`),
-    recorded in checkpoints and ONNX metadata."""
+    """Hash of the resolved config (canonical JSON) without the session settings (`SESSION_KEYS`) and
+    the unused later loss terms (`HASHED_ONLY_WHEN_USED`), recorded in checkpoints and ONNX metadata."""
     run = without_session(config)
+    losses = run.get("train", {}).get("losses", {})
+    for term in HASHED_ONLY_WHEN_USED:
+        if term in losses and not losses[term].get("weight"):
+            del losses[term]
     return hashlib.sha256(json.dumps(run, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
 
 
