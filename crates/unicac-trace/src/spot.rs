@@ -294,19 +294,12 @@ impl Moments {
     fn of(points: &[[f64; 2]], origin: [f64; 2], chief: Option<[f64; 2]>) -> Moments {
         let offset = |p: &[f64; 2]| [p[0] - origin[0], p[1] - origin[1]];
         let n = points.len() as f64;
-        let (sx, sy, squared_to_chief) = match chief {
-            Some(c) => points.iter().fold((0.0, 0.0, 0.0), |(sx, sy, sc), p| {
-                let d = offset(p);
-                (sx + d[0], sy + d[1], sc + squared_distance(p, c))
-            }),
-            None => {
-                let (sx, sy) = points
-                    .iter()
-                    .map(offset)
-                    .fold((0.0, 0.0), |(sx, sy), d| (sx + d[0], sy + d[1]));
-                (sx, sy, 0.0)
-            }
-        };
+        // Without a chief ray the third sum is taken about the origin and discarded (a rare case).
+        let reference = chief.unwrap_or(origin);
+        let (sx, sy, squared_to_reference) = points.iter().fold((0.0, 0.0, 0.0), |(sx, sy, sr), p| {
+            let d = offset(p);
+            (sx + d[0], sy + d[1], sr + squared_distance(p, reference))
+        });
         let mean = [sx / n, sy / n];
         Moments {
             count: n,
@@ -318,7 +311,11 @@ impl Moments {
                     (d[0] - mean[0]).powi(2) + (d[1] - mean[1]).powi(2)
                 })
                 .sum(),
-            squared_to_chief,
+            squared_to_chief: if chief.is_some() {
+                squared_to_reference
+            } else {
+                0.0
+            },
         }
     }
 
