@@ -424,6 +424,83 @@ def test_the_frequency_term_adds_to_the_training_loss(tmp_path, dataset):
         config_mod.validate(bad)
 
 
+def _convolved(plane, kernel):
+    """True convolution with replicated borders (out(p) = sum_u k(u) in(p - u)), in numpy."""
+    half = kernel.shape[0] // 2
+    padded = np.pad(plane, half, mode="edge")
+    out = np.zeros_like(plane, dtype=np.float64)
+    for r in range(kernel.shape[0]):
+        for c in range(kernel.shape[1]):
+            out += kernel[r, c] * padded[2 * half - r : 2 * half - r + plane.shape[0], 2 * half - c : 2 * half - c + plane.shape[1]]
+    return out
+
+
+def test_edge_charts_are_the_benchs_edges_imaged_through_a_training_lens(dataset):
+    table = dataset / "psf" / "lensA-000000000001"
+    kernels = np.load(table / "kernels.npy")
+    field = kernels.shape[0] - 1
+    vertical, horizontal = unicac.table_edge_pairs(str(table), field, min_edge_px=40)
+    assert (vertical["edge"], horizontal["edge"]) == ("vertical", "horizontal")
+    side = max(40, 4 * kernels.shape[-1])
+    for chart in (vertical, horizontal):
+        for key in ("gt", "lq", "wiener"):
+            assert chart[key].shape == (side, side, 3) and chart[key].dtype == np.float32
+        gt, lq = (unicac.srgb_to_linear(chart[key]) for key in ("gt", "lq"))
+        # A grey 0.2-0.8 edge, every channel alike, 16-bit like the dataset's PNGs.
+        assert np.allclose(gt[..., 0], gt[..., 2]) and abs(gt.min() - 0.2) < 1e-4 and abs(gt.max() - 0.8) < 1e-4
+        assert np.array_equal(np.round(chart["lq"] * 65535), chart["lq"] * 65535)
+        # Channel c is the edge convolved with the table's channel-c kernel at that field.
+        inner = slice(kernels.shape[-1], side - kernels.shape[-1])
+        for c in range(3):
+            expected = _convolved(gt[..., c].astype(np.float64), kernels[field, c].astype(np.float64))
+            assert np.abs(lq[inner, inner, c] - expected[inner, inner]).max() < 2e-4
+    # The Wiener estimate undoes part of the blur: the edge's steepest step (across it, per row or column) grows.
+    for chart, across in ((vertical, 1), (horizontal, 0)):
+        steepest = {key: np.abs(np.diff(chart[key][inner, inner], axis=across)).max(axis=across).mean()
+                    for key in ("gt", "lq", "wiener")}
+        assert steepest["lq"] < steepest["gt"] and steepest["wiener"] > 1.3 * steepest["lq"]
+    assert np.array_equal(horizontal["gt"], vertical["gt"].transpose(1, 0, 2))
+    with pytest.raises(ValueError, match="field: 99 is not a stored field"):
+        unicac.table_edge_pairs(str(table), 99)
+    with pytest.raises(ValueError, match="nsr"):
+        unicac.table_edge_pairs(str(table), 0, nsr=float("nan"))
+
+
+def test_edge_share_mixes_edge_charts_into_the_training_samples(dataset):
+    from unicac.train.data import build_train_set, build_val_set
+    from unicac.dataset import DatasetFolderError
+
+    config = tiny_config("wiener-nafnet", dataset)
+    options = dict(config["datasets"]["train"], edge_share=0.5)
+    plain = build_train_set(config["datasets"]["train"], seed=0, maps=("wiener",))
+    mixed = build_train_set(options, seed=0, maps=("wiener",))
+    grey_edges = 0
+    for k in range(12):
+        sample = mixed[k]
+        assert sample["lq"].shape == sample["gt"].shape == sample["wiener"].shape == (3, 24, 24)
+        assert all(torch.equal(sample[key], mixed[k][key]) for key in ("lq", "gt", "wiener"))  # a pure function of k
+        gt = sample["gt"].numpy()
+        grey_edges += bool(np.allclose(gt[0], gt[1]) and np.allclose(gt[1], gt[2]) and gt.min() < gt.max())
+    assert 2 <= grey_edges <= 10
+    # Without edge charts the samples are those of a run made before the option existed.
+    assert all(torch.equal(plain[k]["lq"], build_train_set(config["datasets"]["train"], seed=0, maps=("wiener",))[k]["lq"])
+               for k in range(3))
+    # An unused option stays out of the hash (earlier runs resume); a used one changes it.
+    before = copy.deepcopy(config)
+    for split in before["datasets"].values():
+        del split["edge_share"]
+    assert config_mod.sha256(before) == config_mod.sha256(config)
+    used = copy.deepcopy(config)
+    used["datasets"]["train"]["edge_share"] = 0.25
+    assert config_mod.sha256(config_mod.validate(used)) != config_mod.sha256(config)
+    with pytest.raises(DatasetFolderError, match="datasets.train.edge_share: edge charts carry no fov map"):
+        build_train_set(options, seed=0, maps=("fov", "wiener"))
+    with pytest.raises(DatasetFolderError, match="datasets.val.edge_share"):
+        build_val_set(dict(config["datasets"]["val"], edge_share=0.5), maps=("wiener",))
+    with pytest.raises(config_mod.ConfigError, match="datasets.train.edge_share"):
+        config_mod.validate(dict(used, datasets=dict(used["datasets"], train=dict(used["datasets"]["train"], edge_share=1.5))))
+
+
 @needs_maps
 def test_run_writes_logs_curves_and_checkpoints(tmp_path, dataset):
     run = tmp_path / "run"

@@ -12,6 +12,8 @@ use std::path::PathBuf;
 use unicac_dataset::folder::Dataset;
 use unicac_dataset::psf_basis::{FieldCodes, PsfBasis, CODE_COMPONENTS};
 use unicac_dataset::{FrameCrop, PsfTable};
+use unicac_image::color::linear_to_srgb;
+use unicac_image::Planar;
 
 /// The crop (x0, y0, w, h) of a frame; `w`/`h` None run to the frame's edge.
 fn crop(
@@ -182,6 +184,96 @@ pub fn wiener_restore<'py>(
     planar_out(py, &restored, false)
 }
 
+/// Training twins of the bench's slanted-edge pairs, for any lens with a PSF table: the ODE's two edge
+/// charts (an isolated 0.2-0.8 edge slanted by the ODE's angle, max(`min_edge_px`, 4 kernel widths) on
+/// a side, and its transpose) imaged through stored field `field` of the table, channel c through the
+/// channel-c kernel (a grey edge with the lens's colour fringes, as the bench composes a test lens's three
+/// edge patches), centred on that field's radius on the frame's +x axis. Returns two dicts, one per chart
+/// (`edge`: "vertical", "horizontal"), with `gt`, `lq` and `wiener` (float32 H x W x 3, sRGB in [0, 1],
+/// `gt` and `lq` 16-bit like the dataset's PNGs; `wiener`: the bench's estimate of `lq` at `nsr`).
+#[pyfunction]
+#[pyo3(signature = (table_dir, field, min_edge_px=64, nsr=0.01))]
+pub fn table_edge_pairs<'py>(
+    py: Python<'py>,
+    table_dir: PathBuf,
+    field: usize,
+    min_edge_px: usize,
+    nsr: f64,
+) -> PyResult<Bound<'py, PyAny>> {
+    if !(nsr.is_finite() && nsr > 0.0) {
+        return Err(PyValueError::new_err(format!(
+            "nsr: {nsr} is not a positive finite number"
+        )));
+    }
+    if !(16..=4096).contains(&min_edge_px) {
+        return Err(PyValueError::new_err(format!(
+            "min_edge_px: {min_edge_px} is outside 16..=4096"
+        )));
+    }
+    let pairs = crate::pool::detach(py, || -> PyResult<Vec<[Planar; 3]>> {
+        let table = PsfTable::read(&table_dir).or_raise()?;
+        if field >= table.fields() {
+            return Err(PyValueError::new_err(format!(
+                "field: {field} is not a stored field of {} (it has {})",
+                table_dir.display(),
+                table.fields()
+            )));
+        }
+        let settings = unicac_ode::OdeSettings {
+            min_edge_px,
+            ..unicac_ode::OdeSettings::default()
+        };
+        let k = table.meta.kernel_px;
+        let per_channel = (0..3)
+            .map(|c| {
+                let kernel = unicac_psf::Kernel {
+                    size: k,
+                    pitch_um: table.meta.pixel_um,
+                    data: table.kernel(field, c).to_vec(),
+                };
+                unicac_ode::edge_patches(&kernel, &settings)
+                    .map_err(|(direction, e)| PyValueError::new_err(format!("{direction} edge: {e}")))
+            })
+            .collect::<PyResult<Vec<_>>>()?;
+        let [frame_w, frame_h] = table.meta.frame_px;
+        let half_diagonal_px = 0.5 * ((frame_w * frame_w + frame_h * frame_h) as f64).sqrt();
+        let radius = table.meta.field_radius_norm[field];
+        (0..2)
+            .map(|d| {
+                let ideal = &per_channel[0][d].ideal;
+                let (w, h) = (ideal.width, ideal.height);
+                let sixteen_bit = |linear: Planar| {
+                    unicac_image::quantise::quantise(&linear_to_srgb(&linear), 16).or_raise()
+                };
+                let gt = sixteen_bit(Planar::from_fn(w, h, 3, |_, x, y| ideal.get(0, x, y)))?;
+                let lq = sixteen_bit(Planar::from_fn(w, h, 3, |c, x, y| {
+                    per_channel[c][d].blurred.get(0, x, y)
+                }))?;
+                // The bench's placement of an edge patch (centred on its field), turned to the +x axis.
+                let position = |row: usize, column: usize| {
+                    [
+                        radius + (column as f64 + 0.5 - 0.5 * w as f64) / half_diagonal_px,
+                        (row as f64 + 0.5 - 0.5 * h as f64) / half_diagonal_px,
+                    ]
+                };
+                let wiener = unicac_bench::wiener::wiener_restore(&lq, &table, &position, nsr)
+                    .map_err(|e| PyValueError::new_err(e.to_string()))?;
+                Ok([gt, lq, wiener])
+            })
+            .collect()
+    })?;
+    let out = pyo3::types::PyList::empty(py);
+    for (edge, [gt, lq, wiener]) in ["vertical", "horizontal"].into_iter().zip(&pairs) {
+        let pair = pyo3::types::PyDict::new(py);
+        pair.set_item("edge", edge)?;
+        pair.set_item("gt", planar_out(py, gt, false)?)?;
+        pair.set_item("lq", planar_out(py, lq, false)?)?;
+        pair.set_item("wiener", planar_out(py, wiener, false)?)?;
+        out.append(pair)?;
+    }
+    Ok(out.into_any())
+}
+
 /// A built dataset's manifests, read and checked as `unicac bench` reads them: a dict with `manifest`
 /// (`dataset.json`), `pairs` and `lenses` (the rows of `pairs.jsonl` and `lenses.jsonl`, every field of
 /// docs/dataset.md). A folder without `dataset.json`, a newer format, a row missing a field or of the
@@ -258,5 +350,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(psf_field_codes, m)?)?;
     m.add_function(wrap_pyfunction!(psf_code_map, m)?)?;
     m.add_function(wrap_pyfunction!(wiener_restore, m)?)?;
+    m.add_function(wrap_pyfunction!(table_edge_pairs, m)?)?;
     Ok(())
 }

@@ -72,6 +72,10 @@ _DATA = {
     "crop_px": _f((int, type(None)), 128, low=16, high=8192),
     # The noise-to-signal ratio of the Wiener estimate a `wiener` model takes (as `unicac bench --wiener-nsr`).
     "wiener_nsr": _f((float, int), 0.01, low=1e-9, high=100),
+    # Training only: the share of samples that are slanted-edge charts imaged through a training lens's
+    # PSF table (the bench's OIQE edges, made for training lenses: unicac.table_edge_pairs) instead of
+    # patches of its pairs; 0 = pairs only.
+    "edge_share": _f((float, int), 0.0, low=0, high=1),
 }
 
 SCHEMA: dict[str, Any] = {
@@ -296,16 +300,23 @@ def without_session(config: dict[str, Any]) -> dict[str, Any]:
 #: weight), so that a run started before a term existed still resumes under the newer schema (whose
 #: resolved config holds the term at weight 0) and keeps its hash in checkpoints and ONNX metadata.
 HASHED_ONLY_WHEN_USED = ("frequency",)
+#: Dataset keys added the same way, hashed only when not 0.
+DATASET_KEYS_HASHED_ONLY_WHEN_USED = ("edge_share",)
 
 
 def sha256(config: dict[str, Any]) -> str:
     """Hash of the resolved config (canonical JSON) without the session settings (`SESSION_KEYS`) and
-    the unused later loss terms (`HASHED_ONLY_WHEN_USED`), recorded in checkpoints and ONNX metadata."""
+    the unused later loss terms and dataset keys (`HASHED_ONLY_WHEN_USED`,
+    `DATASET_KEYS_HASHED_ONLY_WHEN_USED`), recorded in checkpoints and ONNX metadata."""
     run = without_session(config)
     losses = run.get("train", {}).get("losses", {})
     for term in HASHED_ONLY_WHEN_USED:
         if term in losses and not losses[term].get("weight"):
             del losses[term]
+    for split in run.get("datasets", {}).values():
+        for key in DATASET_KEYS_HASHED_ONLY_WHEN_USED:
+            if isinstance(split, dict) and key in split and not split[key]:
+                del split[key]
     return hashlib.sha256(json.dumps(run, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
 
 

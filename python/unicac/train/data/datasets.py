@@ -117,12 +117,16 @@ class FolderPatches(Dataset):  # type: ignore[type-arg]
         self.patch = options["patch_px"]
         self.flip, self.rotate = options["use_flip"], options["use_rot"]
         self.flags = _load_flags(maps, options)
+        self.edges = EdgeCharts(folder, rows, options, maps) if options["edge_share"] > 0 else None
 
     def __len__(self) -> int:  # samples are addressed by number; any k is valid
         return 2**62
 
     def __getitem__(self, k: int) -> dict[str, Any]:
         rng = np.random.default_rng([self.seed, int(k)])
+        # Without edge charts no draw is spent here, so such runs see the batches they always saw.
+        if self.edges is not None and rng.random() < self.edges.share:
+            return _tensors(augment(_sample(self.edges.sample(rng, self.patch), k), rng, self.flip, self.rotate))
         row = self.rows[_epoch_index(self.seed, int(k), len(self.rows))]
         _, _, width, height = (int(v) for v in row["crop"])
         p = self.patch
@@ -131,6 +135,40 @@ class FolderPatches(Dataset):  # type: ignore[type-arg]
         x, y = int(rng.integers(width - p + 1)), int(rng.integers(height - p + 1))
         pair = self.folder.load(row, window=(x, y, p, p), **self.flags)
         return _tensors(augment(_sample(pair, k), rng, self.flip, self.rotate))
+
+
+class EdgeCharts:
+    """Slanted-edge training samples: the bench's OIQE edge charts (an isolated grey edge, each colour
+    channel through its own kernel, noise-free) imaged through a random stored field of a random
+    training lens's PSF table (`unicac.table_edge_pairs`), with the bench's Wiener estimate. The bench
+    scores edge sharpness on such charts of the test lenses; a model that saw only noisy photographs
+    learns to smooth what Wiener sharpens there. They carry no FoV / PSF maps (the chart sits on the
+    frame's +x axis, partly beyond the frame), so only models whose one map is `wiener` take them."""
+
+    def __init__(self, folder: DatasetFolder, rows: list[dict[str, Any]], options: dict[str, Any],
+                 maps: "set[str] | list[str] | tuple[str, ...]") -> None:
+        others = sorted(set(maps) - {"wiener"})
+        if others:
+            raise DatasetFolderError(
+                f"datasets.train.edge_share: edge charts carry no {', '.join(others)} map; use 0 for this model")
+        self.folder, self.share, self.nsr = folder, float(options["edge_share"]), options["wiener_nsr"]
+        self.tables = sorted({row["psf"] for row in rows if folder.has_psf(row)})
+        if not self.tables:
+            raise DatasetFolderError(
+                f"datasets.train.edge_share: {folder.root}: no training lens has a PSF table to image edge charts with")
+        self.fields = {table: len(folder._table_meta(table)["field_radius_norm"]) for table in self.tables}
+
+    def sample(self, rng: np.random.Generator, patch: int) -> dict[str, Any]:
+        """A `patch` px window of one chart, its centre within a quarter patch of the edge's centre
+        (so the edge crosses the window), as `DatasetFolder.load` returns a pair window."""
+        table = self.tables[int(rng.integers(len(self.tables)))]
+        field = int(rng.integers(self.fields[table]))
+        chart = _native.table_edge_pairs(str(self.folder.path(table)), field, min_edge_px=patch,
+                                         nsr=self.nsr)[int(rng.integers(2))]
+        side = chart["lq"].shape[0]
+        reach = min((side - patch) // 2, patch // 4)
+        x, y = ((side - patch) // 2 + int(rng.integers(-reach, reach + 1)) for _ in range(2))
+        return {key: np.ascontiguousarray(chart[key][y : y + patch, x : x + patch]) for key in ("lq", "gt", "wiener")}
 
 
 class FolderValidation(Dataset):  # type: ignore[type-arg]
@@ -235,6 +273,8 @@ def build_train_set(options: dict[str, Any], seed: int, maps: "set[str] | list[s
     """Training samples with the maps named in `maps` (any of fov, psf, psf_code, wiener)."""
     if options["type"] == "onthefly":
         _refuse_onthefly_psf("train", maps)
+        if options["edge_share"] > 0:
+            raise DatasetFolderError("datasets.train.edge_share: edge charts need a built dataset's PSF tables; use 0 for onthefly data")
         generator = _generator(options, "train", (seed ^ options["seed"]) % _SEED_BOUND, options["patch_px"])
         return OnTheFly(generator, "fov" in maps, options["use_flip"], options["use_rot"], seed)
     folder, rows = _checked_folder(options, "train", maps)
@@ -243,6 +283,8 @@ def build_train_set(options: dict[str, Any], seed: int, maps: "set[str] | list[s
 
 def build_val_set(options: dict[str, Any], maps: "set[str] | list[str] | tuple[str, ...]" = ()
                   ) -> Dataset:  # type: ignore[type-arg]
+    if options["edge_share"] > 0:
+        raise DatasetFolderError("datasets.val.edge_share: edge charts are for training only; validation scores the pairs")
     if options["type"] == "onthefly":
         _refuse_onthefly_psf("val", maps)
         # Its own seed, distinct from any training stream; crop_px sets the patch (None: 128).
