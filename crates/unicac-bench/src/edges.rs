@@ -79,6 +79,27 @@ fn channel_index(row: &EdgeRow) -> Result<usize> {
     }
 }
 
+/// What the slanted-edge measurement of a restored patch gives.
+pub(crate) enum EdgeScore {
+    Measured(unicac_metrics::MtfSummary),
+    /// No edge found (why): scored as a zero MTF.
+    Destroyed(String),
+}
+
+impl EdgeScore {
+    /// The summary OIQE is computed from (a destroyed edge's MTF50 and area are 0).
+    pub fn summary(&self) -> unicac_metrics::MtfSummary {
+        match self {
+            EdgeScore::Measured(summary) => *summary,
+            EdgeScore::Destroyed(_) => unicac_metrics::MtfSummary {
+                mtf50_cy_per_px: 0.0,
+                mtf50_kind: unicac_metrics::mtf::Mtf50Kind::BelowNyquist,
+                mtf_area: 0.0,
+            },
+        }
+    }
+}
+
 /// One image of edge rows to restore, read, with the maps its models take.
 pub(crate) struct EdgePatch<'a> {
     /// The rows it scores, each with its file and the channel measured.
@@ -194,12 +215,12 @@ impl<'a> EdgePatch<'a> {
     }
 
     /// The slanted-edge MTF summary of `channel` of a restoration of this patch, measured in linear
-    /// light inside a border of an eighth of the patch (where the edge is whole).
-    pub fn score(
-        &self,
-        restored: &Planar,
-        channel: usize,
-    ) -> std::result::Result<unicac_metrics::MtfSummary, String> {
+    /// light inside a border of an eighth of the patch (where the edge is whole). A restoration in
+    /// which the ISO 12233 fit finds no edge (`MetricsError::NoEdge`: no step across the rows, or no
+    /// straight line through them) has destroyed the edge the input held: it scores a zero MTF
+    /// ([`EdgeScore::Destroyed`], OIQE 0) rather than being left out, which would credit the method
+    /// with the mean of the edges it kept.
+    pub fn score(&self, restored: &Planar, channel: usize) -> std::result::Result<EdgeScore, String> {
         let linear = unicac_image::color::srgb_to_linear(restored);
         let border = self.lq.width.min(self.lq.height) / 8;
         let roi = unicac_metrics::Roi {
@@ -214,8 +235,11 @@ impl<'a> EdgePatch<'a> {
             roi,
             &unicac_metrics::SlantedEdgeOptions::default(),
         )
-        .map(|mtf| mtf.summary())
-        .map_err(|e| e.to_string())
+        .map(|mtf| EdgeScore::Measured(mtf.summary()))
+        .or_else(|e| match e {
+            unicac_metrics::MetricsError::NoEdge(why) => Ok(EdgeScore::Destroyed(why)),
+            other => Err(other.to_string()),
+        })
     }
 
     /// A map of `N` channels holding `value` at each pixel's field position.

@@ -11,7 +11,7 @@ use unicac_image::io::{write_png, SampleDepth};
 use unicac_image::Planar;
 
 use crate::choices::Benchmark;
-use crate::edges::{EdgeGroup, EdgePatch, MapNeeds};
+use crate::edges::{EdgeGroup, EdgePatch, EdgeScore, MapNeeds};
 use crate::error::{BenchError, Result};
 use crate::inputs::{read_rgb, wiener_at, wiener_input, InputMaps, WienerEstimates};
 use crate::model_run::{run_onnx_batch, run_onnx_with};
@@ -452,16 +452,24 @@ impl Pass<'_> {
             let restored = restore_patches(&mut entry.method, &patches, table.as_ref(), tiling);
             for (patch, restored) in patches.iter().zip(restored) {
                 for (_, path, channel) in &patch.rows {
-                    let summary = restored.as_ref().map_err(|e| e.to_string()).and_then(|r| {
+                    let score = restored.as_ref().map_err(|e| e.to_string()).and_then(|r| {
                         patch
                             .score(r, *channel)
                             .map_err(|e| format!("slanted edge of the restored patch: {e}"))
                     });
-                    match summary {
-                        Ok(summary) => edge_scores
-                            .entry((entry.info.name.clone(), lens_id.clone()))
-                            .or_default()
-                            .push(summary),
+                    match score {
+                        Ok(score) => {
+                            if let EdgeScore::Destroyed(why) = &score {
+                                entry.info.failures.push(format!(
+                                    "{}: slanted edge of the restored patch: no usable edge: {why} (scored as a zero MTF, OIQE 0)",
+                                    path.display()
+                                ));
+                            }
+                            edge_scores
+                                .entry((entry.info.name.clone(), lens_id.clone()))
+                                .or_default()
+                                .push(score.summary())
+                        }
                         Err(e) => entry.info.failures.push(format!("{}: {e}", path.display())),
                     }
                 }

@@ -197,6 +197,39 @@ fn read_json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// A restoration in which no edge can be found has destroyed the edges the input held: it scores OIQE
+/// 0 there (each patch named under its failures), never the mean of the edges it kept.
+#[test]
+fn a_restoration_that_destroys_the_edges_scores_oiqe_zero() {
+    let Some(_) = support::ort_or_skip() else { return };
+    let dir = support::scratch("destroyed_edges");
+    let dataset = dir.join("data");
+    support::dataset::write(&dataset, true);
+    let out = dir.join("report");
+    let mut s = settings(&dataset, &out);
+    s.metrics = Some(vec![Metric::Psnr, Metric::Oiqe]);
+    s.models = vec![(
+        "flat".into(),
+        write_model(&dir, "flat.onnx", &support::flat_model()),
+    )];
+    let (report, _) = run_bench(&s, &Silent).unwrap();
+    let edges = std::fs::read_to_string(dataset.join("edges.jsonl")).unwrap();
+    let flat = report.models.iter().find(|m| m.name == "flat").unwrap();
+    assert_eq!(flat.failures.len(), edges.lines().count());
+    assert!(
+        flat.failures
+            .iter()
+            .all(|f| f.contains("scored as a zero MTF, OIQE 0")),
+        "{:?}",
+        flat.failures
+    );
+    let json = read_json(&out.join("results.json"));
+    let overall = json["overall"].as_array().unwrap();
+    let oiqe = |model: &str| overall.iter().find(|r| r["model"] == model).unwrap()["oiqe"].as_f64();
+    assert_eq!(oiqe("flat"), Some(0.0));
+    assert!(oiqe("identity").unwrap() > 0.1);
+}
+
 #[test]
 fn full_run_reports_rows_overall_analysis_and_files() {
     let Some(_) = support::ort_or_skip() else { return };

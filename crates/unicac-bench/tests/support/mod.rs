@@ -72,6 +72,18 @@ pub fn gt_model(gt: &Planar) -> Vec<u8> {
     g.to_bytes()
 }
 
+/// A model that returns flat mid-grey whatever its input: every edge destroyed.
+pub fn flat_model() -> Vec<u8> {
+    let mut g = GraphBuilder::new("flat");
+    g.input("lq", &image_dims(3)).output("restored", &image_dims(3));
+    g.initializer(float_tensor("zero", &[1], &[0.0]));
+    g.initializer(float_tensor("grey", &[1], &[0.5]));
+    g.node("Mul", &["lq", "zero"], &["nothing"], &[]);
+    g.node("Add", &["nothing", "grey"], &["restored"], &[]);
+    g.metadata("unicac_contract", "1").metadata("inputs", "lq");
+    g.to_bytes()
+}
+
 /// Two 3x3 convolutions (receptive-field radius 2 px) over `lq` and, with `with_fov`, the FoV map.
 pub fn conv_model(with_fov: bool) -> Vec<u8> {
     let mut g = GraphBuilder::new("conv2");
