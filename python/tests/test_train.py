@@ -460,6 +460,12 @@ def test_edge_charts_are_the_benchs_edges_imaged_through_a_training_lens(dataset
                     for key in ("gt", "lq", "wiener")}
         assert steepest["lq"] < steepest["gt"] and steepest["wiener"] > 1.3 * steepest["lq"]
     assert np.array_equal(horizontal["gt"], vertical["gt"].transpose(1, 0, 2))
+    # One chart asked for is that chart, its Wiener estimate alone computed.
+    (only,) = unicac.table_edge_pairs(str(table), field, min_edge_px=40, edge="horizontal")
+    assert only["edge"] == "horizontal"
+    assert all(np.array_equal(only[key], horizontal[key]) for key in ("gt", "lq", "wiener"))
+    with pytest.raises(ValueError, match="edge: 'diagonal'"):
+        unicac.table_edge_pairs(str(table), field, edge="diagonal")
     with pytest.raises(ValueError, match="field: 99 is not a stored field"):
         unicac.table_edge_pairs(str(table), 99)
     with pytest.raises(ValueError, match="nsr"):

@@ -482,7 +482,7 @@ impl Pass<'_> {
 /// The half-diagonal (px) of the frames the pairs were rendered at.
 fn frames_half_diagonal(pairs: &[PairRow]) -> f64 {
     let [w, h] = pairs[0].frame_px;
-    0.5 * (w as f64).hypot(h as f64)
+    unicac_dataset::half_diagonal_px(w, h)
 }
 
 /// Restores a lens's edge patches with one method. A model that leaves the batch free runs them in

@@ -51,6 +51,12 @@ impl ChannelMap {
     }
 }
 
+/// Half the diagonal (px) of a `frame_w` x `frame_h` frame: the unit of normalised field positions
+/// (docs/models.md).
+pub fn half_diagonal_px(frame_w: usize, frame_h: usize) -> f64 {
+    0.5 * (frame_w as f64).hypot(frame_h as f64)
+}
+
 /// A crop (or the whole frame) of a `frame_w` x `frame_h` sensor frame, in frame pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FrameCrop {
@@ -108,7 +114,7 @@ impl FrameCrop {
     /// Normalised position (x, y) of a crop pixel's centre in the full frame (docs/models.md).
     pub fn normalised(&self, row: usize, column: usize) -> [f64; 2] {
         let (fw, fh) = (self.frame_w as f64, self.frame_h as f64);
-        let half_diagonal = 0.5 * fw.hypot(fh);
+        let half_diagonal = half_diagonal_px(self.frame_w, self.frame_h);
         [
             ((self.x0 + column) as f64 + 0.5 - fw / 2.0) / half_diagonal,
             ((self.y0 + row) as f64 + 0.5 - fh / 2.0) / half_diagonal,

@@ -188,18 +188,33 @@ pub fn wiener_restore<'py>(
 /// charts (an isolated 0.2-0.8 edge slanted by the ODE's angle, max(`min_edge_px`, 4 kernel widths) on
 /// a side, and its transpose) imaged through stored field `field` of the table, channel c through the
 /// channel-c kernel (a grey edge with the lens's colour fringes, as the bench composes a test lens's three
-/// edge patches), centred on that field's radius on the frame's +x axis. Returns two dicts, one per chart
-/// (`edge`: "vertical", "horizontal"), with `gt`, `lq` and `wiener` (float32 H x W x 3, sRGB in [0, 1],
-/// `gt` and `lq` 16-bit like the dataset's PNGs; `wiener`: the bench's estimate of `lq` at `nsr`).
+/// edge patches), centred on that field's radius on the frame's +x axis. Returns one dict per chart asked
+/// for (`edge`: "vertical", "horizontal", or None for both, in that order), each with `edge`, `gt`, `lq`
+/// and `wiener` (float32 H x W x 3, sRGB in [0, 1], `gt` and `lq` 16-bit like the dataset's PNGs;
+/// `wiener`: the bench's estimate of `lq` at `nsr`, computed only for the charts returned).
 #[pyfunction]
-#[pyo3(signature = (table_dir, field, min_edge_px=64, nsr=0.01))]
+#[pyo3(signature = (table_dir, field, min_edge_px=64, nsr=0.01, edge=None))]
 pub fn table_edge_pairs<'py>(
     py: Python<'py>,
     table_dir: PathBuf,
     field: usize,
     min_edge_px: usize,
     nsr: f64,
+    edge: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    const EDGES: [&str; 2] = ["vertical", "horizontal"];
+    // Chart indices in `unicac_ode::edge_patches` order (the near-vertical edge, then its transpose).
+    let wanted: Vec<usize> = match edge {
+        None => vec![0, 1],
+        Some(name) => match EDGES.iter().position(|e| *e == name) {
+            Some(d) => vec![d],
+            None => {
+                return Err(PyValueError::new_err(format!(
+                    "edge: '{name}': expected vertical, horizontal or None (both)"
+                )))
+            }
+        },
+    };
     if !(nsr.is_finite() && nsr > 0.0) {
         return Err(PyValueError::new_err(format!(
             "nsr: {nsr} is not a positive finite number"
@@ -236,10 +251,11 @@ pub fn table_edge_pairs<'py>(
             })
             .collect::<PyResult<Vec<_>>>()?;
         let [frame_w, frame_h] = table.meta.frame_px;
-        let half_diagonal_px = 0.5 * ((frame_w * frame_w + frame_h * frame_h) as f64).sqrt();
+        let half_diagonal_px = unicac_dataset::half_diagonal_px(frame_w, frame_h);
         let radius = table.meta.field_radius_norm[field];
-        (0..2)
-            .map(|d| {
+        wanted
+            .iter()
+            .map(|&d| {
                 let ideal = &per_channel[0][d].ideal;
                 let (w, h) = (ideal.width, ideal.height);
                 let sixteen_bit = |linear: Planar| {
@@ -263,7 +279,8 @@ pub fn table_edge_pairs<'py>(
             .collect()
     })?;
     let out = pyo3::types::PyList::empty(py);
-    for (edge, [gt, lq, wiener]) in ["vertical", "horizontal"].into_iter().zip(&pairs) {
+    for (&d, [gt, lq, wiener]) in wanted.iter().zip(&pairs) {
+        let edge = EDGES[d];
         let pair = pyo3::types::PyDict::new(py);
         pair.set_item("edge", edge)?;
         pair.set_item("gt", planar_out(py, gt, false)?)?;

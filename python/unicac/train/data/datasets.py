@@ -163,8 +163,9 @@ class EdgeCharts:
         (so the edge crosses the window), as `DatasetFolder.load` returns a pair window."""
         table = self.tables[int(rng.integers(len(self.tables)))]
         field = int(rng.integers(self.fields[table]))
-        chart = _native.table_edge_pairs(str(self.folder.path(table)), field, min_edge_px=patch,
-                                         nsr=self.nsr)[int(rng.integers(2))]
+        edge = ("vertical", "horizontal")[int(rng.integers(2))]
+        (chart,) = _native.table_edge_pairs(str(self.folder.path(table)), field, min_edge_px=patch, nsr=self.nsr,
+                                            edge=edge)
         side = chart["lq"].shape[0]
         reach = min((side - patch) // 2, patch // 4)
         x, y = ((side - patch) // 2 + int(rng.integers(-reach, reach + 1)) for _ in range(2))
